@@ -1,0 +1,145 @@
+"""``bench check RECORDING``: recompute the metrics and the paper claims from the file alone.
+
+The scenario (attached to the recording), the plant parameters and the run metadata come out of
+the MCAP itself, so a recording checks the same on any machine.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from . import channels as ch
+from . import metrics
+from .claims import CLAIMS, Context, QuantityResult, evaluate
+from .recording import Recording, RecordingError, load_recording
+from .scenario import RPM_PER_RAD_S, Scenario, ScenarioError, parse_scenario, speed_ref_at
+
+
+@dataclass
+class CheckReport:
+    recording: Recording
+    scenario: Scenario
+    context: Context
+    summary: dict[str, float] = field(default_factory=dict)
+    results: list[QuantityResult] = field(default_factory=list)
+
+    @property
+    def all_pass(self) -> bool:
+        return all(r.verdict == "PASS" for r in self.results)
+
+
+def scenario_of(rec: Recording) -> Scenario:
+    found = rec.attachment_text("scenario/")
+    if found is None:
+        raise RecordingError(f"{rec.path}: no scenario attached (not a recording of this bench?)")
+    name, text = found
+    try:
+        return parse_scenario(text, Path(f"{rec.path}#{name}"))
+    except ScenarioError as exc:
+        raise RecordingError(f"{rec.path}: attached scenario is invalid: {exc}") from None
+
+
+def build_context(rec: Recording, scn: Scenario) -> Context:
+    run = rec.run
+    try:
+        plant = json.loads(run["plant_params"])
+        ts_s = float(run["ts_s"])
+        pole_pairs = int(plant["pole_pairs"])
+    except (KeyError, ValueError) as exc:
+        raise RecordingError(f"{rec.path}: run metadata incomplete ({exc})") from None
+    window = scn.metrics_window_s
+    ref_rpm = speed_ref_at(scn, window[0]) * RPM_PER_RAD_S
+    return Context(rec, window, ref_rpm, pole_pairs, ts_s)
+
+
+def summarise(ctx: Context) -> dict[str, float]:
+    """Headline numbers of the window, whatever the claims."""
+    out: dict[str, float] = {}
+    state = ctx.rec.topics.get(ch.PLANT_STATE, {})
+    telem = ctx.rec.topics.get(ch.CONTROLLER_TELEMETRY, {})
+    if state:
+        out["cycles_recorded"] = float(len(state["t_s"]))
+        out["t_end_s"] = float(state["t_s"][-1]) if len(state["t_s"]) else 0.0
+    try:
+        n = ctx.windowed(ch.PLANT_STATE, "speed_rpm")
+        out["speed_mean_rpm"] = float(n.mean())
+        out["speed_band_true_rpm"] = metrics.speed_band_rpm(n, ctx.speed_ref_rpm)
+        out["iq_mean_a"] = float(ctx.windowed(ch.PLANT_STATE, "i_q_a").mean())
+    except Exception:  # noqa: BLE001 - a summary never fails the check
+        pass
+    if telem:
+        try:
+            nh = ctx.windowed(ch.CONTROLLER_TELEMETRY, "speed_hat_rpm")
+            out["speed_hat_mean_rpm"] = float(nh.mean())
+            out["speed_band_hat_rpm"] = metrics.speed_band_rpm(nh, ctx.speed_ref_rpm)
+            err = metrics.angle_error(ctx.windowed(ch.CONTROLLER_TELEMETRY, "theta_hat_rad"),
+                                      ctx.windowed(ch.PLANT_STATE, "theta_e_rad"))
+            out["pee_max_rad"] = err.max_abs_rad
+            out["pee_mean_rad"] = err.mean_rad
+            out["pee_rms_rad"] = err.rms_rad
+        except Exception:  # noqa: BLE001
+            pass
+    return out
+
+
+def check_recording(path: str | Path) -> CheckReport:
+    rec = load_recording(path)
+    scn = scenario_of(rec)
+    ctx = build_context(rec, scn)
+    report = CheckReport(rec, scn, ctx, summarise(ctx))
+    for claim_id in scn.claims:
+        claim = CLAIMS.get(claim_id)
+        if claim is None:
+            raise RecordingError(f"{rec.path}: scenario names unknown claim {claim_id!r}")
+        report.results.extend(evaluate(claim, ctx))
+    return report
+
+
+def _fmt(v: float, unit: str = "") -> str:
+    if not math.isfinite(v):
+        return "n/a"
+    s = f"{v:.4g}"
+    return f"{s} {unit}".strip()
+
+
+def print_report(report: CheckReport, console: Console | None = None) -> None:
+    console = console or Console()
+    rec, scn, ctx = report.recording, report.scenario, report.context
+    run = rec.run
+    console.print(f"[bold]{scn.name}[/bold] — {scn.description}")
+    console.print(f"recording {rec.path}  ({rec.messages} messages, git {run.get('git_revision', '?')},"
+                  f" controller: {run.get('controller', '?')}, estimator {run.get('estimator', '?')})")
+    result = rec.metadata.get("run_result", {})
+    if result.get("error"):
+        console.print(f"[red]run ended early:[/red] {result['error']}")
+    if rec.truncated:
+        console.print(f"[yellow]recording truncated:[/yellow] {rec.truncated}")
+    w0, w1 = ctx.window_s
+    console.print(f"window {w0:g}..{w1:g} s, speed reference {ctx.speed_ref_rpm:g} rpm")
+    s = report.summary
+    if s:
+        console.print("  ".join(f"{k}={_fmt(v)}" for k, v in s.items()))
+    if not report.results:
+        return
+    table = Table(title="paper claims: paper value vs measured", show_lines=False)
+    for col in ("claim", "quantity", "paper", "measured", "rule", "verdict"):
+        table.add_column(col)
+    from .claims import METRICS
+
+    for r in report.results:
+        unit = METRICS[r.quantity.metric][0]
+        colour = {"PASS": "green", "DIFFERS": "yellow"}.get(r.verdict, "red")
+        table.add_row(r.claim.id, r.quantity.what or r.quantity.metric,
+                      _fmt(r.quantity.paper_value, unit), _fmt(r.measured, unit),
+                      r.quantity.rule_text(), f"[{colour}]{r.verdict}[/{colour}]"
+                      + (f" ({r.note})" if r.note else ""))
+    console.print(table)
+    for cid in dict.fromkeys(r.claim.id for r in report.results):
+        notes = CLAIMS[cid].notes
+        if notes:
+            console.print(f"[dim]{cid}: {notes}[/dim]")

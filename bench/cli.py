@@ -1,0 +1,122 @@
+"""Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rich.console import Console
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from .check import check_recording, print_report
+    from .links import LinkError
+    from .recording import RecordingError
+    from .runner import RunAborted, run_scenario
+    from .scenario import ScenarioError, load_scenario
+
+    out = Console()
+    err = Console(stderr=True)
+    try:
+        scn = load_scenario(args.scenario)
+        result = run_scenario(scn, link_spec=args.link, out_path=args.out,
+                              progress=not args.no_progress)
+    except (ScenarioError, LinkError, RunAborted) as exc:
+        err.print(f"[red]error:[/red] {exc}")
+        return 2
+    except ValueError as exc:  # e.g. ProfileError
+        err.print(f"[red]error:[/red] {exc}")
+        return 2
+    stats = result.link_stats
+    out.print(f"ran {result.cycles_done}/{result.cycles_planned} cycles in {result.wall_s:.2f} s "
+              f"({result.cycles_done / max(result.wall_s, 1e-9):.0f} cycles/s, "
+              f"cycle p50 {stats.get('cycle_wall_p50_us', 0):.0f} us, "
+              f"p99 {stats.get('cycle_wall_p99_us', 0):.0f} us); recording {result.recording}")
+    if result.error:
+        err.print(f"[red]run ended early:[/red] {result.error}")
+    try:
+        report = check_recording(result.recording)
+    except RecordingError as exc:
+        err.print(f"[red]error:[/red] {exc}")
+        return 2
+    print_report(report, out)
+    if result.interrupted:
+        return 130
+    if result.error:
+        return 1
+    return 1 if (args.strict and not report.all_pass) else 0
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    from .check import check_recording, print_report
+    from .recording import RecordingError
+
+    try:
+        report = check_recording(args.recording)
+    except RecordingError as exc:
+        Console(stderr=True).print(f"[red]error:[/red] {exc}")
+        return 2
+    print_report(report)
+    return 1 if (args.strict and not report.all_pass) else 0
+
+
+def _cmd_scenarios(args: argparse.Namespace) -> int:
+    from .scenario import SCENARIO_DIR, ScenarioError, load_scenario
+
+    for path in sorted(SCENARIO_DIR.glob("*.toml")):
+        try:
+            scn = load_scenario(path)
+            print(f"{scn.name:28s} {scn.duration_s:5.2f} s  claims {','.join(scn.claims) or '-':8s}"
+                  f" {scn.description}")
+        except ScenarioError as exc:
+            print(f"{path.stem:28s} INVALID: {exc}")
+    return 0
+
+
+def _cmd_claims(args: argparse.Namespace) -> int:
+    from .claims import CLAIMS, METRICS
+
+    for c in CLAIMS.values():
+        print(f"{c.id}  {c.paper}: {c.text}")
+        for q in c.quantities:
+            unit, definition, _ = METRICS[q.metric]
+            print(f"      {q.metric}: paper {q.rule_text()} {unit} ({definition})")
+        print(f"      scenarios: {', '.join(c.scenarios)}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="bench", description="HIL bench for sensorless PMSM firmware")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    r = sub.add_parser("run", help="run a scenario against a controller and record it")
+    r.add_argument("scenario", help="scenario file or bundled scenario name")
+    r.add_argument("--link", default="stub",
+                   help="'stub' (default: the C firmware stub on a new pty) or "
+                        "'serial:<port-or-url>[@baud]' for a real drive")
+    r.add_argument("--out", type=Path, default=None, help="recording path (.mcap)")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--strict", action="store_true",
+                   help="exit 1 if any paper claim does not reproduce")
+    r.set_defaults(func=_cmd_run)
+
+    c = sub.add_parser("check", help="recompute metrics and paper claims from a recording")
+    c.add_argument("recording", type=Path)
+    c.add_argument("--strict", action="store_true",
+                   help="exit 1 if any paper claim does not reproduce")
+    c.set_defaults(func=_cmd_check)
+
+    s = sub.add_parser("scenarios", help="list the bundled scenarios")
+    s.set_defaults(func=_cmd_scenarios)
+    k = sub.add_parser("claims", help="list the paper claims and their metrics")
+    k.set_defaults(func=_cmd_claims)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

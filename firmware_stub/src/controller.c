@@ -1,0 +1,342 @@
+#include "controller.h"
+
+#include <math.h>
+
+#include "svpwm.h"
+
+#define CTRL_VOLTAGE_MARGIN 0.98f /* use 98 % of the linear SVPWM range */
+
+void ctrl_config_defaults(ctrl_config_t *cfg)
+{
+    /* motor: must come from the host; zeros fail ctrl_start's validation */
+    cfg->rs_ohm = 0.0f;
+    cfg->ld_h = 0.0f;
+    cfg->lq_h = 0.0f;
+    cfg->psi_f_wb = 0.0f;
+    cfg->pole_pairs = 0.0f;
+    cfg->j_kgm2 = 0.0f;
+    cfg->b_nms = 0.0f;
+    cfg->v_dc_nom_v = 0.0f;
+    cfg->ts_s = 1.0e-4f;
+    cfg->cur_kp_v_a = 0.0f;
+    cfg->cur_ki_v_as = 0.0f;
+    cfg->cur_bw_rad_s = 0.0f;
+    cfg->spd_kp_a_rad_s = 0.0f;
+    cfg->spd_ki_a_rad = 0.0f;
+    cfg->spd_bw_rad_s = 62.83f;
+    cfg->iq_max_a = 5.0f;
+    cfg->speed_loop_div = 1.0f;
+    cfg->i_trip_a = 30.0f;
+    cfg->pwm_delay_s = -1.0f; /* < 0: half a period (mid-period of the next PWM period) */
+    cfg->align_i_a = 2.0f;
+    cfg->align_time_s = 0.2f;
+    cfg->if_i_a = 2.0f;
+    cfg->if_accel_rad_s2 = 50.0f;
+    cfg->handover_speed_rad_s = 20.0f;
+    cfg->handover_time_s = 0.05f;
+    cfg->estimator = (float)CTRL_EST_SMO_SIGN;
+    cfg->smo_k_v = 0.0f;
+    cfg->smo_k_factor = 1.5f;
+    cfg->smo_k_min_v = 5.0f;
+    cfg->smo_wc_rad_s = 1000.0f;
+    cfg->pll_kp = 0.0f;
+    cfg->pll_ki = 0.0f;
+    cfg->speed_lpf_rad_s = 0.0f;
+}
+
+static void set_outputs_off(controller_t *c)
+{
+    c->out.duty_abc[0] = c->out.duty_abc[1] = c->out.duty_abc[2] = -1.0f;
+    c->v_ab_applied_v.x = c->v_ab_applied_v.y = 0.0f;
+}
+
+void ctrl_init(controller_t *c)
+{
+    ctrl_config_defaults(&c->cfg);
+    c->state = CTRL_STATE_IDLE;
+    c->fault = CTRL_FAULT_NONE;
+    c->mode = CTRL_MODE_SPEED;
+    c->speed_ref_rad_s = 0.0f;
+    c->iq_cmd_a = 0.0f;
+    c->id_cmd_a = 0.0f;
+    c->est.theta_e_rad = c->est.omega_e_rad_s = c->est.e_alpha_v = c->est.e_beta_v = 0.0f;
+    c->out.theta_hat_rad = c->out.omega_hat_rad_s = 0.0f;
+    c->out.e_alpha_v = c->out.e_beta_v = c->out.i_q_ref_a = 0.0f;
+    set_outputs_off(c);
+    c->out.state = c->state;
+    c->out.fault = c->fault;
+}
+
+static void enter_fault(controller_t *c, ctrl_fault_t fault)
+{
+    c->state = CTRL_STATE_FAULT;
+    c->fault = fault;
+    set_outputs_off(c);
+}
+
+static int config_valid(const ctrl_config_t *k)
+{
+    return k->rs_ohm >= 0.0f && k->ld_h > 0.0f && k->lq_h > 0.0f && k->psi_f_wb > 0.0f &&
+           k->pole_pairs >= 1.0f && k->j_kgm2 > 0.0f && k->b_nms >= 0.0f && k->v_dc_nom_v > 0.0f &&
+           k->ts_s > 0.0f && k->iq_max_a > 0.0f && k->i_trip_a > 0.0f && k->speed_loop_div >= 1.0f &&
+           k->if_accel_rad_s2 > 0.0f && k->handover_speed_rad_s > 0.0f;
+}
+
+static int estimator_init(controller_t *c)
+{
+    const ctrl_config_t *k = &c->cfg;
+    float kp, ki;
+    est_pll_gains(150.0f, &kp, &ki);
+    if (k->pll_kp > 0.0f) {
+        kp = k->pll_kp;
+    }
+    if (k->pll_ki > 0.0f) {
+        ki = k->pll_ki;
+    }
+    switch ((int)k->estimator) {
+    case CTRL_EST_SMO_SIGN: {
+        est_smo_sign_config_t sc;
+        est_smo_sign_default_config(&sc, k->rs_ohm, k->lq_h, k->psi_f_wb, k->ts_s);
+        sc.k_v = k->smo_k_v;
+        sc.k_factor = k->smo_k_factor;
+        sc.k_min_v = k->smo_k_min_v;
+        sc.wc_rad_s = k->smo_wc_rad_s;
+        sc.pll_kp = kp;
+        sc.pll_ki = ki;
+        sc.speed_lpf_rad_s = k->speed_lpf_rad_s;
+        return est_smo_sign_init(&c->smo_sign, &sc);
+    }
+    case CTRL_EST_ENCODER:
+        est_pll_init(&c->enc_pll, kp, ki);
+        return 0;
+    default:
+        return -1;
+    }
+}
+
+int ctrl_start(controller_t *c)
+{
+    ctrl_config_t *k = &c->cfg;
+    pi_ctrl_config_t pc;
+    float bw, kp_q, ki, vmax;
+
+    if (!config_valid(k) || estimator_init(c) != 0) {
+        enter_fault(c, CTRL_FAULT_CONFIG_INVALID);
+        return -1;
+    }
+    c->kt_nm_a = 1.5f * k->pole_pairs * k->psi_f_wb;
+
+    bw = k->cur_bw_rad_s > 0.0f ? k->cur_bw_rad_s : FW_TWO_PI_F / (20.0f * k->ts_s);
+    kp_q = k->cur_kp_v_a > 0.0f ? k->cur_kp_v_a : k->lq_h * bw;
+    ki = k->cur_ki_v_as > 0.0f ? k->cur_ki_v_as : k->rs_ohm * bw;
+    vmax = CTRL_VOLTAGE_MARGIN * k->v_dc_nom_v * FW_INV_SQRT3_F;
+    pc.kp = kp_q * k->ld_h / k->lq_h;
+    pc.ki = ki;
+    pc.out_min = -vmax;
+    pc.out_max = vmax;
+    pi_ctrl_init(&c->pi_d, &pc);
+    pc.kp = kp_q;
+    pi_ctrl_init(&c->pi_q, &pc);
+
+    bw = k->spd_bw_rad_s > 0.0f ? k->spd_bw_rad_s : 62.83f;
+    pc.kp = k->spd_kp_a_rad_s > 0.0f ? k->spd_kp_a_rad_s : k->j_kgm2 * bw / c->kt_nm_a;
+    pc.ki = k->spd_ki_a_rad > 0.0f ? k->spd_ki_a_rad : pc.kp * bw * 0.25f;
+    pc.out_min = -k->iq_max_a;
+    pc.out_max = k->iq_max_a;
+    pi_ctrl_init(&c->pi_speed, &pc);
+
+    c->speed_div_count = 0u;
+    c->iq_ref_a = c->id_ref_a = 0.0f;
+    c->t_state_s = 0.0f;
+    c->theta_ol_rad = 0.0f;
+    c->omega_ol_rad_s = 0.0f;
+    c->id_handover_a = 0.0f;
+    c->v_ab_applied_v.x = c->v_ab_applied_v.y = 0.0f;
+    c->fault = CTRL_FAULT_NONE;
+    /* with an encoder there is nothing to start open loop: close the loop at once */
+    c->state = ((int)k->estimator == CTRL_EST_ENCODER) ? CTRL_STATE_CLOSED_LOOP : CTRL_STATE_ALIGN;
+    return 0;
+}
+
+void ctrl_stop(controller_t *c)
+{
+    if (c->state != CTRL_STATE_FAULT) {
+        c->state = CTRL_STATE_STOPPED;
+    }
+    set_outputs_off(c);
+}
+
+void ctrl_clear_fault(controller_t *c)
+{
+    if (c->state == CTRL_STATE_FAULT) {
+        c->state = CTRL_STATE_IDLE;
+        c->fault = CTRL_FAULT_NONE;
+    }
+}
+
+void ctrl_set_speed_ref(controller_t *c, float speed_ref_rad_s)
+{
+    c->speed_ref_rad_s = speed_ref_rad_s;
+}
+
+void ctrl_set_current_ref(controller_t *c, float id_a, float iq_a)
+{
+    c->id_cmd_a = id_a;
+    c->iq_cmd_a = iq_a;
+}
+
+void ctrl_set_mode(controller_t *c, ctrl_mode_t mode)
+{
+    c->mode = mode;
+}
+
+static void run_estimator(controller_t *c, fw_vec2_t i_ab, const ctrl_sample_t *s)
+{
+    switch ((int)c->cfg.estimator) {
+    case CTRL_EST_SMO_SIGN:
+        c->est = *est_smo_sign_step(&c->smo_sign, i_ab, c->v_ab_applied_v);
+        break;
+    case CTRL_EST_ENCODER:
+        c->est.theta_e_rad = fw_wrap_2pi(s->theta_enc_rad);
+        c->est.omega_e_rad_s = est_pll_step(&c->enc_pll, c->est.theta_e_rad, c->cfg.ts_s);
+        c->est.e_alpha_v = 0.0f;
+        c->est.e_beta_v = 0.0f;
+        break;
+    default:
+        break;
+    }
+}
+
+/* Re-express the current-loop integrators (voltages) in a frame rotated by delta_rad. */
+static void rotate_current_integrators(controller_t *c, float delta_rad)
+{
+    fw_vec2_t v;
+    float sd = sinf(delta_rad), cd = cosf(delta_rad);
+    v.x = c->pi_d.integ;
+    v.y = c->pi_q.integ;
+    v = fw_park(v, sd, cd);
+    pi_ctrl_reset(&c->pi_d, v.x);
+    pi_ctrl_reset(&c->pi_q, v.y);
+}
+
+static void handover(controller_t *c, fw_vec2_t i_ab)
+{
+    float th = c->est.theta_e_rad;
+    fw_vec2_t i_dq = fw_park(i_ab, sinf(th), cosf(th));
+    rotate_current_integrators(c, fw_wrap_pi(th - c->theta_ol_rad));
+    pi_ctrl_reset(&c->pi_speed, i_dq.y);
+    c->iq_ref_a = c->pi_speed.integ;
+    c->id_handover_a = i_dq.x;
+    c->state = CTRL_STATE_CLOSED_LOOP;
+    c->t_state_s = 0.0f;
+}
+
+const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
+{
+    const ctrl_config_t *k = &c->cfg;
+    fw_vec2_t i_ab, i_dq, v_dq, v_ab;
+    float theta, omega_e, sin_t, cos_t, v_dc, vmax, ff_d, ff_q, vq_lim, theta_pwm, i_peak;
+
+    if (c->state == CTRL_STATE_IDLE || c->state == CTRL_STATE_STOPPED ||
+        c->state == CTRL_STATE_FAULT) {
+        set_outputs_off(c);
+        goto finish;
+    }
+    if (!fw_is_finite(s->i_a_a) || !fw_is_finite(s->i_b_a) || !fw_is_finite(s->i_c_a)) {
+        enter_fault(c, CTRL_FAULT_OVERCURRENT);
+        goto finish;
+    }
+    i_peak = fmaxf(fabsf(s->i_a_a), fmaxf(fabsf(s->i_b_a), fabsf(s->i_c_a)));
+    if (i_peak > k->i_trip_a) {
+        enter_fault(c, CTRL_FAULT_OVERCURRENT);
+        goto finish;
+    }
+    i_ab = fw_clarke(s->i_a_a, s->i_b_a, s->i_c_a);
+    v_dc = s->v_dc_v > 1.0f ? s->v_dc_v : k->v_dc_nom_v;
+
+    run_estimator(c, i_ab, s);
+    c->t_state_s += k->ts_s;
+
+    switch (c->state) {
+    case CTRL_STATE_ALIGN:
+        /* d-axis current ramps up over the first half, holds for the second (rotor to 0 rad) */
+        c->theta_ol_rad = 0.0f;
+        c->omega_ol_rad_s = 0.0f;
+        c->id_ref_a = k->align_i_a * fw_clampf(2.0f * c->t_state_s / k->align_time_s, 0.0f, 1.0f);
+        c->iq_ref_a = 0.0f;
+        if (c->t_state_s >= k->align_time_s) {
+            c->state = CTRL_STATE_OPEN_LOOP;
+            c->t_state_s = 0.0f;
+        }
+        break;
+    case CTRL_STATE_OPEN_LOOP: {
+        /* I-f: current of fixed magnitude on the d axis of a frame accelerated open loop;
+         * the rotor follows with a load angle (self-stabilising). */
+        float w_mech = c->omega_ol_rad_s / k->pole_pairs + k->if_accel_rad_s2 * k->ts_s;
+        float w_target = k->handover_speed_rad_s;
+        if (w_mech > w_target) {
+            w_mech = w_target;
+        }
+        c->omega_ol_rad_s = w_mech * k->pole_pairs;
+        c->theta_ol_rad = fw_wrap_2pi(c->theta_ol_rad + c->omega_ol_rad_s * k->ts_s);
+        c->id_ref_a = k->if_i_a;
+        c->iq_ref_a = 0.0f;
+        if (w_mech >= w_target && (int)k->estimator != CTRL_EST_NONE) {
+            handover(c, i_ab);
+        }
+        break;
+    }
+    default:
+        break;
+    }
+
+    if (c->state == CTRL_STATE_CLOSED_LOOP) {
+        float id_fade = 1.0f - (k->handover_time_s > 0.0f ? c->t_state_s / k->handover_time_s : 1.0f);
+        theta = c->est.theta_e_rad;
+        omega_e = c->est.omega_e_rad_s;
+        c->id_ref_a = c->id_handover_a * fw_clampf(id_fade, 0.0f, 1.0f);
+        if (c->mode == CTRL_MODE_SPEED) {
+            c->speed_div_count++;
+            if ((float)c->speed_div_count >= k->speed_loop_div) {
+                float w_m = omega_e / k->pole_pairs;
+                c->speed_div_count = 0u;
+                c->iq_ref_a = pi_ctrl_step(&c->pi_speed, c->speed_ref_rad_s - w_m,
+                                           k->ts_s * k->speed_loop_div);
+            }
+        } else {
+            c->iq_ref_a = fw_clampf(c->iq_cmd_a, -k->iq_max_a, k->iq_max_a);
+            c->id_ref_a += c->id_cmd_a;
+        }
+    } else {
+        theta = c->theta_ol_rad;
+        omega_e = c->omega_ol_rad_s;
+    }
+
+    /* current loop with decoupling feed-forward and a circular voltage limit (d first) */
+    sin_t = sinf(theta);
+    cos_t = cosf(theta);
+    i_dq = fw_park(i_ab, sin_t, cos_t);
+    vmax = CTRL_VOLTAGE_MARGIN * v_dc * FW_INV_SQRT3_F;
+    ff_d = -omega_e * k->lq_h * i_dq.y;
+    ff_q = omega_e * (k->ld_h * i_dq.x + k->psi_f_wb);
+    pi_ctrl_set_limits(&c->pi_d, -vmax - ff_d, vmax - ff_d);
+    v_dq.x = pi_ctrl_step(&c->pi_d, c->id_ref_a - i_dq.x, k->ts_s) + ff_d;
+    vq_lim = sqrtf(fmaxf(vmax * vmax - v_dq.x * v_dq.x, 0.0f));
+    pi_ctrl_set_limits(&c->pi_q, -vq_lim - ff_q, vq_lim - ff_q);
+    v_dq.y = pi_ctrl_step(&c->pi_q, c->iq_ref_a - i_dq.y, k->ts_s) + ff_q;
+
+    /* the voltage acts from t_k + delay on: advance the angle to the middle of its action */
+    theta_pwm = theta + omega_e * (k->pwm_delay_s >= 0.0f ? k->pwm_delay_s : 0.5f * k->ts_s);
+    v_ab = fw_park_inv(v_dq, sinf(theta_pwm), cosf(theta_pwm));
+    c->v_ab_applied_v = svpwm_duties(v_ab, v_dc, c->out.duty_abc);
+
+finish:
+    c->out.theta_hat_rad = c->est.theta_e_rad;
+    c->out.omega_hat_rad_s = c->est.omega_e_rad_s;
+    c->out.e_alpha_v = c->est.e_alpha_v;
+    c->out.e_beta_v = c->est.e_beta_v;
+    c->out.i_q_ref_a = c->iq_ref_a;
+    c->out.state = c->state;
+    c->out.fault = c->fault;
+    return &c->out;
+}

@@ -1,0 +1,134 @@
+/**
+ * @file controller.h
+ * @brief The control ISR of the firmware stub: sensorless FOC with start-up and a selectable
+ * angle estimator. Portable C99, float32, no heap, no OS calls. One call per PWM period.
+ *
+ * Per period: Clarke -> estimator (currents at t_k, voltage applied over the last period) ->
+ * state machine (IDLE, ALIGN, OPEN_LOOP (I-f), CLOSED_LOOP, FAULT, STOPPED) -> speed PI (every
+ * speed_loop_div periods) -> d/q current PI with decoupling -> inverse Park -> SVPWM.
+ */
+#ifndef CONTROLLER_H
+#define CONTROLLER_H
+
+#include "est_common.h"
+#include "est_smo_sign.h"
+#include "fw_math.h"
+#include "pi_ctrl.h"
+
+/** Controller states; the numbers are the protocol's `state` value table (protocol/hil.dbc). */
+typedef enum {
+    CTRL_STATE_IDLE = 0,
+    CTRL_STATE_ALIGN = 1,
+    CTRL_STATE_OPEN_LOOP = 2,
+    CTRL_STATE_CLOSED_LOOP = 3,
+    CTRL_STATE_FAULT = 4,
+    CTRL_STATE_INITIAL_POSITION = 5,
+    CTRL_STATE_STOPPED = 6
+} ctrl_state_t;
+
+/** Angle sources; the numbers are the protocol's `estimator` value table. */
+typedef enum {
+    CTRL_EST_NONE = 0,
+    CTRL_EST_SMO_SIGN = 1,
+    CTRL_EST_SMO_SIGMOID = 2,
+    CTRL_EST_SMO_TANH = 3,
+    CTRL_EST_HFI_SDFT = 4,
+    CTRL_EST_ENCODER = 5
+} ctrl_estimator_t;
+
+/** Fault causes; the numbers are the protocol's fault `code` value table. */
+typedef enum {
+    CTRL_FAULT_NONE = 0,
+    CTRL_FAULT_OVERCURRENT = 4,
+    CTRL_FAULT_INVALID_DUTY = 5,
+    CTRL_FAULT_CONFIG_INVALID = 8,
+    CTRL_FAULT_STARTUP_FAILED = 10
+} ctrl_fault_t;
+
+typedef enum { CTRL_MODE_SPEED = 0, CTRL_MODE_CURRENT = 1 } ctrl_mode_t;
+
+/** Everything the host can configure (SI units). Zero gains mean "derive from the motor". */
+typedef struct {
+    /* motor */
+    float rs_ohm, ld_h, lq_h, psi_f_wb, pole_pairs, j_kgm2, b_nms, v_dc_nom_v;
+    float ts_s;               /**< PWM / control period */
+    /* current loop (d and q use the same bandwidth; kp scales with L) */
+    float cur_kp_v_a;         /**< q-axis kp; <= 0: Lq * cur_bw_rad_s */
+    float cur_ki_v_as;        /**< ki; <= 0: Rs * cur_bw_rad_s */
+    float cur_bw_rad_s;       /**< current-loop bandwidth for the derived gains */
+    /* speed loop */
+    float spd_kp_a_rad_s;     /**< A per (rad/s mechanical); <= 0: J*w_sc/Kt */
+    float spd_ki_a_rad;       /**< <= 0: kp * w_sc / 4 */
+    float spd_bw_rad_s;       /**< speed-loop bandwidth for the derived gains */
+    float iq_max_a;           /**< speed-loop output limit */
+    float speed_loop_div;     /**< the speed loop runs every N periods */
+    float i_trip_a;           /**< over-current trip on any phase */
+    float pwm_delay_s;        /**< sampling -> mid-actuation delay used to advance the PWM angle */
+    /* start-up */
+    float align_i_a, align_time_s;
+    float if_i_a;             /**< I-f current magnitude */
+    float if_accel_rad_s2;    /**< open-loop acceleration (mechanical) */
+    float handover_speed_rad_s; /**< open-loop speed (mechanical) at which the estimator takes over */
+    float handover_time_s;    /**< d-current ramp-down time after the hand-over */
+    /* estimator */
+    float estimator;          /**< ctrl_estimator_t */
+    float smo_k_v, smo_k_factor, smo_k_min_v, smo_wc_rad_s;
+    float pll_kp, pll_ki, speed_lpf_rad_s;
+} ctrl_config_t;
+
+typedef struct {
+    float i_a_a, i_b_a, i_c_a; /**< phase currents sampled at t_k */
+    float v_dc_v;              /**< bus voltage */
+    float theta_enc_rad;       /**< encoder angle (ENCODER estimator only) */
+} ctrl_sample_t;
+
+typedef struct {
+    float duty_abc[3];   /**< [0,1]; a negative value means the leg is OFF (both switches off) */
+    float theta_hat_rad; /**< estimator angle */
+    float omega_hat_rad_s; /**< estimator electrical speed */
+    float e_alpha_v, e_beta_v;
+    float i_q_ref_a;
+    ctrl_state_t state;
+    ctrl_fault_t fault;
+} ctrl_output_t;
+
+typedef struct {
+    ctrl_config_t cfg;
+    ctrl_state_t state;
+    ctrl_fault_t fault;
+    ctrl_mode_t mode;
+    float speed_ref_rad_s;   /**< mechanical */
+    float iq_cmd_a, id_cmd_a; /**< current-mode references */
+    /* derived */
+    float kt_nm_a;
+    /* loops */
+    pi_ctrl_t pi_d, pi_q, pi_speed;
+    unsigned speed_div_count;
+    float iq_ref_a, id_ref_a;
+    /* start-up */
+    float t_state_s;
+    float theta_ol_rad, omega_ol_rad_s; /* open-loop angle and electrical speed */
+    float id_handover_a;
+    /* estimator */
+    est_smo_sign_t smo_sign;
+    est_pll_t enc_pll;
+    est_output_t est;
+    /* last applied voltage (for the estimator's next step) */
+    fw_vec2_t v_ab_applied_v;
+    ctrl_output_t out;
+} controller_t;
+
+/** Defaults for every field (gains zero = derived at start). */
+void ctrl_config_defaults(ctrl_config_t *cfg);
+void ctrl_init(controller_t *c);
+/** Validate the configuration and derive coefficients. 0 = ok; -1 = invalid (state FAULT). */
+int ctrl_start(controller_t *c);
+void ctrl_stop(controller_t *c);
+void ctrl_clear_fault(controller_t *c);
+void ctrl_set_speed_ref(controller_t *c, float speed_ref_rad_s);
+void ctrl_set_current_ref(controller_t *c, float id_a, float iq_a);
+void ctrl_set_mode(controller_t *c, ctrl_mode_t mode);
+/** The ISR. */
+const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s);
+
+#endif

@@ -1,0 +1,62 @@
+#include "ctrl_params.h"
+
+#include <stddef.h>
+
+#include "fw_math.h"
+#include "hil_msgs.h"
+
+typedef struct {
+    unsigned id;
+    size_t offset;  /* of the float field in ctrl_config_t */
+    float min;      /* accepted range, inclusive */
+    float max;
+} param_entry_t;
+
+#define P(ID, FIELD, MIN, MAX) { (unsigned)(ID), offsetof(ctrl_config_t, FIELD), (MIN), (MAX) }
+
+static const param_entry_t k_params[] = {
+    P(HIL_PARAM_RS_OHM, rs_ohm, 0.0f, 100.0f),
+    P(HIL_PARAM_LD_H, ld_h, 1e-7f, 10.0f),
+    P(HIL_PARAM_LQ_H, lq_h, 1e-7f, 10.0f),
+    P(HIL_PARAM_PSI_F_WB, psi_f_wb, 1e-6f, 100.0f),
+    P(HIL_PARAM_POLE_PAIRS, pole_pairs, 1.0f, 64.0f),
+    P(HIL_PARAM_J_KGM2, j_kgm2, 1e-9f, 1e4f),
+    P(HIL_PARAM_B_NMS, b_nms, 0.0f, 1e3f),
+    P(HIL_PARAM_V_DC_NOM_V, v_dc_nom_v, 1.0f, 2000.0f),
+    P(HIL_PARAM_CUR_KP_V_A, cur_kp_v_a, 0.0f, 1e4f),
+    P(HIL_PARAM_CUR_KI_V_AS, cur_ki_v_as, 0.0f, 1e8f),
+    P(HIL_PARAM_SPD_KP_A_RAD_S, spd_kp_a_rad_s, 0.0f, 1e4f),
+    P(HIL_PARAM_SPD_KI_A_RAD, spd_ki_a_rad, 0.0f, 1e6f),
+    P(HIL_PARAM_IQ_MAX_A, iq_max_a, 0.0f, 1e3f),
+    P(HIL_PARAM_SPEED_LOOP_DIV, speed_loop_div, 1.0f, 1000.0f),
+    P(HIL_PARAM_I_MAX_TRIP_A, i_trip_a, 0.0f, 1e3f),
+    P(HIL_PARAM_ALIGN_I_A, align_i_a, 0.0f, 1e3f),
+    P(HIL_PARAM_ALIGN_TIME_S, align_time_s, 0.0f, 100.0f),
+    P(HIL_PARAM_IF_I_A, if_i_a, 0.0f, 1e3f),
+    P(HIL_PARAM_IF_ACCEL_RAD_S2, if_accel_rad_s2, 0.0f, 1e6f),
+    P(HIL_PARAM_HANDOVER_SPEED_RAD_S, handover_speed_rad_s, 0.0f, 1e5f),
+    P(HIL_PARAM_HANDOVER_TIME_S, handover_time_s, 0.0f, 100.0f),
+    P(HIL_PARAM_SMO_K_V, smo_k_v, 0.0f, 1e4f),
+    P(HIL_PARAM_SMO_WC_RAD_S, smo_wc_rad_s, 0.0f, 1e6f),
+    P(HIL_PARAM_SMO_K_FACTOR, smo_k_factor, 0.0f, 100.0f),
+    P(HIL_PARAM_SMO_K_MIN_V, smo_k_min_v, 0.0f, 1e4f),
+    P(HIL_PARAM_PLL_KP, pll_kp, 0.0f, 1e6f),
+    P(HIL_PARAM_PLL_KI, pll_ki, 0.0f, 1e10f),
+    P(HIL_PARAM_SPEED_LPF_RAD_S, speed_lpf_rad_s, 0.0f, 1e6f),
+};
+
+int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value)
+{
+    size_t i;
+    for (i = 0u; i < sizeof k_params / sizeof k_params[0]; ++i) {
+        if (k_params[i].id == param_id) {
+            float *field = (float *)(void *)((char *)cfg + k_params[i].offset);
+            if (!fw_is_finite(value) || value < k_params[i].min || value > k_params[i].max) {
+                return HIL_CONFIG_STATUS_OUT_OF_RANGE;
+            }
+            *field = value;
+            return HIL_CONFIG_STATUS_OK;
+        }
+    }
+    return HIL_CONFIG_STATUS_UNKNOWN_PARAM;
+}

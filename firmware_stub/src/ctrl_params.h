@@ -1,0 +1,13 @@
+/**
+ * @file ctrl_params.h
+ * @brief CONFIG parameter ids (protocol/hil.dbc `param_id` table) -> controller configuration.
+ */
+#ifndef CTRL_PARAMS_H
+#define CTRL_PARAMS_H
+
+#include "controller.h"
+
+/** Store one parameter; returns the protocol's CONFIG_ACK status (0 = OK, 1 = unknown, 2 = out of range). */
+int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value);
+
+#endif

@@ -1,0 +1,297 @@
+#include "hil_session.h"
+
+#include "ctrl_params.h"
+
+#define HIL_FW_VERSION 0x0100u
+#define HELLO_FLAG_DUAL 0x01u
+#define HELLO_FLAG_TELEM_EMF 0x02u
+
+/* The controller's enums are the protocol's value tables: fail the build if they drift. */
+typedef char check_state_fault[((int)CTRL_STATE_FAULT == (int)HIL_STATE_FAULT) ? 1 : -1];
+typedef char check_state_closed[((int)CTRL_STATE_CLOSED_LOOP == (int)HIL_STATE_CLOSED_LOOP) ? 1 : -1];
+typedef char check_state_stopped[((int)CTRL_STATE_STOPPED == (int)HIL_STATE_STOPPED) ? 1 : -1];
+typedef char check_est_smo[((int)CTRL_EST_SMO_SIGN == (int)HIL_EST_SMO_SIGN) ? 1 : -1];
+typedef char check_est_enc[((int)CTRL_EST_ENCODER == (int)HIL_EST_ENCODER) ? 1 : -1];
+typedef char check_fault_oc[((int)CTRL_FAULT_OVERCURRENT == (int)HIL_FAULT_OVERCURRENT) ? 1 : -1];
+typedef char check_fault_cfg[((int)CTRL_FAULT_CONFIG_INVALID == (int)HIL_FAULT_CONFIG_INVALID) ? 1 : -1];
+
+uint16_t hil_session_estimators(void)
+{
+    return (uint16_t)((1u << HIL_EST_SMO_SIGN) | (1u << HIL_EST_ENCODER));
+}
+
+void hil_session_init(hil_session_t *s, const hil_port_t *port)
+{
+    s->port = *port;
+    ctrl_init(&s->ctrl);
+    s->hello_done = 0;
+    s->session_id = 0u;
+    s->flags = 0u;
+    s->mode = 0u;
+    s->aux_seq = 0u;
+    s->aux_valid = 0;
+    s->v_dc_v = 0.0f;
+    s->theta_enc_rad = 0.0f;
+    s->last_seq = 0u;
+    s->have_seq = 0;
+    s->hb_counter = 0u;
+    s->stats.frames_rx = 0u;
+    s->stats.cycles = 0u;
+    s->stats.unknown_ids = 0u;
+    s->stats.length_errors = 0u;
+    s->stats.seq_errors = 0u;
+    s->stats.config_rejected = 0u;
+    s->stats.not_ready = 0u;
+}
+
+static void send_fault(hil_session_t *s, uint16_t code, uint16_t seq, int32_t detail)
+{
+    hil_octet_t buf[HIL_FAULT_CTRL_LENGTH];
+    hil_fault_ctrl_t m;
+    m.code = code;
+    m.seq = seq;
+    m.detail = detail;
+    if (hil_fault_ctrl_pack(buf, &m, sizeof buf) > 0) {
+        s->port.send(s->port.ctx, HIL_FAULT_CTRL_FRAME_ID, buf, HIL_FAULT_CTRL_LENGTH);
+    }
+}
+
+static void on_hello(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
+{
+    hil_hello_t h;
+    hil_hello_ack_t a;
+    hil_octet_t buf[HIL_HELLO_ACK_LENGTH];
+    float period_us;
+    if (hil_hello_unpack(&h, data, dlc) != 0) {
+        s->stats.length_errors++;
+        return;
+    }
+    period_us = hil_hello_period_us_decode(h.period_us);
+    a.proto_version = (uint16_t)HIL_PROTO_VERSION;
+    a.fw_version = HIL_FW_VERSION;
+    a.estimators = hil_session_estimators();
+    a.session = h.session;
+    a.status = HIL_HELLO_STATUS_OK;
+    if (h.proto_version != HIL_PROTO_VERSION) {
+        a.status = HIL_HELLO_STATUS_VERSION_MISMATCH;
+    } else if (h.estimator >= 16u || (((unsigned)hil_session_estimators() >> (unsigned)h.estimator) & 1u) == 0u) {
+        a.status = HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED;
+    } else if (!(period_us >= 10.0f)) {
+        a.status = HIL_HELLO_STATUS_PERIOD_UNSUPPORTED;
+    }
+    if (a.status == HIL_HELLO_STATUS_OK) {
+        /* a new session starts from a clean controller with default configuration */
+        ctrl_init(&s->ctrl);
+        s->ctrl.cfg.ts_s = period_us * 1.0e-6f;
+        s->ctrl.cfg.estimator = (float)h.estimator;
+        s->hello_done = 1;
+        s->session_id = h.session;
+        s->flags = h.flags;
+        s->mode = h.mode;
+        s->have_seq = 0;
+        s->aux_valid = 0;
+    }
+    if (hil_hello_ack_pack(buf, &a, sizeof buf) > 0) {
+        s->port.send(s->port.ctx, HIL_HELLO_ACK_FRAME_ID, buf, HIL_HELLO_ACK_LENGTH);
+    }
+}
+
+static int controller_idle(const hil_session_t *s)
+{
+    ctrl_state_t st = s->ctrl.state;
+    return st == CTRL_STATE_IDLE || st == CTRL_STATE_STOPPED || st == CTRL_STATE_FAULT;
+}
+
+static void on_config(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
+{
+    hil_config_t c;
+    hil_config_ack_t a;
+    hil_octet_t buf[HIL_CONFIG_ACK_LENGTH];
+    if (hil_config_unpack(&c, data, dlc) != 0) {
+        s->stats.length_errors++;
+        return;
+    }
+    a.param_id = c.param_id;
+    a.config_seq = c.config_seq;
+    if (!controller_idle(s)) {
+        a.status = HIL_CONFIG_STATUS_LOCKED;
+    } else {
+        a.status = (uint16_t)ctrl_param_set(&s->ctrl.cfg, c.param_id, c.value);
+    }
+    if (a.status != HIL_CONFIG_STATUS_OK) {
+        s->stats.config_rejected++;
+    }
+    if (hil_config_ack_pack(buf, &a, sizeof buf) > 0) {
+        s->port.send(s->port.ctx, HIL_CONFIG_ACK_FRAME_ID, buf, HIL_CONFIG_ACK_LENGTH);
+    }
+}
+
+static void on_cmd(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
+{
+    hil_cmd_t c;
+    if (hil_cmd_unpack(&c, data, dlc) != 0) {
+        s->stats.length_errors++;
+        return;
+    }
+    switch (c.command) {
+    case HIL_CMD_RUN:
+        if (ctrl_start(&s->ctrl) != 0) {
+            send_fault(s, HIL_FAULT_CONFIG_INVALID, c.seq, 0);
+        }
+        break;
+    case HIL_CMD_STOP:
+        ctrl_stop(&s->ctrl);
+        break;
+    case HIL_CMD_CLEAR_FAULT:
+        ctrl_clear_fault(&s->ctrl);
+        break;
+    case HIL_CMD_SET_SPEED_REF:
+        ctrl_set_speed_ref(&s->ctrl, c.value);
+        break;
+    case HIL_CMD_SET_IQ_REF:
+        ctrl_set_current_ref(&s->ctrl, s->ctrl.id_cmd_a, c.value);
+        break;
+    case HIL_CMD_SET_ID_REF:
+        ctrl_set_current_ref(&s->ctrl, c.value, s->ctrl.iq_cmd_a);
+        break;
+    case HIL_CMD_SET_CONTROL_MODE:
+        ctrl_set_mode(&s->ctrl, c.value > 0.5f ? CTRL_MODE_CURRENT : CTRL_MODE_SPEED);
+        break;
+    default:
+        break;
+    }
+}
+
+static void on_sense_aux(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
+{
+    hil_sense_aux_t m;
+    if (hil_sense_aux_unpack(&m, data, dlc) != 0) {
+        s->stats.length_errors++;
+        return;
+    }
+    s->aux_seq = m.seq;
+    s->aux_valid = 1;
+    s->v_dc_v = hil_sense_aux_v_dc_decode(m.v_dc);
+    s->theta_enc_rad = hil_sense_aux_theta_enc_decode(m.theta_enc);
+}
+
+static uint16_t duty_raw(float d)
+{
+    if (d < 0.0f) {
+        return (uint16_t)HIL_DUTY_RAW_OFF;
+    }
+    return hil_duty_d_a_encode(d);
+}
+
+static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
+{
+    hil_sense_t m;
+    ctrl_sample_t smp;
+    const ctrl_output_t *o;
+    ctrl_fault_t fault_before;
+    hil_octet_t buf[8];
+    if (hil_sense_unpack(&m, data, dlc) != 0) {
+        s->stats.length_errors++;
+        return;
+    }
+    if (!s->hello_done) {
+        s->stats.not_ready++;
+        return;
+    }
+    if (s->have_seq && m.seq != (uint16_t)(s->last_seq + 1u)) {
+        s->stats.seq_errors++;
+    }
+    s->have_seq = 1;
+    s->last_seq = m.seq;
+    s->stats.cycles++;
+
+    smp.i_a_a = hil_sense_i_a_decode(m.i_a);
+    smp.i_b_a = hil_sense_i_b_decode(m.i_b);
+    smp.i_c_a = hil_sense_i_c_decode(m.i_c);
+    smp.v_dc_v = s->v_dc_v; /* latest SENSE_AUX; the nominal bus is used until one arrives */
+    smp.theta_enc_rad = s->theta_enc_rad;
+
+    fault_before = s->ctrl.fault;
+    o = ctrl_step(&s->ctrl, &smp);
+    if (o->fault != CTRL_FAULT_NONE && fault_before == CTRL_FAULT_NONE) {
+        send_fault(s, (uint16_t)o->fault, m.seq, 0);
+    }
+
+    {
+        hil_telem_t t;
+        t.seq = m.seq;
+        t.theta_hat = hil_telem_theta_hat_encode(o->theta_hat_rad);
+        t.omega_hat = hil_telem_omega_hat_encode(o->omega_hat_rad_s);
+        t.state = (uint16_t)o->state;
+        t.estimator = (uint16_t)s->ctrl.cfg.estimator;
+        if (hil_telem_pack(buf, &t, sizeof buf) > 0) {
+            s->port.send(s->port.ctx, HIL_TELEM_FRAME_ID, buf, HIL_TELEM_LENGTH);
+        }
+    }
+    if (s->flags & HELLO_FLAG_TELEM_EMF) {
+        hil_telem_emf_t e;
+        e.seq = m.seq;
+        e.e_alpha = hil_telem_emf_e_alpha_encode(o->e_alpha_v);
+        e.e_beta = hil_telem_emf_e_beta_encode(o->e_beta_v);
+        e.i_q_ref = hil_telem_emf_i_q_ref_encode(o->i_q_ref_a);
+        if (hil_telem_emf_pack(buf, &e, sizeof buf) > 0) {
+            s->port.send(s->port.ctx, HIL_TELEM_EMF_FRAME_ID, buf, HIL_TELEM_EMF_LENGTH);
+        }
+    }
+    {
+        hil_duty_t d;
+        d.seq = m.seq;
+        d.d_a = duty_raw(o->duty_abc[0]);
+        d.d_b = duty_raw(o->duty_abc[1]);
+        d.d_c = duty_raw(o->duty_abc[2]);
+        if (hil_duty_pack(buf, &d, sizeof buf) > 0) {
+            s->port.send(s->port.ctx, HIL_DUTY_FRAME_ID, buf, HIL_DUTY_LENGTH);
+        }
+    }
+}
+
+void hil_session_on_frame(hil_session_t *s, const hil_frame_t *f)
+{
+    s->stats.frames_rx++;
+    switch (f->id) {
+    case HIL_SENSE_FRAME_ID:
+        on_sense(s, f->data, f->dlc);
+        break;
+    case HIL_SENSE_AUX_FRAME_ID:
+        on_sense_aux(s, f->data, f->dlc);
+        break;
+    case HIL_SENSE_DUAL_FRAME_ID:
+        break; /* dual sampling is consumed by the delay-compensation estimators (later) */
+    case HIL_HELLO_FRAME_ID:
+        on_hello(s, f->data, f->dlc);
+        break;
+    case HIL_CONFIG_FRAME_ID:
+        on_config(s, f->data, f->dlc);
+        break;
+    case HIL_CMD_FRAME_ID:
+        on_cmd(s, f->data, f->dlc);
+        break;
+    case HIL_HEARTBEAT_PLANT_FRAME_ID:
+        break;
+    case HIL_FAULT_PLANT_FRAME_ID:
+        ctrl_stop(&s->ctrl);
+        break;
+    default:
+        s->stats.unknown_ids++;
+        break;
+    }
+}
+
+void hil_session_heartbeat(hil_session_t *s, uint32_t link_rx_errors)
+{
+    hil_heartbeat_ctrl_t h;
+    hil_octet_t buf[HIL_HEARTBEAT_CTRL_LENGTH];
+    uint32_t errors = link_rx_errors + s->stats.unknown_ids + s->stats.length_errors;
+    h.counter = s->hb_counter++;
+    h.state = (uint16_t)s->ctrl.state;
+    h.rx_errors = (uint16_t)(errors > 0xFFFFu ? 0xFFFFu : errors);
+    h.rx_frames = (uint16_t)(s->stats.frames_rx & 0xFFFFu);
+    if (hil_heartbeat_ctrl_pack(buf, &h, sizeof buf) > 0) {
+        s->port.send(s->port.ctx, HIL_HEARTBEAT_CTRL_FRAME_ID, buf, HIL_HEARTBEAT_CTRL_LENGTH);
+    }
+}

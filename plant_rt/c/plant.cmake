@@ -1,0 +1,17 @@
+# Plant core (PMSM dq model + averaged inverter + mechanics + RK4 system object), C99, double.
+# Included by the top-level CMakeLists.txt, which defines HIL_ROOT and HIL_STRICT_FLAGS.
+add_library(hil_plant STATIC
+  ${HIL_ROOT}/plant_rt/c/pmsm_machine.c
+  ${HIL_ROOT}/plant_rt/c/inverter.c
+  ${HIL_ROOT}/plant_rt/c/mechanics.c
+  ${HIL_ROOT}/plant_rt/c/plant.c
+)
+target_include_directories(hil_plant PUBLIC ${HIL_ROOT}/plant_rt/c)
+target_compile_options(hil_plant PRIVATE ${HIL_STRICT_FLAGS})
+target_link_libraries(hil_plant PUBLIC m)
+
+# Unit tests of each part alone and of the assembled plant (no files read: no argv needed).
+add_executable(test_plant ${HIL_ROOT}/tests/c/test_plant.c)
+target_compile_options(test_plant PRIVATE ${HIL_STRICT_FLAGS})
+target_link_libraries(test_plant PRIVATE hil_plant)
+add_test(NAME plant COMMAND test_plant)

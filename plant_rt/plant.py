@@ -1,0 +1,201 @@
+"""Python API over the C plant (cffi API mode, module ``plant_rt._plant_c``).
+
+    from plant_rt.plant import Plant
+    plant = Plant.from_profile("gong2020", t_delay_s=0.0)   # overrides are validated
+    s = plant.snapshot()              # live cffi plant_snapshot_t: s.i_a_a, s.theta_e_rad, ...
+    plant.step(0.6, 0.4, 0.5)         # one PWM period; duty < 0 disables a leg
+    rec = snapshot_array(1000)        # numpy structured array, dtype SNAPSHOT_DTYPE
+    buf = snapshot_buffer(rec)        # cffi view of it
+    plant.snapshot_to(buf, 0)         # C writes the snapshot straight into rec[0]
+
+Units are SI and named in the fields (see plant_rt/c/plant.h for the timing contract: the
+snapshot after step k is taken at t_{k+1}, the next sampling instant).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from plant_rt.profile import (
+    PARAM_FIELDS,
+    MotorProfile,
+    ProfileError,
+    coerce_number,
+    unknown_key_error,
+    display_path,
+    load_profile,
+    validate_params,
+)
+
+try:
+    from plant_rt._plant_c import ffi, lib
+except ImportError as _exc:  # pragma: no cover - exercised by a subprocess test
+    raise ImportError(
+        "plant_rt._plant_c (the compiled C plant) is not built: run `make build` "
+        "(or `.venv/bin/python tools/build_native.py`)"
+    ) from _exc
+
+#: plant_snapshot_t field names, in struct order (all double)
+SNAPSHOT_FIELDS: tuple[str, ...] = tuple(name for name, _ in ffi.typeof("plant_snapshot_t").fields)
+SNAPSHOT_SIZE: int = ffi.sizeof("plant_snapshot_t")
+#: numpy dtype with the exact memory layout of plant_snapshot_t
+SNAPSHOT_DTYPE = np.dtype({
+    "names": list(SNAPSHOT_FIELDS),
+    "formats": ["<f8"] * len(SNAPSHOT_FIELDS),
+    "offsets": [f.offset for _, f in ffi.typeof("plant_snapshot_t").fields],
+    "itemsize": SNAPSHOT_SIZE,
+})
+assert all(f.type is ffi.typeof("double") for _, f in ffi.typeof("plant_snapshot_t").fields)
+
+
+def snapshot_array(n: int) -> np.ndarray:
+    """Zeroed structured array of n snapshots (dtype SNAPSHOT_DTYPE)."""
+    return np.zeros(n, dtype=SNAPSHOT_DTYPE)
+
+
+def snapshot_buffer(array: np.ndarray) -> Any:
+    """cffi ``plant_snapshot_t[]`` aliasing a C-contiguous SNAPSHOT_DTYPE array (no copy).
+
+    Use ``buf + k`` as a ``plant_snapshot_t *`` (Plant.snapshot_to, lib.plant_snapshot,
+    ffi.memmove(buf + k, plant.snapshot(), SNAPSHOT_SIZE)).
+    """
+    if array.dtype != SNAPSHOT_DTYPE or not array.flags.c_contiguous:
+        raise ValueError("need a C-contiguous array of dtype SNAPSHOT_DTYPE (see snapshot_array)")
+    return ffi.from_buffer("plant_snapshot_t[]", array, require_writable=True)
+
+
+@dataclass(frozen=True)
+class PlantParams:
+    """Read-only copy of the plant_params_t the plant was built with (SI)."""
+
+    rs_ohm: float
+    ld_h: float
+    lq_h: float
+    psi_f_wb: float
+    pole_pairs: int
+    j_kgm2: float
+    b_nms: float
+    v_dc_v: float
+    ts_s: float
+    t_delay_s: float
+    substeps: int
+
+    def as_dict(self) -> dict[str, float | int]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+class Plant:
+    """PMSM + inverter + mechanics, one ``step`` per PWM/control period.
+
+    Plant(profile, **overrides): any plant_params_t field can be overridden (same validation
+    as profile files; errors are ProfileError naming the profile file and the field).
+    """
+
+    def __init__(self, profile: MotorProfile, **overrides: float | int):
+        values = profile.plant_params()
+        where = f"{display_path(profile.path)} (with overrides)"
+        for key, value in overrides.items():
+            if key not in PARAM_FIELDS:
+                raise unknown_key_error(where, f"overrides.{key}", key, tuple(PARAM_FIELDS))
+            section, kind = PARAM_FIELDS[key]
+            values[key] = coerce_number(where, f"{section}.{key}", value, kind)
+        validate_params(values, where, lambda n: f"{PARAM_FIELDS[n][0]}.{n}" if n in PARAM_FIELDS else n)
+        self._profile = profile
+        self._params = PlantParams(**values)  # type: ignore[arg-type]
+        self._cparams = ffi.new("plant_params_t *", values)
+        self._pl = ffi.new("plant_t *")
+        if lib.plant_init(self._pl, self._cparams) != 0:  # cannot happen after validate_params
+            raise ProfileError(f"{where}: plant_init rejected the parameters")
+        self._snap = ffi.new("plant_snapshot_t *")
+        self._energy = ffi.new("plant_energy_t *")
+        self._step_c = lib.plant_step_abc
+
+    @classmethod
+    def from_profile(cls, name_or_path: str | Path, **overrides: float | int) -> "Plant":
+        """Load a profile (bare name -> plant_rt/profiles/<name>.toml) and build the plant."""
+        return cls(load_profile(name_or_path), **overrides)
+
+    # -- properties --------------------------------------------------------------------------
+    @property
+    def profile(self) -> MotorProfile:
+        return self._profile
+
+    @property
+    def params(self) -> PlantParams:
+        """Parameters in use (profile + overrides), read-only."""
+        return self._params
+
+    @property
+    def t_s(self) -> float:
+        """Present time [s] (= the next sampling instant)."""
+        return self._pl.t_s
+
+    @property
+    def events(self) -> int:
+        """Diode events located since the last reset (diagnostic)."""
+        return self._pl.events
+
+    # -- stepping ------------------------------------------------------------------------------
+    def step(self, duty_a: float, duty_b: float, duty_c: float) -> None:
+        """Advance one period with these duties (high-side on-time fraction, [0, 1]; < 0 or NaN
+        disables the leg; > 1 acts as 1). They take effect t_delay_s into the period."""
+        self._step_c(self._pl, duty_a, duty_b, duty_c)
+
+    def run(self, duties: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """Step len(duties) periods ((n, 3) array); returns the n snapshots taken after each."""
+        d = np.ascontiguousarray(duties, dtype=np.float64)
+        if d.ndim != 2 or d.shape[1] != 3:
+            raise ValueError(f"duties must have shape (n, 3), got {d.shape}")
+        n = d.shape[0]
+        if out is None:
+            out = snapshot_array(n)
+        elif out.shape != (n,):
+            raise ValueError(f"out must have shape ({n},), got {out.shape}")
+        lib.plant_run(self._pl, ffi.cast("const double *", ffi.from_buffer(d)), n,
+                      snapshot_buffer(out))
+        return out
+
+    # -- observation ---------------------------------------------------------------------------
+    def snapshot(self) -> Any:
+        """The plant's snapshot as a live cffi ``plant_snapshot_t *`` (read fields directly).
+
+        The same object is refreshed by every call: copy what you keep (snapshot_dict,
+        snapshot_to, ffi.memmove).
+        """
+        lib.plant_snapshot(self._pl, self._snap)
+        return self._snap
+
+    def snapshot_to(self, buffer: Any, index: int) -> None:
+        """Write the snapshot into element ``index`` of a ``snapshot_buffer`` (no Python copy)."""
+        lib.plant_snapshot(self._pl, buffer + index)
+
+    def snapshot_dict(self) -> dict[str, float]:
+        """The snapshot as a plain dict {field: value}."""
+        s = self.snapshot()
+        return {name: getattr(s, name) for name in SNAPSHOT_FIELDS}
+
+    def energy(self) -> dict[str, float]:
+        """Energy bookkeeping since the last reset [J] (see plant_energy_t in plant.h)."""
+        lib.plant_energy(self._pl, self._energy)
+        e = self._energy
+        return {name: getattr(e, name) for name, _ in ffi.typeof("plant_energy_t").fields}
+
+    # -- control -------------------------------------------------------------------------------
+    def set_load_torque(self, torque_nm: float) -> None:
+        """Load torque [N m] from now on; positive opposes positive rotation."""
+        lib.plant_set_load_torque(self._pl, torque_nm)
+
+    def set_initial(self, theta_e_rad: float, omega_m_rad_s: float) -> None:
+        """Rotor electrical angle [rad] (wrapped) and mechanical speed [rad/s]; currents and t kept."""
+        lib.plant_set_initial(self._pl, theta_e_rad, omega_m_rad_s)
+
+    def reset(self) -> None:
+        """Back to t = 0, zero currents and speed, no load torque, previous duties 0.5."""
+        lib.plant_reset(self._pl)
+
+    def step_abc(self, duties: Sequence[float]) -> None:
+        """``step`` with a 3-sequence of duties."""
+        self._step_c(self._pl, duties[0], duties[1], duties[2])

@@ -1,0 +1,246 @@
+"""The closed loop end to end: C stub on a pty, lockstep runner, MCAP recording, checker.
+
+These tests run the real stub executable (build/bin/hil_stub, or $HIL_STUB).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import jsonschema
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from bench import channels as ch
+from bench.check import check_recording
+from bench.links import LinkError, open_link
+from bench.recording import load_recording
+from bench.runner import LockstepRunner, RunAborted, run_scenario
+from bench.scenario import load_scenario, parse_scenario
+
+REPO = Path(__file__).resolve().parents[1]
+ALL_TOPICS = {ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.LINK_FRAMES,
+              ch.LINK_STATS, ch.EVENTS}
+
+
+@pytest.fixture(scope="module")
+def g2_run(tmp_path_factory):
+    """One full G2 run (standstill -> 500 rpm) shared by the tests that read it."""
+    out = tmp_path_factory.mktemp("g2") / "g2.mcap"
+    result = run_scenario(load_scenario("gong_g2_500rpm"), out_path=out, progress=False)
+    return result
+
+
+def test_closed_loop_starts_and_holds_500rpm(g2_run):
+    assert g2_run.ok, g2_run.error
+    rec = load_recording(g2_run.recording)
+    state = rec.topic(ch.PLANT_STATE)
+    telem = rec.topic(ch.CONTROLLER_TELEMETRY)
+    t = state["t_s"]
+    assert state["speed_rpm"][0] == 0.0                       # from standstill
+    last = t >= 1.0
+    speed = state["speed_rpm"][last]
+    assert np.all(np.abs(speed - 500.0) < 5.0), (speed.min(), speed.max())   # holds 500 rpm
+    assert np.all(telem["state"][last] == 3)                 # CLOSED_LOOP, sensorless
+    assert np.sqrt(np.mean(telem["pee_rad"][last] ** 2)) < 0.3
+    # the controller went through align -> open loop -> closed loop, in that order
+    events = rec.topic(ch.EVENTS)
+    states = [str(x) for x, k in zip(events["text"], events["kind"]) if k == "controller_state"]
+    assert states[:3] == ["ALIGN", "OPEN_LOOP", "CLOSED_LOOP"]
+
+
+def test_recording_opens_with_crc_validation_and_every_channel_decodes(g2_run):
+    seen: dict[str, int] = {}
+    with open(g2_run.recording, "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics.message_count > 0
+        validators = {}
+        for schema, channel, message in reader.iter_messages():
+            assert schema.encoding == "jsonschema" and channel.message_encoding == "json"
+            if channel.topic not in validators:
+                validators[channel.topic] = jsonschema.Draft7Validator(json.loads(schema.data))
+            validators[channel.topic].validate(json.loads(message.data))
+            seen[channel.topic] = seen.get(channel.topic, 0) + 1
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}
+        attachments = [a.name for a in reader.iter_attachments()]
+    assert ALL_TOPICS <= set(seen), seen
+    cycles = g2_run.cycles_done
+    for topic in (ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY):
+        assert seen[topic] == cycles
+    assert seen[ch.LINK_FRAMES] == cycles + 1        # + the set-up frames (handshake, config)
+    run = meta["run"]
+    assert run["git_revision"] and run["scenario"] == "gong_g2_500rpm"
+    assert json.loads(run["plant_params"])["rs_ohm"] == pytest.approx(0.6383)
+    assert any(a.startswith("scenario/") for a in attachments)
+    assert any(a.startswith("profile/") for a in attachments)
+
+
+def test_every_frame_is_recorded_both_ways(g2_run):
+    rec = load_recording(g2_run.recording)
+    frames = rec.topic(ch.LINK_FRAMES)
+    setup_tx = frames["tx"][0].split()
+    assert setup_tx[0].startswith("020#")            # HELLO first
+    assert sum(1 for f in setup_tx if f.startswith("030#")) >= 8   # CONFIG: motor + scenario
+    tx, rx = frames["tx"][1], frames["rx"][1]
+    assert [f.split("#")[0] for f in tx.split()][-2:] == ["101", "100"]   # SENSE_AUX, SENSE last
+    assert [f.split("#")[0] for f in rx.split()][-1] == "180"             # DUTY last
+
+
+def test_check_recomputes_from_the_file_alone(g2_run, tmp_path):
+    moved = tmp_path / "moved.mcap"
+    moved.write_bytes(Path(g2_run.recording).read_bytes())
+    report = check_recording(moved)
+    ids = {r.claim.id for r in report.results}
+    assert ids == {"G2"}
+    measured = {r.quantity.metric: r.measured for r in report.results}
+    assert math.isfinite(measured["speed_band_hat_rpm"])
+    assert math.isfinite(measured["pee_max_rad"])
+    assert report.summary["speed_mean_rpm"] == pytest.approx(500.0, abs=2.0)
+
+
+SHORT = """
+[scenario]
+name = "short"
+profile = "gong2020"
+duration_s = {duration}
+[controller]
+estimator = "SMO_SIGN"
+speed_ref_rpm = 300
+[controller.params]
+ALIGN_TIME_S = 0.05
+IF_ACCEL_RAD_S2 = 200.0
+[metrics]
+window_s = [0.0, {duration}]
+"""
+
+
+def short_scenario(duration: float = 0.3):
+    return parse_scenario(SHORT.format(duration=duration), Path("short.toml"))
+
+
+@pytest.mark.parametrize("inject, expect", [
+    ("silent@500", "no DUTY from the controller"),
+    ("crash@500", "controller stub killed by signal"),
+])
+def test_dead_or_silent_stub_ends_the_run_within_a_second(tmp_path, inject, expect):
+    out = tmp_path / "dead.mcap"
+    t0 = time.monotonic()
+    result = LockstepRunner(short_scenario(2.0), out_path=out, progress=False,
+                            stub_args=("--inject", inject)).run()
+    elapsed = time.monotonic() - t0
+    assert result.error is not None and expect in result.error, result.error
+    assert "at cycle 500" in result.error
+    assert result.cycles_done == 500
+    # ends within a second of the controller going away (plus the 500 good cycles)
+    assert elapsed < 4.0   # 500 short cycles + detection (CYCLE_TIMEOUT_S = 0.5 s by construction)
+    rec = load_recording(out)                         # finalised and readable
+    assert rec.truncated is None
+    assert len(rec.topic(ch.PLANT_STATE)["t_s"]) == 500
+    assert rec.metadata["run_result"]["error"] == result.error
+
+
+def test_garbage_between_frames_is_counted_and_survived(tmp_path):
+    out = tmp_path / "garbage.mcap"
+    result = LockstepRunner(short_scenario(0.2), out_path=out, progress=False,
+                            stub_args=("--inject", "garbage@100")).run()
+    assert result.ok, result.error
+    stats = result.link_stats
+    assert stats["cycles"] == 2000
+    assert stats["bytes_discarded"] + stats["cobs_errors"] + stats["crc_errors"] \
+        + stats["length_errors"] > 0
+
+
+def test_out_of_range_duty_is_refused_and_previous_duty_held(tmp_path):
+    out = tmp_path / "badduty.mcap"
+    result = LockstepRunner(short_scenario(0.1), out_path=out, progress=False,
+                            stub_args=("--inject", "bad-duty@300")).run()
+    assert result.ok, result.error
+    assert result.link_stats["bad_duties"] == 1
+    rec = load_recording(out)
+    telem = rec.topic(ch.CONTROLLER_TELEMETRY)
+    k = int(np.flatnonzero(telem["seq"] == 300)[0])
+    assert telem["duty_a"][k] == telem["duty_a"][k - 1]      # held, never the bad value
+    events = rec.topic(ch.EVENTS)
+    assert "bad_duty" in list(events["kind"])
+
+
+def test_link_budget_refuses_a_rate_that_cannot_fit(tmp_path):
+    master, slave = os.openpty()
+    try:
+        runner = LockstepRunner(short_scenario(0.1), link_spec=f"serial:{os.ttyname(slave)}@115200",
+                                out_path=tmp_path / "budget.mcap", progress=False)
+        result = runner.run()
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert result.error is not None
+    assert "10000 Hz control rate needed" in result.error
+    assert "fits at most" in result.error
+
+
+def test_unknown_link_spec_is_refused():
+    with pytest.raises(LinkError, match="unknown link spec"):
+        open_link("carrier-pigeon:1")
+
+
+def test_ctrl_c_finalises_the_recording(tmp_path):
+    out = tmp_path / "interrupted.mcap"
+    scn = tmp_path / "long.toml"
+    scn.write_text(SHORT.format(duration=30.0))
+    proc = subprocess.Popen([sys.executable, "-m", "bench", "run", str(scn), "--out", str(out),
+                             "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    # wait until cycles flow (the file grows past its header and first chunk)
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and (not out.exists() or out.stat().st_size < 300_000):
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=20)
+    assert proc.returncode == 130, stderr
+    assert "interrupted by the user" in stderr
+    rec = load_recording(out)
+    assert rec.truncated is None                  # finalised: summary and footer written
+    assert len(rec.topic(ch.PLANT_STATE)["t_s"]) > 100
+    with open(out, "rb") as f:                    # the seeking reader needs the summary
+        assert make_reader(f, validate_crcs=True).get_summary() is not None
+
+
+def test_truncated_recording_keeps_what_was_written(g2_run, tmp_path):
+    data = Path(g2_run.recording).read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    rec = load_recording(cut)
+    assert rec.truncated is not None and "reading stopped at byte" in rec.truncated
+    n = len(rec.topic(ch.PLANT_STATE)["t_s"])
+    assert 0 < n < g2_run.cycles_done
+
+
+def test_not_a_recording_is_a_clear_error(tmp_path):
+    from bench.recording import RecordingError
+
+    bogus = tmp_path / "bogus.mcap"
+    bogus.write_bytes(b"this is not an mcap file at all")
+    with pytest.raises(RecordingError, match="not a readable MCAP recording"):
+        load_recording(bogus)
+
+
+ASAN_STUB = REPO / "build-asan" / "bin" / "hil_stub"
+
+
+@pytest.mark.skipif(not ASAN_STUB.exists(), reason="no sanitizer build (make sanitize)")
+def test_stub_runs_clean_under_asan_and_ubsan(tmp_path, monkeypatch):
+    monkeypatch.setenv("HIL_STUB", str(ASAN_STUB))
+    monkeypatch.setenv("ASAN_OPTIONS", "abort_on_error=1:detect_leaks=1")
+    monkeypatch.setenv("UBSAN_OPTIONS", "halt_on_error=1:print_stacktrace=1")
+    runner = LockstepRunner(short_scenario(0.3), out_path=tmp_path / "asan.mcap", progress=False,
+                            stub_args=("--inject", "garbage@1000"))
+    result = runner.run()
+    assert result.ok, result.error
