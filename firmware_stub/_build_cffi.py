@@ -1,0 +1,30 @@
+"""cffi API-mode bindings to the portable firmware (estimator library, FOC, session).
+
+Declarations live in ``firmware_stub/cdef/*.cdef`` (one file per C module, cffi syntax; partial
+structs end in ``...;`` so the real header fixes the layout). Every ``firmware_stub/src/*.c`` is
+compiled in, with the generated protocol codec, exactly as the stub and the DSP build them.
+Built by ``tools/build_native.py`` (``make build``) into ``firmware_stub._fw_c``.
+"""
+from pathlib import Path
+
+from cffi import FFI
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+SRC = HERE / "src"
+PROTOCOL_C = ROOT / "protocol" / "c"
+
+ffibuilder = FFI()
+# fw_common first: the other declarations use its types
+cdefs = sorted(HERE.glob("cdef/*.cdef"), key=lambda p: (p.stem != "fw_common", p.stem))
+ffibuilder.cdef("\n".join(p.read_text() for p in cdefs))
+headers = "".join(f'#include "{h.name}"\n' for h in sorted(SRC.glob("*.h")))
+sources = sorted(str(p) for p in SRC.glob("*.c"))
+sources += [str(PROTOCOL_C / "hil_msgs.c"), str(PROTOCOL_C / "hil_framing.c")]
+ffibuilder.set_source(
+    "firmware_stub._fw_c", headers, sources=sources,
+    include_dirs=[str(SRC), str(PROTOCOL_C)],
+    extra_compile_args=["-O2", "-std=c99"], libraries=["m"])
+
+if __name__ == "__main__":
+    ffibuilder.compile(verbose=True)
