@@ -1,14 +1,7 @@
 # Portable firmware library (what a user drops into a C2000 project) and the Linux host port.
-add_library(hil_fw STATIC
-  ${HIL_ROOT}/firmware_stub/src/fw_math.c
-  ${HIL_ROOT}/firmware_stub/src/pi_ctrl.c
-  ${HIL_ROOT}/firmware_stub/src/svpwm.c
-  ${HIL_ROOT}/firmware_stub/src/est_common.c
-  ${HIL_ROOT}/firmware_stub/src/est_smo_sign.c
-  ${HIL_ROOT}/firmware_stub/src/controller.c
-  ${HIL_ROOT}/firmware_stub/src/ctrl_params.c
-  ${HIL_ROOT}/firmware_stub/src/hil_session.c
-)
+# Every firmware_stub/src/*.c is part of the library; every tests/c/test_fw_*.c is a test.
+file(GLOB HIL_FW_SOURCES CONFIGURE_DEPENDS ${HIL_ROOT}/firmware_stub/src/*.c)
+add_library(hil_fw STATIC ${HIL_FW_SOURCES})
 target_include_directories(hil_fw PUBLIC ${HIL_ROOT}/firmware_stub/src)
 target_compile_options(hil_fw PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(hil_fw PUBLIC hil_protocol m)
@@ -22,10 +15,15 @@ add_executable(pty_pingpong ${HIL_ROOT}/bench/perf/pty_pingpong.c)
 target_compile_options(pty_pingpong PRIVATE -Wall -Wextra -Werror)
 target_link_libraries(pty_pingpong PRIVATE util)
 
-add_executable(test_firmware ${HIL_ROOT}/tests/c/test_firmware.c)
-target_compile_options(test_firmware PRIVATE ${HIL_STRICT_FLAGS})
-target_link_libraries(test_firmware PRIVATE hil_fw)
-add_test(NAME firmware COMMAND test_firmware)
+# C tests of the firmware: one executable per tests/c/test_fw_*.c, run by CTest.
+file(GLOB HIL_FW_TESTS CONFIGURE_DEPENDS ${HIL_ROOT}/tests/c/test_fw_*.c)
+foreach(test_src ${HIL_FW_TESTS})
+  get_filename_component(test_name ${test_src} NAME_WE)
+  add_executable(${test_name} ${test_src})
+  target_compile_options(${test_name} PRIVATE ${HIL_STRICT_FLAGS})
+  target_link_libraries(${test_name} PRIVATE hil_fw)
+  add_test(NAME ${test_name} COMMAND ${test_name} ${HIL_ROOT})
+endforeach()
 add_test(NAME firmware_no_8bit_types
   COMMAND ${CMAKE_COMMAND} -DHIL_PROTOCOL_DIR=${HIL_ROOT}/firmware_stub/src
           -P ${HIL_ROOT}/protocol/c/check_no_8bit_types.cmake)
