@@ -143,7 +143,8 @@ class LockstepRunner:
         with ProcessRecorder(self.out_path) as rec:
             self._open_channels(rec)
             try:
-                opened = open_link(self.link_spec, self.stub_args)
+                opened = open_link(self.link_spec, self.stub_args,
+                                   capture_path=self.out_path.with_suffix(".log"))
                 self._check_budget(opened)
                 self._write_metadata(rec, opened)
                 self._start_controller(opened)

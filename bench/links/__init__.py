@@ -13,6 +13,7 @@ Backends are imported only when chosen (python-can's ``BACKENDS`` pattern).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 from .base import Link, LinkError
 
@@ -41,7 +42,10 @@ def parse_serial_spec(rest: str) -> tuple[str, int]:
         raise LinkError(f"bad baud rate {baud!r} in link spec 'serial:{rest}'") from None
 
 
-def open_link(spec: str = "stub", stub_args: tuple[str, ...] = ()) -> OpenedLink:
+def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
+              capture_path: Path | None = None) -> OpenedLink:
+    """Open the link a spec names. ``capture_path``: where a backend that has a standard capture
+    format writes the raw traffic beside the recording (CAN: a candump .log); others ignore it."""
     kind, _, rest = spec.partition(":")
     if kind == "stub":
         from .stub import StubProcess
