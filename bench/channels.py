@@ -62,9 +62,9 @@ LINK_STATS_SCHEMA = number_schema(
     integers=LINK_STATS_COUNTERS,
     description="Link counters (cumulative) and wall-clock time per lockstep cycle.")
 
-REFERENCE_FIELDS = ("theta_hat_rad", "omega_hat_rad_s", "speed_hat_rpm", "e_alpha_v", "e_beta_v",
-                    "pee_rad")
+REFERENCE_VALUES = ("t_s", "seq", "theta_hat_rad", "omega_hat_rad_s", "speed_hat_rpm", "e_alpha_v",
+                    "e_beta_v", "pee_rad")
 REFERENCE_SCHEMA = number_schema(
-    "hil.ReferenceEstimator", ("t_s",) + REFERENCE_FIELDS, integers=("seq",),
+    "hil.ReferenceEstimator", tuple(f for f in REFERENCE_VALUES if f != "seq"), integers=("seq",),
     description="A reference estimator run on the host on exactly the samples and voltage "
                 "commands the controller saw.")

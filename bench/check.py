@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 from rich.console import Console
 from rich.table import Table
 
@@ -84,7 +85,27 @@ def summarise(ctx: Context) -> dict[str, float]:
             out["pee_rms_rad"] = err.rms_rad
         except Exception:  # noqa: BLE001
             pass
+    for topic in sorted(t for t in ctx.rec.topics if t.startswith(ch.REFERENCE_PREFIX)):
+        name = topic[len(ch.REFERENCE_PREFIX):]
+        try:
+            err = metrics.angle_error(ctx.windowed(topic, "theta_hat_rad"),
+                                      _truth_at(ctx, topic))
+            out[f"ref_{name}_pee_max_rad"] = err.max_abs_rad
+            out[f"ref_{name}_pee_rms_rad"] = err.rms_rad
+            out[f"ref_{name}_speed_band_rpm"] = metrics.speed_band_rpm(
+                ctx.windowed(topic, "speed_hat_rpm"), ctx.speed_ref_rpm)
+        except Exception:  # noqa: BLE001
+            pass
     return out
+
+
+def _truth_at(ctx: Context, topic: str):
+    """The true angle at the cycles a reference estimator reported (it may skip some)."""
+    state = ctx.rec.topic(ch.PLANT_STATE)
+    ref = ctx.rec.topic(topic)
+    mask = metrics.window_mask(ref["t_s"], ctx.window_s)
+    idx = np.searchsorted(state["t_s"], ref["t_s"][mask])
+    return state["theta_e_rad"][idx]
 
 
 def check_recording(path: str | Path) -> CheckReport:

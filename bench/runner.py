@@ -102,6 +102,18 @@ def _wrap_pi(x: float) -> float:
     return (x + math.pi) % TWO_PI - math.pi
 
 
+INV_SQRT3 = 1.0 / math.sqrt(3.0)
+
+
+def _duties_to_alphabeta(duties: tuple[float, float, float],
+                         v_dc_v: float) -> tuple[float, float] | None:
+    """Alpha-beta voltage an averaged inverter realises from duties (None if a leg is off)."""
+    da, db, dc = duties
+    if da < 0.0 or db < 0.0 or dc < 0.0:
+        return None
+    return ((2.0 * da - db - dc) * (v_dc_v / 3.0), (db - dc) * (v_dc_v * INV_SQRT3))
+
+
 def _frames_text(frames: list[tuple[int, bytes]]) -> str:
     return " ".join(f"{fid:03X}#{payload.hex().upper()}" for fid, payload in frames)
 
@@ -121,6 +133,27 @@ class LockstepRunner:
         self.counters = {k: 0 for k in ("seq_mismatch", "bad_duties", "telem_missing",
                                         "unknown_ids", "heartbeats_rx")}
         self.cycle_wall_ns = np.zeros(self.n_cycles, dtype=np.int64)
+        self.references = self._make_references()
+
+    def _make_references(self) -> list[tuple[str, object]]:
+        """The reference estimators the scenario names, built from the same C library."""
+        if not self.scn.reference_estimators:
+            return []
+        from firmware_stub.estimators import REFERENCE_ESTIMATORS
+
+        out = []
+        for name in self.scn.reference_estimators:
+            factory = REFERENCE_ESTIMATORS.get(name)
+            if factory is None:
+                raise RunAborted(f"{self.scn.display_path}: reference.estimators: unknown "
+                                 f"estimator {name!r}; available: "
+                                 f"{', '.join(REFERENCE_ESTIMATORS)}")
+            try:
+                est = factory(self.profile, self.ts_s, **self.scn.reference_config.get(name, {}))
+            except (ValueError, TypeError) as exc:
+                raise RunAborted(f"{self.scn.display_path}: reference.{name}: {exc}") from None
+            out.append((name, est))
+        return out
 
     # -- controller configuration -----------------------------------------------------------
     def controller_params(self) -> dict[Param, float]:
@@ -180,6 +213,8 @@ class LockstepRunner:
         self.ch_telem = rec.channel(ch.CONTROLLER_TELEMETRY, ch.TELEMETRY_SCHEMA,
                                     ch.TELEMETRY_VALUES)
         self.ch_frames = rec.channel(ch.LINK_FRAMES, ch.FRAMES_SCHEMA, ch.FRAMES_VALUES)
+        self.ch_refs = [rec.channel(ch.REFERENCE_PREFIX + name, ch.REFERENCE_SCHEMA,
+                                    ch.REFERENCE_VALUES) for name, _ in self.references]
         self.ch_stats = rec.channel(ch.LINK_STATS, ch.LINK_STATS_SCHEMA)
         self.ch_events = rec.channel(ch.EVENTS, ch.EVENTS_SCHEMA)
         self._setup_frames: list[tuple[str, int, bytes]] = []
@@ -220,6 +255,8 @@ class LockstepRunner:
             "controller_params": json.dumps({p.name: v for p, v in
                                              self.controller_params().items()}),
             "estimator": scn.estimator.name,
+            "reference_estimators": json.dumps({n: scn.reference_config.get(n, {})
+                                                for n in scn.reference_estimators}),
             "metrics_window_s": json.dumps(list(scn.metrics_window_s)),
             "claims": json.dumps(list(scn.claims)),
         })
@@ -285,6 +322,9 @@ class LockstepRunner:
         w_state, w_sense = self.ch_state.write_values, self.ch_sense.write_values
         w_telem, w_frames = self.ch_telem.write_values, self.ch_frames.write_values
         snap_values = operator.attrgetter(*ch.PLANT_SNAPSHOT_FIELDS)
+        refs = self.references
+        ref_writers = [c.write_values for c in self.ch_refs]
+        v_ab_prev: tuple[float, float] | None = None
         events = list(scn.events)
         plant.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
         plant.set_load_torque(scn.initial_load_torque_nm)
@@ -410,6 +450,19 @@ class LockstepRunner:
                     self.ch_events.write(t_s, {"t_s": t_s, "kind": "controller_state",
                                                "text": name, "value": float(st)})
                     last_state = st
+
+                # reference estimators: the currents the controller was sent and the voltage
+                # its duties applied over the previous period
+                if refs:
+                    i_al = (2.0 * s_vals[1] - s_vals[2] - s_vals[3]) * (1.0 / 3.0)
+                    i_be = (s_vals[2] - s_vals[3]) * INV_SQRT3
+                    for (_, est), w_ref in zip(refs, ref_writers):
+                        if v_ab_prev is None:
+                            continue   # legs were off: no known voltage, the estimator waits
+                        o = est.step(i_al, i_be, v_ab_prev[0], v_ab_prev[1])
+                        w_ref(t_s, (t_s, seq, o[0], o[1], o[1] / pole_pairs * rpm_per_rad_s,
+                                    o[2], o[3], _wrap_pi(o[0] - theta)))
+                    v_ab_prev = _duties_to_alphabeta(duties, v_dc)
 
                 plant.step(*duties)
                 snap = plant.snapshot()

@@ -69,6 +69,7 @@ class Scenario:
     initial_load_torque_nm: float
     events: tuple[Event, ...]
     reference_estimators: tuple[str, ...]
+    reference_config: dict[str, dict[str, float]]   # estimator -> C config field -> value
     metrics_window_s: tuple[float, float]
     claims: tuple[str, ...]
     telemetry_emf: bool
@@ -268,6 +269,15 @@ def parse_scenario(text: str, path: Path) -> Scenario:
 
     r = top.table_of("reference")
     reference = r.strings("estimators")
+    reference_config: dict[str, dict[str, float]] = {}
+    for key in list(r.table):
+        if key == "estimators":
+            continue
+        if key not in reference:
+            raise r.fail(key, f"configuration for an estimator not listed in "
+                              f"reference.estimators {list(reference)}")
+        sub = r.table_of(key)
+        reference_config[key] = {k: sub.number(k) for k in sub.table}
     r.reject_unknown()
 
     m = top.table_of("metrics")
@@ -292,7 +302,8 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         mode=mode, estimator=estimator, speed_ref_rad_s=speed_ref, controller_params=params,
         plant_overrides=plant_overrides, initial_theta_e_rad=initial_theta,
         initial_speed_rad_s=initial_speed, initial_load_torque_nm=initial_load, events=events,
-        reference_estimators=reference, metrics_window_s=(w0, w1), claims=claims,
+        reference_estimators=reference, reference_config=reference_config,
+        metrics_window_s=(w0, w1), claims=claims,
         telemetry_emf=telemetry_emf, raw=raw, text=text,
     )
 

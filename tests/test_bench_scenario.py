@@ -61,6 +61,10 @@ def test_bundled_name_resolves():
     (lambda t: t.replace("window_s = [0.3, 0.5]", "window_s = [0.4, 0.3]"), "metrics.window_s: must satisfy"),
     (lambda t: t + "\n[plantt]\nx = 1\n", "plantt: unknown key"),
     (lambda t: t.replace("[metrics]", "[metrics"), "not valid TOML"),
+    (lambda t: t + "\n[reference]\nestimators = [\"SMO_SIGN\"]\n[reference.SMO_TANH]\nm = 1\n",
+     "reference.SMO_TANH: configuration for an estimator not listed"),
+    (lambda t: t + "\n[reference]\nestimators = [\"SMO_SIGN\"]\n[reference.SMO_SIGN]\nk_v = \"x\"\n",
+     "reference.SMO_SIGN.k_v: must be a number"),
 ])
 def test_bad_scenarios_name_field(tmp_path, edit, field):
     with pytest.raises(ScenarioError) as exc:
