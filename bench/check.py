@@ -10,7 +10,6 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 from rich.console import Console
 from rich.table import Table
 
@@ -55,7 +54,8 @@ def build_context(rec: Recording, scn: Scenario) -> Context:
         raise RecordingError(f"{rec.path}: run metadata incomplete ({exc})") from None
     window = scn.metrics_window_s
     ref_rpm = speed_ref_at(scn, window[0]) * RPM_PER_RAD_S
-    return Context(rec, window, ref_rpm, pole_pairs, ts_s)
+    return Context(rec, window, ref_rpm, pole_pairs, ts_s,
+                   speed_ref_at=lambda t: speed_ref_at(scn, t) * RPM_PER_RAD_S)
 
 
 def summarise(ctx: Context) -> dict[str, float]:
@@ -87,9 +87,9 @@ def summarise(ctx: Context) -> dict[str, float]:
             pass
     for topic in sorted(t for t in ctx.rec.topics if t.startswith(ch.REFERENCE_PREFIX)):
         name = topic[len(ch.REFERENCE_PREFIX):]
+        rctx = ctx.with_source("reference:" + name)
         try:
-            err = metrics.angle_error(ctx.windowed(topic, "theta_hat_rad"),
-                                      _truth_at(ctx, topic))
+            err = metrics.angle_error(*rctx.estimate_and_truth("theta_hat_rad", "theta_e_rad"))
             out[f"ref_{name}_pee_max_rad"] = err.max_abs_rad
             out[f"ref_{name}_pee_rms_rad"] = err.rms_rad
             out[f"ref_{name}_speed_band_rpm"] = metrics.speed_band_rpm(
@@ -97,15 +97,6 @@ def summarise(ctx: Context) -> dict[str, float]:
         except Exception:  # noqa: BLE001
             pass
     return out
-
-
-def _truth_at(ctx: Context, topic: str):
-    """The true angle at the cycles a reference estimator reported (it may skip some)."""
-    state = ctx.rec.topic(ch.PLANT_STATE)
-    ref = ctx.rec.topic(topic)
-    mask = metrics.window_mask(ref["t_s"], ctx.window_s)
-    idx = np.searchsorted(state["t_s"], ref["t_s"][mask])
-    return state["theta_e_rad"][idx]
 
 
 def check_recording(path: str | Path) -> CheckReport:
@@ -117,7 +108,7 @@ def check_recording(path: str | Path) -> CheckReport:
         claim = CLAIMS.get(claim_id)
         if claim is None:
             raise RecordingError(f"{rec.path}: scenario names unknown claim {claim_id!r}")
-        report.results.extend(evaluate(claim, ctx))
+        report.results.extend(evaluate(claim, ctx, scn.name))
     return report
 
 

@@ -1,16 +1,23 @@
 """The papers' published numbers, each with the metric that measures it and an acceptance rule.
 
-A claim (e.g. ``G2``) has quantities; each quantity names a metric computed from a recording,
-the paper's value and how the two are compared:
+A claim (e.g. ``G2``) has quantities. Each quantity names
 
-* ``"<="`` — the paper states a bound ("within +-0.1 rad"): measured <= paper passes.
-* ``"~"``  — the paper states a value: |measured - paper| <= tol * |paper| passes.
+* a metric computed from a recording (``METRICS``),
+* the estimate it is computed on (``source``: ``"controller"`` — the controller's telemetry — or
+  ``"reference:<label>"`` — a host reference estimator),
+* optionally its own time window and the scenario it belongs to (a claim such as Y4 compares
+  two runs: each quantity is measured in the recording of its own scenario),
+* the paper's value and how the two compare:
+
+  - ``"<="`` — the paper states a bound ("within +-0.1 rad"): measured <= paper passes;
+  - ``"~"``  — the paper states a value: |measured - paper| <= tol * |paper| passes.
 
 The measured value is always reported beside the paper's, pass or not: a claim that does not
 reproduce is a finding to show, never something to tune away.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -30,16 +37,35 @@ class MetricUnavailable(Exception):
 
 @dataclass(frozen=True)
 class Context:
-    """What a metric sees: the recording and the steady-state window of its scenario."""
+    """What a metric sees: the recording, a window, the speed reference in it, the estimate."""
 
     rec: Recording
     window_s: tuple[float, float]
     speed_ref_rpm: float
     pole_pairs: int
     ts_s: float
+    source: str = "controller"
+    speed_ref_at: Callable[[float], float] | None = None   # t_s -> rpm
+
+    def with_window(self, window_s: tuple[float, float]) -> "Context":
+        ref = self.speed_ref_at(window_s[0]) if self.speed_ref_at else self.speed_ref_rpm
+        return dataclasses.replace(self, window_s=window_s, speed_ref_rpm=ref)
+
+    def with_source(self, source: str) -> "Context":
+        return dataclasses.replace(self, source=source)
+
+    @property
+    def estimate_topic(self) -> str:
+        if self.source == "controller":
+            return ch.CONTROLLER_TELEMETRY
+        if self.source.startswith("reference:"):
+            return ch.REFERENCE_PREFIX + self.source.split(":", 1)[1]
+        raise ValueError(f"unknown estimate source {self.source!r}")
 
     def windowed(self, topic: str, field: str) -> np.ndarray:
-        cols = self.rec.topic(topic)
+        if topic not in self.rec.topics:
+            raise MetricUnavailable(f"no {topic} in the recording")
+        cols = self.rec.topics[topic]
         if field not in cols:
             raise MetricUnavailable(f"{topic} has no field {field}")
         mask = metrics.window_mask(cols["t_s"], self.window_s)
@@ -47,6 +73,16 @@ class Context:
         if values.size == 0:
             raise MetricUnavailable(f"no {topic} samples in the window {self.window_s}")
         return values
+
+    def estimate_and_truth(self, field: str, truth_field: str) -> tuple[np.ndarray, np.ndarray]:
+        """An estimate's field and the plant truth at the same cycles (matched by time)."""
+        topic = self.estimate_topic
+        est_t = self.windowed(topic, "t_s")
+        est = self.windowed(topic, field)
+        state = self.rec.topic(ch.PLANT_STATE)
+        idx = np.searchsorted(state["t_s"], est_t)
+        idx = np.clip(idx, 0, len(state["t_s"]) - 1)
+        return est, np.asarray(state[truth_field][idx], dtype=float)
 
     def electrical_hz(self) -> float:
         w = self.windowed(ch.PLANT_STATE, "omega_e_rad_s")
@@ -56,43 +92,106 @@ class Context:
 # -- metrics (name -> function(Context) -> float) --------------------------------------------
 
 def _speed_band_hat(c: Context) -> float:
-    return metrics.speed_band_rpm(c.windowed(ch.CONTROLLER_TELEMETRY, "speed_hat_rpm"),
-                                  c.speed_ref_rpm)
+    return metrics.speed_band_rpm(c.windowed(c.estimate_topic, "speed_hat_rpm"), c.speed_ref_rpm)
 
 
 def _speed_band_true(c: Context) -> float:
     return metrics.speed_band_rpm(c.windowed(ch.PLANT_STATE, "speed_rpm"), c.speed_ref_rpm)
 
 
+def _speed_est_error(c: Context) -> float:
+    est, truth = c.estimate_and_truth("speed_hat_rpm", "speed_rpm")
+    err = est - truth
+    err = err[np.isfinite(err)]
+    if not err.size:
+        raise MetricUnavailable("no finite speed estimate in the window")
+    return float(np.max(np.abs(err)))
+
+
 def _pee_max(c: Context) -> float:
-    return metrics.angle_error(c.windowed(ch.CONTROLLER_TELEMETRY, "theta_hat_rad"),
-                               c.windowed(ch.PLANT_STATE, "theta_e_rad")).max_abs_rad
+    est, truth = c.estimate_and_truth("theta_hat_rad", "theta_e_rad")
+    return metrics.angle_error(est, truth).max_abs_rad
+
+
+def _pee_mean(c: Context) -> float:
+    est, truth = c.estimate_and_truth("theta_hat_rad", "theta_e_rad")
+    return metrics.angle_error(est, truth).mean_rad
+
+
+def _emf_spectrum(c: Context) -> metrics.Spectrum:
+    e = c.windowed(c.estimate_topic, "e_alpha_v")
+    if not np.all(np.isfinite(e)):
+        raise MetricUnavailable(f"{c.source} reported no EMF in the window")
+    return metrics.harmonic_spectrum(e, 1.0 / c.ts_s, c.electrical_hz())
 
 
 def _emf_thd(c: Context) -> float:
-    e = c.windowed(ch.CONTROLLER_TELEMETRY, "e_alpha_v")
-    if not np.all(np.isfinite(e)):
-        raise MetricUnavailable("controller sent no EMF telemetry (TELEM_EMF)")
-    return metrics.harmonic_spectrum(e, 1.0 / c.ts_s, c.electrical_hz()).thd_percent
+    return _emf_spectrum(c).thd_percent
+
+
+def _emf_amplitude(c: Context) -> float:
+    return _emf_spectrum(c).fundamental_amplitude
+
+
+def _current_spectrum(c: Context) -> metrics.Spectrum:
+    return metrics.harmonic_spectrum(c.windowed(ch.PLANT_STATE, "i_a_a"), 1.0 / c.ts_s,
+                                     c.electrical_hz())
 
 
 def _phase_current_amp(c: Context) -> float:
-    return metrics.fundamental_amplitude(c.windowed(ch.PLANT_STATE, "i_a_a"), 1.0 / c.ts_s,
-                                         c.electrical_hz())
+    return _current_spectrum(c).fundamental_amplitude
+
+
+def _current_thd(c: Context) -> float:
+    return _current_spectrum(c).thd_percent
+
+
+def _current_h5(c: Context) -> float:
+    return _current_spectrum(c).harmonic_percent(5)
+
+
+def _current_h7(c: Context) -> float:
+    return _current_spectrum(c).harmonic_percent(7)
+
+
+def _iq_mean(c: Context) -> float:
+    return float(np.mean(c.windowed(ch.PLANT_STATE, "i_q_a")))
+
+
+def _speed_min_true(c: Context) -> float:
+    return float(np.min(c.windowed(ch.PLANT_STATE, "speed_rpm")))
+
+
+def _speed_overshoot_true(c: Context) -> float:
+    return float(np.max(np.abs(c.windowed(ch.PLANT_STATE, "speed_rpm") - c.speed_ref_rpm)))
 
 
 METRICS: dict[str, tuple[str, str, Callable[[Context], float]]] = {
     # name: (unit, definition, function)
-    "speed_band_hat_rpm": ("rpm", "max |n_hat - n_ref| of the controller's estimated speed in the "
-                                  "window", _speed_band_hat),
+    "speed_band_hat_rpm": ("rpm", "max |n_hat - n_ref| of the estimated speed in the window",
+                           _speed_band_hat),
     "speed_band_true_rpm": ("rpm", "max |n - n_ref| of the true rotor speed in the window",
                             _speed_band_true),
-    "pee_max_rad": ("rad", "max |wrap(theta_hat - theta)| of the controller in the window",
-                    _pee_max),
-    "emf_thd_percent": ("%", "THD (harmonics 2..50, FFT over whole periods) of the controller's "
-                             "estimated e_alpha in the window", _emf_thd),
+    "speed_est_error_rpm": ("rpm", "max |n_hat - n| (estimated minus true speed) in the window",
+                            _speed_est_error),
+    "pee_max_rad": ("rad", "max |wrap(theta_hat - theta)| in the window", _pee_max),
+    "pee_mean_rad": ("rad", "mean wrap(theta_hat - theta) in the window (the lag or lead)",
+                     _pee_mean),
+    "emf_thd_percent": ("%", "THD (harmonics 2..50, FFT over whole periods) of the estimated "
+                             "e_alpha in the window", _emf_thd),
+    "emf_amplitude_v": ("V", "fundamental amplitude of the estimated e_alpha", _emf_amplitude),
     "phase_current_amp_a": ("A", "fundamental amplitude of the true phase-a current",
                             _phase_current_amp),
+    "current_thd_percent": ("%", "THD (harmonics 2..50) of the true phase-a current",
+                            _current_thd),
+    "current_h5_percent": ("%", "5th harmonic of the true phase-a current / fundamental",
+                           _current_h5),
+    "current_h7_percent": ("%", "7th harmonic of the true phase-a current / fundamental",
+                           _current_h7),
+    "iq_mean_a": ("A", "mean true q-axis current in the window", _iq_mean),
+    "speed_min_true_rpm": ("rpm", "lowest true speed in the window", _speed_min_true),
+    "speed_dev_true_rpm": ("rpm", "max |n - n_ref| of the true speed in the window (overshoot, "
+                                  "dip)", _speed_overshoot_true),
 }
 
 
@@ -103,6 +202,9 @@ class Quantity:
     rule: str             # "<=" or "~"
     tolerance: float = 0.0
     what: str = ""
+    source: str = "controller"                  # or "reference:<label>"
+    window_s: tuple[float, float] | None = None  # None: the scenario's metrics window
+    scenario: str | None = None                 # None: any recording that names the claim
 
     def verdict(self, measured: float) -> str:
         if not math.isfinite(measured):
@@ -161,12 +263,21 @@ class QuantityResult:
     note: str = ""
 
 
-def evaluate(claim: Claim, ctx: Context) -> list[QuantityResult]:
+def applicable(claim: Claim, scenario_name: str) -> list[Quantity]:
+    """The quantities of a claim measured in a recording of ``scenario_name``."""
+    return [q for q in claim.quantities if q.scenario in (None, scenario_name)]
+
+
+def evaluate(claim: Claim, ctx: Context, scenario_name: str | None = None) -> list[QuantityResult]:
     out = []
-    for q in claim.quantities:
+    quantities = claim.quantities if scenario_name is None else applicable(claim, scenario_name)
+    for q in quantities:
         unit, definition, fn = METRICS[q.metric]
+        qctx = ctx.with_source(q.source)
+        if q.window_s is not None:
+            qctx = qctx.with_window(q.window_s)
         try:
-            value = float(fn(ctx))
+            value = float(fn(qctx))
             note = ""
         except MetricUnavailable as exc:
             value, note = math.nan, str(exc)
