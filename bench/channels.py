@@ -56,6 +56,9 @@ LINK_STATS_COUNTERS = (
     "cycles", "frames_tx", "frames_rx", "bytes_tx", "bytes_rx", "frames_ok", "crc_errors",
     "cobs_errors", "length_errors", "overruns", "bytes_discarded", "seq_mismatch", "bad_duties",
     "telem_missing", "unknown_ids", "heartbeats_rx",
+    # CAN links (0 on serial links)
+    "can_unknown_ids", "error_frames", "bus_state_changes", "send_failures", "remote_frames",
+    "rx_malformed",
 )
 LINK_STATS_SCHEMA = number_schema(
     "hil.LinkStats", ("t_s", "cycle_wall_p50_us", "cycle_wall_p99_us", "cycle_wall_max_us"),

@@ -20,7 +20,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     try:
         scn = load_scenario(args.scenario)
         result = run_scenario(scn, link_spec=args.link, out_path=args.out,
-                              progress=not args.no_progress)
+                              progress=not args.no_progress, allow_slow_link=args.allow_slow_link)
     except (ScenarioError, LinkError, RunAborted) as exc:
         err.print(f"[red]error:[/red] {exc}")
         return 2
@@ -34,6 +34,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
               f"p99 {stats.get('cycle_wall_p99_us', 0):.0f} us); recording {result.recording}")
     if result.error:
         err.print(f"[red]run ended early:[/red] {result.error}")
+    if result.cycles_done == 0:
+        return 130 if result.interrupted else 1   # nothing ran: nothing to check
     try:
         report = check_recording(result.recording)
     except RecordingError as exc:
@@ -92,10 +94,15 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a scenario against a controller and record it")
     r.add_argument("scenario", help="scenario file or bundled scenario name")
     r.add_argument("--link", default="stub",
-                   help="'stub' (default: the C firmware stub on a new pty) or "
-                        "'serial:<port-or-url>[@baud]' for a real drive")
+                   help="'stub' (default: the C firmware stub on a new pty), "
+                        "'stub-slcan' / 'stub-socketcand' (the stub behind python-can's slcan or "
+                        "socketcand interface), 'serial:<port-or-url>[@baud]' or "
+                        "'can:<interface>:<channel>[@bitrate][,fd]' for a real drive")
     r.add_argument("--out", type=Path, default=None, help="recording path (.mcap)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--allow-slow-link", action="store_true",
+                   help="lockstep only: run even if the link cannot carry the control rate in "
+                        "real time (the run is then slower than real time, results unchanged)")
     r.add_argument("--strict", action="store_true",
                    help="exit 1 if any paper claim does not reproduce")
     r.set_defaults(func=_cmd_run)

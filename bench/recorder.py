@@ -114,9 +114,12 @@ class Recorder:
 BATCH_MESSAGES = 512
 
 
-def _serve(conn, path: str, chunk_size: int) -> None:
+def _serve(conn, parent_end, path: str, chunk_size: int) -> None:
     import signal as _signal
 
+    # fork copied the parent's end of the pipe into this process: close it, or a dead parent
+    # would never produce EOF here and the file would never be finalised
+    parent_end.close()
     _signal.signal(_signal.SIGINT, _signal.SIG_IGN)  # the parent decides when to stop
     rec = Recorder(Path(path), chunk_size)
     channels: list[Channel] = []
@@ -177,7 +180,7 @@ class ProcessRecorder:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         ctx = mp.get_context("fork")
         self._conn, child = ctx.Pipe()
-        self._proc = ctx.Process(target=_serve, args=(child, str(self.path), chunk_size),
+        self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path), chunk_size),
                                  name="hil-recorder", daemon=False)
         self._proc.start()
         child.close()

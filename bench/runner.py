@@ -26,7 +26,8 @@ import numpy as np
 
 from plant_rt.plant import Plant
 from plant_rt.profile import load_profile
-from protocol.messages import DUTY_RAW_OFF, MESSAGES, Command, HelloFlag, Param, SenseAuxFlag, State
+from protocol.messages import (DUTY_RAW_OFF, MESSAGES, Command, Estimator, HelloFlag, Param,
+                               SenseAuxFlag, State)
 
 from . import channels as ch
 from .host_session import HostSession, fault_from_payload
@@ -48,6 +49,8 @@ _TELEM = MESSAGES["TELEM"]
 _TELEM_EMF = MESSAGES["TELEM_EMF"]
 _FAULT_CTRL = MESSAGES["FAULT_CTRL"]
 _HEARTBEAT_CTRL = MESSAGES["HEARTBEAT_CTRL"]
+#: DBC length of every frame the loop decodes: a frame of another length is counted, not decoded
+CYCLE_LENGTHS = {m.frame_id: m.length for m in (_DUTY, _TELEM, _TELEM_EMF, _FAULT_CTRL)}
 DUTY_RAW_FULL = 32768   # raw value of duty 1.0 (scale 1/32768)
 
 
@@ -79,6 +82,24 @@ def motor_params(profile) -> dict[Param, float]:
         Param.J_KGM2: profile.j_kgm2, Param.B_NMS: profile.b_nms,
         Param.V_DC_NOM_V: profile.v_dc_v,
     }
+
+
+def estimator_defaults(estimator: Estimator, profile, ts_s: float,
+                       given: dict[Param, float]) -> dict[Param, float]:
+    """Gains the controller's estimator needs when the scenario does not set them: the same rules
+    the host reference estimators use (firmware_stub/est_smo.py), so both sides agree."""
+    if Param.SMO_K_V in given:
+        return {}
+    if estimator is Estimator.SMO_SIGMOID:
+        from firmware_stub.est_smo import sigmoid_gain_for
+
+        return {Param.SMO_K_V: sigmoid_gain_for(profile)}
+    if estimator is Estimator.SMO_TANH:
+        from firmware_stub.est_smo import tanh_gain_for
+
+        m = given.get(Param.SMO_M_PER_A, 0.01)
+        return {Param.SMO_M_PER_A: m, Param.SMO_K_V: tanh_gain_for(profile, ts_s, m)}
+    return {}
 
 
 def git_revision() -> str:
@@ -120,8 +141,10 @@ def _frames_text(frames: list[tuple[int, bytes]]) -> str:
 
 class LockstepRunner:
     def __init__(self, scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,
-                 progress: bool = True, stub_args: tuple[str, ...] = ()):
+                 progress: bool = True, stub_args: tuple[str, ...] = (),
+                 allow_slow_link: bool = False):
         self.scn = scenario
+        self.allow_slow_link = allow_slow_link
         self.link_spec = link_spec
         self.out_path = Path(out_path) if out_path else default_recording_path(scenario)
         self.progress = progress
@@ -131,7 +154,7 @@ class LockstepRunner:
         self.ts_s = float(self.plant.params.ts_s)
         self.n_cycles = int(round(scenario.duration_s / self.ts_s))
         self.counters = {k: 0 for k in ("seq_mismatch", "bad_duties", "telem_missing",
-                                        "unknown_ids", "heartbeats_rx")}
+                                        "unknown_ids", "heartbeats_rx", "length_errors")}
         self.cycle_wall_ns = np.zeros(self.n_cycles, dtype=np.int64)
         self.references = self._make_references()
 
@@ -142,22 +165,27 @@ class LockstepRunner:
         from firmware_stub.estimators import REFERENCE_ESTIMATORS
 
         out = []
-        for name in self.scn.reference_estimators:
+        for entry in self.scn.reference_estimators:
+            name = entry.partition(":")[0]
             factory = REFERENCE_ESTIMATORS.get(name)
             if factory is None:
                 raise RunAborted(f"{self.scn.display_path}: reference.estimators: unknown "
                                  f"estimator {name!r}; available: "
-                                 f"{', '.join(REFERENCE_ESTIMATORS)}")
+                                 f"{', '.join(REFERENCE_ESTIMATORS)} (optionally NAME:label)")
             try:
-                est = factory(self.profile, self.ts_s, **self.scn.reference_config.get(name, {}))
+                est = factory(self.profile, self.ts_s, **self.scn.reference_config.get(entry, {}))
             except (ValueError, TypeError) as exc:
-                raise RunAborted(f"{self.scn.display_path}: reference.{name}: {exc}") from None
-            out.append((name, est))
+                raise RunAborted(f"{self.scn.display_path}: reference.{entry}: {exc}") from None
+            out.append((entry, est))
         return out
 
     # -- controller configuration -----------------------------------------------------------
     def controller_params(self) -> dict[Param, float]:
         params = motor_params(self.profile)
+        # the stub stands for a DSP whose computation delay is the one the plant emulates
+        params[Param.CTRL_DELAY_S] = float(self.plant.params.t_delay_s)
+        params.update(estimator_defaults(self.scn.estimator, self.profile, self.ts_s,
+                                         self.scn.controller_params))
         params.update(self.scn.controller_params)
         return params
 
@@ -223,10 +251,18 @@ class LockstepRunner:
         rate_hz = 1.0 / self.ts_s
         max_hz = opened.link.max_cycle_rate_hz(self.hello_flags())
         if rate_hz > max_hz:
+            if self.allow_slow_link:
+                # lockstep does not need the link to keep up: the run is slower than real time
+                self.ch_events.write(0.0, {
+                    "t_s": 0.0, "kind": "link_budget", "value": max_hz,
+                    "text": f"{opened.link.description} fits at most {max_hz:.0f} Hz; lockstep "
+                            f"at {rate_hz:.0f} Hz runs slower than real time"})
+                return
             raise RunAborted(
                 f"{opened.link.description} cannot carry this scenario: {rate_hz:.0f} Hz control "
                 f"rate needed (Ts = {self.ts_s * 1e6:g} us) but the link fits at most "
-                f"{max_hz:.0f} Hz with these frames; use a faster link or a longer period")
+                f"{max_hz:.0f} Hz with these frames; use a faster link or a longer period "
+                f"(or, in lockstep, --allow-slow-link to run slower than real time)")
 
     def _write_metadata(self, rec: ProcessRecorder, opened: OpenedLink) -> None:
         import cffi
@@ -325,6 +361,8 @@ class LockstepRunner:
         refs = self.references
         ref_writers = [c.write_values for c in self.ch_refs]
         v_ab_prev: tuple[float, float] | None = None
+        v_ab_older: tuple[float, float] | None = None
+        w_delay = float(self.plant.params.t_delay_s) / ts
         events = list(scn.events)
         plant.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
         plant.set_load_torque(scn.initial_load_torque_nm)
@@ -353,7 +391,11 @@ class LockstepRunner:
                 aux = sense_aux_pack((seq, v_dc, theta_enc, aux_flags))
                 sense = sense_pack((seq, snap.i_a_a, snap.i_b_a, snap.i_c_a), saturate=True)
                 tx = pending_cmds + [(AUX_ID, aux), (SENSE_ID, sense)]
-                link.send(tx)
+                try:
+                    link.send(tx)
+                except LinkError as exc:
+                    raise RunAborted(f"at cycle {k} (t = {t_s:.4f} s): "
+                                     + self._link_failure(stub, exc)) from None
 
                 # wait for this cycle's DUTY
                 duty = None
@@ -381,6 +423,9 @@ class LockstepRunner:
                         continue
                     for fid, payload in frames:
                         rx.append((fid, payload))
+                        if fid in CYCLE_LENGTHS and len(payload) != CYCLE_LENGTHS[fid]:
+                            counters["length_errors"] += 1    # never decoded, never applied
+                            continue
                         if fid == DUTY_ID:
                             raw = duty_raw(payload)
                             if raw[0] != seq:
@@ -452,16 +497,20 @@ class LockstepRunner:
                     last_state = st
 
                 # reference estimators: the currents the controller was sent and the voltage
-                # its duties applied over the previous period
+                # that acted over the last period (the duties of k-2 until t_d, then those of
+                # k-1: the plant's computation delay)
                 if refs:
                     i_al = (2.0 * s_vals[1] - s_vals[2] - s_vals[3]) * (1.0 / 3.0)
                     i_be = (s_vals[2] - s_vals[3]) * INV_SQRT3
-                    for (_, est), w_ref in zip(refs, ref_writers):
-                        if v_ab_prev is None:
-                            continue   # legs were off: no known voltage, the estimator waits
-                        o = est.step(i_al, i_be, v_ab_prev[0], v_ab_prev[1])
-                        w_ref(t_s, (t_s, seq, o[0], o[1], o[1] / pole_pairs * rpm_per_rad_s,
-                                    o[2], o[3], _wrap_pi(o[0] - theta)))
+                    if v_ab_prev is not None and v_ab_older is not None:
+                        v_al = w_delay * v_ab_older[0] + (1.0 - w_delay) * v_ab_prev[0]
+                        v_be = w_delay * v_ab_older[1] + (1.0 - w_delay) * v_ab_prev[1]
+                        for (_, est), w_ref in zip(refs, ref_writers):
+                            o = est.step(i_al, i_be, v_al, v_be)
+                            w_ref(t_s, (t_s, seq, o[0], o[1], o[1] / pole_pairs * rpm_per_rad_s,
+                                        o[2], o[3], _wrap_pi(o[0] - theta)))
+                    # (legs off: no known voltage, the estimators wait)
+                    v_ab_older = v_ab_prev
                     v_ab_prev = _duties_to_alphabeta(duties, v_dc)
 
                 plant.step(*duties)
@@ -506,7 +555,8 @@ class LockstepRunner:
     def _write_stats(self, t_s: float, opened: OpenedLink, cycles: int) -> dict:
         stats = {k: 0 for k in ch.LINK_STATS_COUNTERS}
         stats.update(opened.link.stats())
-        stats.update(self.counters)
+        for key, value in self.counters.items():   # the loop's counts add to the link's own
+            stats[key] = stats.get(key, 0) + value
         stats["cycles"] = cycles
         walls = self.cycle_wall_ns[:cycles]
         if cycles:
@@ -548,11 +598,13 @@ class _Progress:
 
 
 def run_scenario(scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,
-                 progress: bool = True, stub_args: tuple[str, ...] = ()) -> RunResult:
+                 progress: bool = True, stub_args: tuple[str, ...] = (),
+                 allow_slow_link: bool = False) -> RunResult:
     """Run a scenario in lockstep against the controller on ``link_spec`` and record it."""
     if scenario.mode != "lockstep":
         raise RunAborted(f"{scenario.display_path}: mode {scenario.mode!r} is not implemented")
-    return LockstepRunner(scenario, link_spec, out_path, progress, stub_args).run()
+    return LockstepRunner(scenario, link_spec, out_path, progress, stub_args,
+                          allow_slow_link).run()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -8,20 +8,9 @@ the controller's ISR calls it. Outputs are float32 values promoted to Python flo
 """
 from __future__ import annotations
 
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable
 
-try:
-    from ._fw_c import ffi, lib
-except ImportError as exc:  # pragma: no cover - exercised only without a build
-    raise ImportError("firmware_stub._fw_c is not built: run `make build` "
-                      f"(tools/build_native.py) first ({exc})") from None
-
-
-class EstimatorOutput(NamedTuple):
-    theta_e_rad: float
-    omega_e_rad_s: float
-    e_alpha_v: float
-    e_beta_v: float
+from ._binding import EstimatorOutput, configure as _configure, ffi, lib
 
 
 def _vec(x: float, y: float):
@@ -75,7 +64,14 @@ def smo_sign_for(profile, ts_s: float, **config: float) -> SmoSign:
     return SmoSign(profile.rs_ohm, profile.lq_h, profile.psi_f_wb, ts_s, **config)
 
 
-#: scenario name -> factory(profile, ts_s, **config)
-REFERENCE_ESTIMATORS: dict[str, Callable[..., Any]] = {
-    "SMO_SIGN": smo_sign_for,
-}
+def _registry() -> dict[str, Callable[..., Any]]:
+    from .est_hfi import hfi_for
+    from .est_smo import smo_sigmoid_for, smo_tanh_for
+
+    return {"SMO_SIGN": smo_sign_for, "SMO_SIGMOID": smo_sigmoid_for, "SMO_TANH": smo_tanh_for,
+            "HFI_SDFT": hfi_for}
+
+
+#: scenario name -> factory(profile, ts_s, **config); a scenario may list the same estimator
+#: several times as NAME:label with a configuration each (e.g. "SMO_TANH:m1")
+REFERENCE_ESTIMATORS: dict[str, Callable[..., Any]] = _registry()

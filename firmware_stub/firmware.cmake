@@ -6,7 +6,10 @@ target_include_directories(hil_fw PUBLIC ${HIL_ROOT}/firmware_stub/src)
 target_compile_options(hil_fw PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(hil_fw PUBLIC hil_protocol m)
 
-add_executable(hil_stub ${HIL_ROOT}/firmware_stub/port/linux/main.c)
+set(HIL_STUB_PORT ${HIL_ROOT}/firmware_stub/port/linux)
+add_executable(hil_stub ${HIL_STUB_PORT}/main.c ${HIL_STUB_PORT}/transport.c
+               ${HIL_STUB_PORT}/transport_serial.c ${HIL_STUB_PORT}/slcan.c
+               ${HIL_STUB_PORT}/socketcand.c ${HIL_STUB_PORT}/socketcan.c)
 target_compile_options(hil_stub PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(hil_stub PRIVATE hil_fw)
 

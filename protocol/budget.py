@@ -140,6 +140,52 @@ def can_max_rate_hz(bitrate: float, flags: int, fd: bool = False, data_bitrate: 
     return bitrate / can_bits_per_cycle(bitrate, flags, fd=fd, data_bitrate=data_bitrate, bundle=bundle)
 
 
+def can_link_name(bitrate: float, fd: bool = False, data_bitrate: float | None = None) -> str:
+    """``classic CAN 1 Mbit/s``, ``CAN FD 1 Mbit/s, data phase 5 Mbit/s (BRS)``, ``CAN FD 500 kbit/s``."""
+    def rate(b: float) -> str:
+        return f"{b / 1e6:g} Mbit/s" if b >= 1e6 else f"{b / 1e3:g} kbit/s"
+
+    if not fd:
+        return f"classic CAN {rate(bitrate)}"
+    if data_bitrate is None:
+        return f"CAN FD {rate(bitrate)}"
+    return f"CAN FD {rate(bitrate)}, data phase {rate(data_bitrate)} (BRS)"
+
+
+def can_bus_load(rate_hz: float, bitrate: float, flags: int, fd: bool = False,
+                 data_bitrate: float | None = None) -> float:
+    """Worst-case bus load (0..1+) of the per-cycle frames at ``rate_hz`` cycles per second."""
+    return rate_hz / can_max_rate_hz(bitrate, flags, fd=fd, data_bitrate=data_bitrate)
+
+
+def can_fit_period_us(bitrate: float, flags: int, fd: bool = False, data_bitrate: float | None = None,
+                      load: float = 0.9, step_us: float = 25.0) -> float:
+    """Shortest control period, a multiple of ``step_us``, whose frames take at most ``load`` of the bus
+    (worst-case stuffing): how a CAN scenario picks its period."""
+    min_period_us = 1e6 / (load * can_max_rate_hz(bitrate, flags, fd=fd, data_bitrate=data_bitrate))
+    return math.ceil(min_period_us / step_us - 1e-9) * step_us
+
+
+#: (nominal bit rate, CAN FD, data-phase bit rate) of the CAN link table in docs/protocol.md
+CAN_LINKS = ((500_000, False, None), (1_000_000, False, None), (1_000_000, True, None),
+             (1_000_000, True, 2_000_000), (1_000_000, True, 5_000_000))
+
+
+def can_link_table() -> str:
+    """The per-link budget table of the CAN section of docs/protocol.md: highest cycle rate with one
+    frame per message (version 1), worst-case stuffing, and the period a scenario should use (<= 90 %
+    bus load)."""
+    out = ["| link | 8-octet frame | base | TELEM_EMF | dual sampling + TELEM_EMF | period at <= 90 % load (base) |",
+           "|---|---|---|---|---|---|"]
+    for bitrate, fd, data in CAN_LINKS:
+        frame_us = can_frame_time_s(8, bitrate, fd, data) * 1e6
+        rates = " | ".join(f"{_hz(can_max_rate_hz(bitrate, f, fd=fd, data_bitrate=data))} Hz"
+                           for f in (0, TELEM_EMF, DUAL_SAMPLING | TELEM_EMF))
+        out.append(f"| {can_link_name(bitrate, fd, data)} | {frame_us:.1f} us | {rates} | "
+                   f"{can_fit_period_us(bitrate, 0, fd=fd, data_bitrate=data):g} us |")
+    return "\n".join(out) + "\n"
+
+
 # ---------------------------------------------------------------------------------------------------------
 # Tables for docs/protocol.md (protocol/gen_docs.py)
 # ---------------------------------------------------------------------------------------------------------

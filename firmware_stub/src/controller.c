@@ -1,6 +1,7 @@
 #include "controller.h"
 
 #include <math.h>
+#include <stddef.h>
 
 #include "svpwm.h"
 
@@ -27,7 +28,7 @@ void ctrl_config_defaults(ctrl_config_t *cfg)
     cfg->iq_max_a = 5.0f;
     cfg->speed_loop_div = 1.0f;
     cfg->i_trip_a = 30.0f;
-    cfg->pwm_delay_s = -1.0f; /* < 0: half a period (mid-period of the next PWM period) */
+    cfg->t_act_delay_s = 0.0f;
     cfg->align_i_a = 2.0f;
     cfg->align_time_s = 0.2f;
     cfg->if_i_a = 2.0f;
@@ -39,15 +40,33 @@ void ctrl_config_defaults(ctrl_config_t *cfg)
     cfg->smo_k_factor = 1.5f;
     cfg->smo_k_min_v = 5.0f;
     cfg->smo_wc_rad_s = 1000.0f;
+    cfg->smo_m_per_a = 0.01f;
+    cfg->smo_sigmoid_a_per_a = 0.0f;
+    cfg->smo_lag_comp = (float)EST_SMO_SIGMOID_LAG_EQ15;
     cfg->pll_kp = 0.0f;
     cfg->pll_ki = 0.0f;
     cfg->speed_lpf_rad_s = 0.0f;
+    cfg->hfi_u_v = 6.0f;           /* Hou section 4: 6 V ... */
+    cfg->hfi_f_hz = 1250.0f;       /* ... at 1250 Hz */
+    cfg->hfi_bw_rad_s = 150.0f;
+    cfg->hfi_kp = 0.0f;            /* 0: from hfi_bw_rad_s */
+    cfg->hfi_ki = 0.0f;
+    cfg->hfi_ipd_timeout_s = 0.5f;
+    cfg->hfi_pol_bias_a = 0.0f;    /* 0: Hou's method (HF current alone) */
+    cfg->delay_comp_mode = 0.0f;
+    cfg->delay_comp_td_s = 0.0f;
+    cfg->harm_comp_enable = 0.0f;
+    cfg->harm_m = 96.0f;
+    cfg->harm_k_comp = 1.0f;
+    cfg->harm_extractor = (float)HARM_EXTRACT_GSDFT;
 }
 
 static void set_outputs_off(controller_t *c)
 {
     c->out.duty_abc[0] = c->out.duty_abc[1] = c->out.duty_abc[2] = -1.0f;
     c->v_ab_applied_v.x = c->v_ab_applied_v.y = 0.0f;
+    c->v_ab_older_v = c->v_ab_applied_v;
+    c->v_ab_acted_v = c->v_ab_applied_v;
 }
 
 void ctrl_init(controller_t *c)
@@ -60,6 +79,8 @@ void ctrl_init(controller_t *c)
     c->iq_cmd_a = 0.0f;
     c->id_cmd_a = 0.0f;
     c->est.theta_e_rad = c->est.omega_e_rad_s = c->est.e_alpha_v = c->est.e_beta_v = 0.0f;
+    c->hfi_out = NULL;
+    c->out.t_d_est_s = 0.0f;
     c->out.theta_hat_rad = c->out.omega_hat_rad_s = 0.0f;
     c->out.e_alpha_v = c->out.e_beta_v = c->out.i_q_ref_a = 0.0f;
     set_outputs_off(c);
@@ -104,14 +125,82 @@ static int estimator_init(controller_t *c)
         sc.pll_kp = kp;
         sc.pll_ki = ki;
         sc.speed_lpf_rad_s = k->speed_lpf_rad_s;
-        return est_smo_sign_init(&c->smo_sign, &sc);
+        return est_smo_sign_init(&c->est_state.sign, &sc);
+    }
+    case CTRL_EST_SMO_SIGMOID: {
+        est_smo_sigmoid_config_t sc;
+        est_smo_sigmoid_default_config(&sc, k->rs_ohm, k->lq_h, k->psi_f_wb, k->ts_s);
+        sc.k_v = k->smo_k_v;          /* must be set by the host (eq. 18); 0 is refused */
+        sc.a_per_a = k->smo_sigmoid_a_per_a;
+        sc.wc_rad_s = k->smo_wc_rad_s;
+        sc.lag_comp = (int)k->smo_lag_comp;
+        sc.pll_kp = kp;
+        sc.pll_ki = ki;
+        sc.speed_lpf_rad_s = k->speed_lpf_rad_s;
+        return est_smo_sigmoid_init(&c->est_state.sigmoid, &sc);
+    }
+    case CTRL_EST_SMO_TANH: {
+        est_smo_tanh_config_t sc;
+        est_smo_tanh_default_config(&sc, k->rs_ohm, k->lq_h, k->psi_f_wb, k->ts_s);
+        sc.k_v = k->smo_k_v;          /* must be set by the host (eq. 17); 0 is refused */
+        sc.m_per_a = k->smo_m_per_a;
+        sc.pll_kp = kp;
+        sc.pll_ki = ki;
+        sc.speed_lpf_rad_s = k->speed_lpf_rad_s;
+        return est_smo_tanh_init(&c->est_state.tanh_smo, &sc);
+    }
+    case CTRL_EST_HFI_SDFT: {
+        est_hfi_config_t hc;
+        est_hfi_default_config(&hc, k->rs_ohm, k->ld_h, k->lq_h, k->ts_s);
+        hc.u_inj_v = k->hfi_u_v;
+        hc.f_inj_hz = k->hfi_f_hz;
+        est_hfi_set_bandwidth(&hc, k->hfi_bw_rad_s);
+        if (k->hfi_kp > 0.0f) {
+            hc.kp_rad_s = k->hfi_kp;
+        }
+        if (k->hfi_ki > 0.0f) {
+            hc.ki_rad_s2 = k->hfi_ki;
+        }
+        hc.ipd_on_reset = 1;
+        hc.ipd_timeout_s = k->hfi_ipd_timeout_s;
+        hc.pol_bias_a = k->hfi_pol_bias_a;
+        hc.speed_lpf_rad_s = k->speed_lpf_rad_s;
+        c->hfi_out = NULL;
+        return est_hfi_init(&c->est_state.hfi, &hc);
     }
     case CTRL_EST_ENCODER:
-        est_pll_init(&c->enc_pll, kp, ki);
+        est_pll_init(&c->est_state.encoder_pll, kp, ki);
         return 0;
     default:
         return -1;
     }
+}
+
+/* Delay pre-compensation and harmonic compensation: optional blocks around the estimator. */
+static int extras_init(controller_t *c)
+{
+    const ctrl_config_t *k = &c->cfg;
+    if (k->delay_comp_mode > 0.5f) {
+        est_delay_comp_config_t dc;
+        est_delay_comp_default_config(&dc, k->ts_s);
+        dc.t_d_fixed_s = k->delay_comp_td_s;
+        dc.estimate_on = k->delay_comp_mode > 1.5f;
+        dc.compensate_on = 1;
+        if (est_delay_comp_init(&c->delay_comp, &dc) != 0) {
+            return -1;
+        }
+    }
+    if (k->harm_comp_enable > 0.5f) {
+        harm_comp_config_t hc;
+        harm_comp_default_config(&hc, k->rs_ohm, k->lq_h, k->ts_s);
+        hc.m = (int)k->harm_m;
+        hc.k_comp = k->harm_k_comp;
+        hc.extractor = (int)k->harm_extractor;
+        if (harm_comp_init(&c->harm, &hc) != 0) {
+            return -1;
+        }
+    }
+    return 0;
 }
 
 int ctrl_start(controller_t *c)
@@ -120,7 +209,8 @@ int ctrl_start(controller_t *c)
     pi_ctrl_config_t pc;
     float bw, kp_q, ki, vmax;
 
-    if (!config_valid(k) || estimator_init(c) != 0) {
+    c->hfi_out = NULL;
+    if (!config_valid(k) || estimator_init(c) != 0 || extras_init(c) != 0) {
         enter_fault(c, CTRL_FAULT_CONFIG_INVALID);
         return -1;
     }
@@ -152,9 +242,18 @@ int ctrl_start(controller_t *c)
     c->omega_ol_rad_s = 0.0f;
     c->id_handover_a = 0.0f;
     c->v_ab_applied_v.x = c->v_ab_applied_v.y = 0.0f;
+    c->v_ab_older_v = c->v_ab_applied_v;
+    c->v_ab_acted_v = c->v_ab_applied_v;
     c->fault = CTRL_FAULT_NONE;
-    /* with an encoder there is nothing to start open loop: close the loop at once */
-    c->state = ((int)k->estimator == CTRL_EST_ENCODER) ? CTRL_STATE_CLOSED_LOOP : CTRL_STATE_ALIGN;
+    /* with an encoder there is nothing to start open loop: close the loop at once; HF injection
+     * finds the initial position at standstill first (Hou section 3) */
+    if ((int)k->estimator == CTRL_EST_ENCODER) {
+        c->state = CTRL_STATE_CLOSED_LOOP;
+    } else if ((int)k->estimator == CTRL_EST_HFI_SDFT) {
+        c->state = CTRL_STATE_INITIAL_POSITION;
+    } else {
+        c->state = CTRL_STATE_ALIGN;
+    }
     return 0;
 }
 
@@ -194,11 +293,22 @@ static void run_estimator(controller_t *c, fw_vec2_t i_ab, const ctrl_sample_t *
 {
     switch ((int)c->cfg.estimator) {
     case CTRL_EST_SMO_SIGN:
-        c->est = *est_smo_sign_step(&c->smo_sign, i_ab, c->v_ab_applied_v);
+        c->est = *est_smo_sign_step(&c->est_state.sign, i_ab, c->v_ab_acted_v);
+        break;
+    case CTRL_EST_SMO_SIGMOID:
+        c->est = *est_smo_sigmoid_step(&c->est_state.sigmoid, i_ab, c->v_ab_acted_v);
+        break;
+    case CTRL_EST_SMO_TANH:
+        c->est = *est_smo_tanh_step(&c->est_state.tanh_smo, i_ab, c->v_ab_acted_v);
+        break;
+    case CTRL_EST_HFI_SDFT:
+        c->hfi_out = est_hfi_step(&c->est_state.hfi, i_ab, c->v_ab_acted_v);
+        c->est = c->hfi_out->est;
         break;
     case CTRL_EST_ENCODER:
         c->est.theta_e_rad = fw_wrap_2pi(s->theta_enc_rad);
-        c->est.omega_e_rad_s = est_pll_step(&c->enc_pll, c->est.theta_e_rad, c->cfg.ts_s);
+        c->est.omega_e_rad_s = est_pll_step(&c->est_state.encoder_pll, c->est.theta_e_rad,
+                                            c->cfg.ts_s);
         c->est.e_alpha_v = 0.0f;
         c->est.e_beta_v = 0.0f;
         break;
@@ -253,7 +363,28 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     }
     i_ab = fw_clarke(s->i_a_a, s->i_b_a, s->i_c_a);
     v_dc = s->v_dc_v > 1.0f ? s->v_dc_v : k->v_dc_nom_v;
+    if (k->delay_comp_mode > 0.5f) {
+        /* Gong eq. 20-22: the second sample of the previous period first (delay estimate), then
+         * this period's first sample, predicted to the actuation instant; the estimator and the
+         * current loop both use the predicted currents */
+        const est_delay_comp_output_t *dco;
+        float i1[3];
+        i1[0] = s->i_a_a;
+        i1[1] = s->i_b_a;
+        i1[2] = s->i_c_a;
+        if (s->have_i2) {
+            est_delay_comp_sample2(&c->delay_comp, s->i2_abc_a);
+        }
+        dco = est_delay_comp_sample1(&c->delay_comp, i1);
+        i_ab = dco->i_ab_a;
+        c->out.t_d_est_s = dco->t_d_s;
+    }
 
+    {   /* the voltage that acted over [t_(k-1), t_k]: the older command until t_d, then the newer */
+        float w = fw_clampf(k->t_act_delay_s / k->ts_s, 0.0f, 1.0f);
+        c->v_ab_acted_v.x = w * c->v_ab_older_v.x + (1.0f - w) * c->v_ab_applied_v.x;
+        c->v_ab_acted_v.y = w * c->v_ab_older_v.y + (1.0f - w) * c->v_ab_applied_v.y;
+    }
     run_estimator(c, i_ab, s);
     c->t_state_s += k->ts_s;
 
@@ -286,16 +417,33 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
         }
         break;
     }
+    case CTRL_STATE_INITIAL_POSITION:
+        /* HF injection at standstill: 2 dtheta -> 0, then the N/S test (Hou section 3); the
+         * current loop holds zero current except the d-bias the polarity test may ask for */
+        c->id_ref_a = c->hfi_out != NULL ? c->hfi_out->i_d_req_a : 0.0f;
+        c->iq_ref_a = 0.0f;
+        if (c->hfi_out != NULL && c->hfi_out->ipd_state == EST_HFI_TRACKING) {
+            pi_ctrl_reset(&c->pi_speed, 0.0f);
+            c->id_handover_a = 0.0f;
+            c->state = CTRL_STATE_CLOSED_LOOP;
+            c->t_state_s = 0.0f;
+        } else if (c->hfi_out != NULL && c->hfi_out->ipd_state == EST_HFI_IPD_FAILED) {
+            enter_fault(c, CTRL_FAULT_STARTUP_FAILED);   /* polarity undecided: never guess */
+            goto finish;
+        }
+        break;
     default:
         break;
     }
 
-    if (c->state == CTRL_STATE_CLOSED_LOOP) {
+    if (c->state == CTRL_STATE_CLOSED_LOOP || c->state == CTRL_STATE_INITIAL_POSITION) {
         float id_fade = 1.0f - (k->handover_time_s > 0.0f ? c->t_state_s / k->handover_time_s : 1.0f);
         theta = c->est.theta_e_rad;
         omega_e = c->est.omega_e_rad_s;
-        c->id_ref_a = c->id_handover_a * fw_clampf(id_fade, 0.0f, 1.0f);
-        if (c->mode == CTRL_MODE_SPEED) {
+        if (c->state == CTRL_STATE_INITIAL_POSITION) {
+            /* references set above */
+        } else if (c->mode == CTRL_MODE_SPEED) {
+            c->id_ref_a = c->id_handover_a * fw_clampf(id_fade, 0.0f, 1.0f);
             c->speed_div_count++;
             if ((float)c->speed_div_count >= k->speed_loop_div) {
                 float w_m = omega_e / k->pole_pairs;
@@ -304,8 +452,8 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
                                            k->ts_s * k->speed_loop_div);
             }
         } else {
+            c->id_ref_a = c->id_handover_a * fw_clampf(id_fade, 0.0f, 1.0f) + c->id_cmd_a;
             c->iq_ref_a = fw_clampf(c->iq_cmd_a, -k->iq_max_a, k->iq_max_a);
-            c->id_ref_a += c->id_cmd_a;
         }
     } else {
         theta = c->theta_ol_rad;
@@ -315,8 +463,12 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     /* current loop with decoupling feed-forward and a circular voltage limit (d first) */
     sin_t = sinf(theta);
     cos_t = cosf(theta);
-    i_dq = fw_park(i_ab, sin_t, cos_t);
+    /* with HF injection the loop sees the fundamental only, and leaves room for the injection */
+    i_dq = fw_park(c->hfi_out != NULL ? c->hfi_out->i_fund_ab_a : i_ab, sin_t, cos_t);
     vmax = CTRL_VOLTAGE_MARGIN * v_dc * FW_INV_SQRT3_F;
+    if (c->hfi_out != NULL) {
+        vmax = fmaxf(vmax - k->hfi_u_v, 0.0f);
+    }
     ff_d = -omega_e * k->lq_h * i_dq.y;
     ff_q = omega_e * (k->ld_h * i_dq.x + k->psi_f_wb);
     pi_ctrl_set_limits(&c->pi_d, -vmax - ff_d, vmax - ff_d);
@@ -326,8 +478,22 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     v_dq.y = pi_ctrl_step(&c->pi_q, c->iq_ref_a - i_dq.y, k->ts_s) + ff_q;
 
     /* the voltage acts from t_k + delay on: advance the angle to the middle of its action */
-    theta_pwm = theta + omega_e * (k->pwm_delay_s >= 0.0f ? k->pwm_delay_s : 0.5f * k->ts_s);
+    theta_pwm = theta + omega_e * (k->t_act_delay_s + 0.5f * k->ts_s);
+    if (k->harm_comp_enable > 0.5f) {
+        /* Yuan eq. 28-37: 5th/7th extracted from the measured current, compensation voltages
+         * added to the current-loop output */
+        fw_vec2_t dv;
+        (void)harm_comp_step(&c->harm, i_ab, theta, omega_e);
+        dv = harm_comp_voltage_dq(&c->harm, theta_pwm);
+        v_dq.x += dv.x;
+        v_dq.y += dv.y;
+    }
     v_ab = fw_park_inv(v_dq, sinf(theta_pwm), cosf(theta_pwm));
+    if (c->hfi_out != NULL) {
+        v_ab.x += c->hfi_out->v_inj_ab_v.x;
+        v_ab.y += c->hfi_out->v_inj_ab_v.y;
+    }
+    c->v_ab_older_v = c->v_ab_applied_v;
     c->v_ab_applied_v = svpwm_duties(v_ab, v_dc, c->out.duty_abc);
 
 finish:

@@ -11,8 +11,13 @@
 #define CONTROLLER_H
 
 #include "est_common.h"
+#include "est_delay_comp.h"
+#include "est_hfi.h"
+#include "est_smo_sigmoid.h"
 #include "est_smo_sign.h"
+#include "est_smo_tanh.h"
 #include "fw_math.h"
+#include "harm_comp.h"
 #include "pi_ctrl.h"
 
 /** Controller states; the numbers are the protocol's `state` value table (protocol/hil.dbc). */
@@ -63,7 +68,11 @@ typedef struct {
     float iq_max_a;           /**< speed-loop output limit */
     float speed_loop_div;     /**< the speed loop runs every N periods */
     float i_trip_a;           /**< over-current trip on any phase */
-    float pwm_delay_s;        /**< sampling -> mid-actuation delay used to advance the PWM angle */
+    float t_act_delay_s;      /**< computation delay t_d the firmware assumes: sampling -> new
+                                   duties take effect. Used to advance the PWM angle to the middle
+                                   of the interval the voltage acts on (t_d + Ts/2), and to give
+                                   the estimators the voltage that acted over the last period
+                                   (t_d/Ts of the older command, the rest of the newer one). */
     /* start-up */
     float align_i_a, align_time_s;
     float if_i_a;             /**< I-f current magnitude */
@@ -73,13 +82,25 @@ typedef struct {
     /* estimator */
     float estimator;          /**< ctrl_estimator_t */
     float smo_k_v, smo_k_factor, smo_k_min_v, smo_wc_rad_s;
+    float smo_m_per_a;        /**< tanh SMO slope m (Gong eq. 8) */
+    float smo_sigmoid_a_per_a; /**< sigmoid slope a (Yuan eq. 11); <= 0: deadbeat slope */
+    float smo_lag_comp;       /**< sigmoid SMO phase compensation: 0 none, 1 eq. 15, 2 effective */
     float pll_kp, pll_ki, speed_lpf_rad_s;
+    /* HF injection (Hou): amplitude, frequency, tracking loop, polarity test */
+    float hfi_u_v, hfi_f_hz, hfi_bw_rad_s, hfi_kp, hfi_ki, hfi_ipd_timeout_s, hfi_pol_bias_a;
+    /* calculation-delay pre-compensation (Gong eq. 20-22): 0 off, 1 with delay_comp_td_s,
+     * 2 estimate t_d from the dual samples (eq. 20) and compensate with the estimate */
+    float delay_comp_mode, delay_comp_td_s;
+    /* inverter-nonlinearity compensation (Yuan eq. 28-37) */
+    float harm_comp_enable, harm_m, harm_k_comp, harm_extractor;
 } ctrl_config_t;
 
 typedef struct {
     float i_a_a, i_b_a, i_c_a; /**< phase currents sampled at t_k */
     float v_dc_v;              /**< bus voltage */
     float theta_enc_rad;       /**< encoder angle (ENCODER estimator only) */
+    int have_i2;               /**< the second (dual) sample of the previous period is valid */
+    float i2_abc_a[3];         /**< second sample of period k-1, taken at t_(k-1) + t_d */
 } ctrl_sample_t;
 
 typedef struct {
@@ -88,6 +109,7 @@ typedef struct {
     float omega_hat_rad_s; /**< estimator electrical speed */
     float e_alpha_v, e_beta_v;
     float i_q_ref_a;
+    float t_d_est_s;     /**< delay-compensation estimate in use (0 when off) */
     ctrl_state_t state;
     ctrl_fault_t fault;
 } ctrl_output_t;
@@ -109,12 +131,22 @@ typedef struct {
     float t_state_s;
     float theta_ol_rad, omega_ol_rad_s; /* open-loop angle and electrical speed */
     float id_handover_a;
-    /* estimator */
-    est_smo_sign_t smo_sign;
-    est_pll_t enc_pll;
+    /* estimator: only the selected one is live */
+    union {
+        est_smo_sign_t sign;
+        est_smo_sigmoid_t sigmoid;
+        est_smo_tanh_t tanh_smo;
+        est_hfi_t hfi;
+        est_pll_t encoder_pll;
+    } est_state;
+    const est_hfi_output_t *hfi_out; /**< last HFI output (HFI_SDFT only) */
+    est_delay_comp_t delay_comp;
+    harm_comp_t harm;
     est_output_t est;
-    /* last applied voltage (for the estimator's next step) */
-    fw_vec2_t v_ab_applied_v;
+    /* voltage commands (for the estimator's next step) */
+    fw_vec2_t v_ab_applied_v;   /**< command of the last ISR, as realised by SVPWM */
+    fw_vec2_t v_ab_older_v;     /**< command of the ISR before */
+    fw_vec2_t v_ab_acted_v;     /**< what acted over the last period (delay-weighted) */
     ctrl_output_t out;
 } controller_t;
 

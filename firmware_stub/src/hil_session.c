@@ -17,7 +17,9 @@ typedef char check_fault_cfg[((int)CTRL_FAULT_CONFIG_INVALID == (int)HIL_FAULT_C
 
 uint16_t hil_session_estimators(void)
 {
-    return (uint16_t)((1u << HIL_EST_SMO_SIGN) | (1u << HIL_EST_ENCODER));
+    return (uint16_t)((1u << HIL_EST_SMO_SIGN) | (1u << HIL_EST_SMO_SIGMOID) |
+                      (1u << HIL_EST_SMO_TANH) | (1u << HIL_EST_HFI_SDFT) |
+                      (1u << HIL_EST_ENCODER));
 }
 
 void hil_session_init(hil_session_t *s, const hil_port_t *port)
@@ -32,6 +34,9 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->aux_valid = 0;
     s->v_dc_v = 0.0f;
     s->theta_enc_rad = 0.0f;
+    s->dual_seq = 0u;
+    s->dual_valid = 0;
+    s->i2_abc_a[0] = s->i2_abc_a[1] = s->i2_abc_a[2] = 0.0f;
     s->last_seq = 0u;
     s->have_seq = 0;
     s->hb_counter = 0u;
@@ -175,6 +180,20 @@ static void on_sense_aux(hil_session_t *s, const hil_octet_t *data, uint16_t dlc
     s->theta_enc_rad = hil_sense_aux_theta_enc_decode(m.theta_enc);
 }
 
+static void on_sense_dual(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
+{
+    hil_sense_dual_t m;
+    if (hil_sense_dual_unpack(&m, data, dlc) != 0) {
+        s->stats.length_errors++;
+        return;
+    }
+    s->dual_seq = m.seq;
+    s->dual_valid = 1;
+    s->i2_abc_a[0] = hil_sense_dual_i_a2_decode(m.i_a2);
+    s->i2_abc_a[1] = hil_sense_dual_i_b2_decode(m.i_b2);
+    s->i2_abc_a[2] = hil_sense_dual_i_c2_decode(m.i_c2);
+}
+
 static uint16_t duty_raw(float d)
 {
     if (d < 0.0f) {
@@ -210,6 +229,11 @@ static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
     smp.i_c_a = hil_sense_i_c_decode(m.i_c);
     smp.v_dc_v = s->v_dc_v; /* latest SENSE_AUX; the nominal bus is used until one arrives */
     smp.theta_enc_rad = s->theta_enc_rad;
+    /* the second sample only counts if it was sent for this very cycle */
+    smp.have_i2 = s->dual_valid && s->dual_seq == m.seq;
+    smp.i2_abc_a[0] = s->i2_abc_a[0];
+    smp.i2_abc_a[1] = s->i2_abc_a[1];
+    smp.i2_abc_a[2] = s->i2_abc_a[2];
 
     fault_before = s->ctrl.fault;
     o = ctrl_step(&s->ctrl, &smp);
@@ -261,7 +285,8 @@ void hil_session_on_frame(hil_session_t *s, const hil_frame_t *f)
         on_sense_aux(s, f->data, f->dlc);
         break;
     case HIL_SENSE_DUAL_FRAME_ID:
-        break; /* dual sampling is consumed by the delay-compensation estimators (later) */
+        on_sense_dual(s, f->data, f->dlc);
+        break;
     case HIL_HELLO_FRAME_ID:
         on_hello(s, f->data, f->dlc);
         break;

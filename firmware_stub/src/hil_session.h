@@ -44,6 +44,9 @@ typedef struct {
     int aux_valid;
     float v_dc_v;
     float theta_enc_rad;
+    uint16_t dual_seq;   /**< seq of the latched SENSE_DUAL */
+    int dual_valid;
+    float i2_abc_a[3];   /**< SENSE_DUAL(k): second sample of period k-1 */
     uint16_t last_seq;
     int have_seq;
     uint16_t hb_counter;

@@ -2,46 +2,75 @@
  * @file main.c
  * @brief Linux host port of the firmware stub: the controller under test in CI.
  *
- * Opens a serial device (a pty slave in CI, or a real UART), runs the portable HIL session
- * behind the COBS/CRC deframer, and answers every SENSE frame with the control ISR's output.
- * Everything portable lives in firmware_stub/src; this file is only I/O, time and signals.
+ * Runs the portable HIL session behind one host link (transport.h) and answers every SENSE frame
+ * with the control ISR's output. Everything portable lives in firmware_stub/src; this file and its
+ * transports are only I/O, time and signals.
  *
- *   hil_stub --port /dev/pts/3 [--baud 3000000] [--idle-timeout-s 0] [--quiet]
- *            [--inject KIND@CYCLE]
+ *   hil_stub --port PATH [--baud N]          serial: COBS/CRC framing on a UART or pty slave
+ *   hil_stub --slcan PATH|fd:N [--baud N]    SLCAN adapter end on a tty/pty (python-can "slcan")
+ *   hil_stub --socketcand [HOST:]PORT|fd:N [--bus NAME]
+ *                                            socketcand server (python-can "socketcand"), bus hil0
+ *   hil_stub --socketcan IFACE               raw SocketCAN socket (can0, vcan0)
+ *            [--idle-timeout-s S] [--quiet] [--echo] [--inject KIND@CYCLE]
  *
- * --inject makes the stub misbehave on purpose from control cycle CYCLE on, so the bench's
- * handling of a bad controller can be tested: silent (stops answering), crash (abort()),
- * garbage (noise bytes before every answer), bad-duty (one DUTY with an out-of-range raw value).
+ * "fd:N" is a descriptor the bench opened and passed on (a pty master, a listening TCP socket).
  *
- * Exits 0 when the host closes the link (EOF/HUP), on SIGINT/SIGTERM, or after the idle
- * timeout; prints link and session counters to stderr.
+ * --inject makes the stub misbehave on purpose from control cycle CYCLE on (CYCLE = number of
+ * SENSE frames answered before), so the bench's handling of a bad controller can be tested:
+ *   silent       stops answering
+ *   crash        abort() on the next SENSE
+ *   garbage      noise before every answer: line noise on serial; on CAN (where the controller
+ *                hardware does the framing) a frame with an id outside the DBC (0x7E5)
+ *   bad-duty     one DUTY with an out-of-range raw duty (40000 > 32768), once
+ *   unknown-id   a frame with an id outside the DBC (0x7E5) before every TELEM
+ *   wrong-dlc    one TELEM with 6 octets instead of 8, once
+ *   bus-off      the controller goes bus-off: reported the way the link can (socketcand
+ *                "< error 040 ... >", a SocketCAN error frame, SLCAN status flags) and silent after
+ * --echo sends every received frame straight back instead of running the controller (a loopback
+ * for testing the link codecs byte for byte).
+ *
+ * Exits 0 when the host closes the link (EOF/HUP), on SIGINT/SIGTERM, or after the idle timeout;
+ * prints link and session counters to stderr.
  */
 #define _DEFAULT_SOURCE
 #include <errno.h>
-#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <termios.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "hil_framing.h"
 #include "hil_session.h"
+#include "transport.h"
 
-#define TX_BUF_SIZE 4096u
 #define HEARTBEAT_PERIOD_MS 100
+#define JUNK_FRAME_ID 0x7E5u
+#define SHORT_TELEM_DLC 6u
 
-typedef enum { INJECT_NONE, INJECT_SILENT, INJECT_CRASH, INJECT_GARBAGE, INJECT_BAD_DUTY } inject_t;
+typedef enum {
+    INJECT_NONE,
+    INJECT_SILENT,
+    INJECT_CRASH,
+    INJECT_GARBAGE,
+    INJECT_BAD_DUTY,
+    INJECT_UNKNOWN_ID,
+    INJECT_WRONG_DLC,
+    INJECT_BUS_OFF
+} inject_t;
 
 typedef struct {
-    int fd;
-    hil_octet_t tx[TX_BUF_SIZE];
-    size_t tx_len;
-    unsigned long tx_overflows;
-} linux_link_t;
+    transport_t *link;
+    hil_session_t session;
+    inject_t inject;
+    unsigned long inject_cycle;
+    int active;    /* the injection applies to the frame being handled */
+    int echo;
+    int off_bus;   /* after an injected bus-off: no frame leaves the controller */
+    unsigned long echoed;
+} app_t;
 
 static volatile sig_atomic_t g_stop = 0;
 
@@ -58,173 +87,167 @@ static long long now_ms(void)
     return (long long)ts.tv_sec * 1000LL + ts.tv_nsec / 1000000L;
 }
 
-static int flush_tx(linux_link_t *l)
+static void queue_unknown_id(app_t *a)
 {
-    size_t off = 0u;
-    while (off < l->tx_len) {
-        ssize_t n = write(l->fd, l->tx + off, l->tx_len - off);
-        if (n < 0) {
-            if (errno == EINTR) {
-                continue;
-            }
-            if (errno == EAGAIN) {
-                struct pollfd p;
-                p.fd = l->fd;
-                p.events = POLLOUT;
-                p.revents = 0;
-                (void)poll(&p, 1, 100);
-                continue;
-            }
-            return -1;
-        }
-        off += (size_t)n;
-    }
-    l->tx_len = 0u;
-    return 0;
+    static const hil_octet_t junk[8] = {0xDEu, 0xADu, 0xBEu, 0xEFu, 0x00u, 0x11u, 0x22u, 0x33u};
+    a->link->ops->queue(a->link, (uint16_t)JUNK_FRAME_ID, junk, 8u);
 }
 
 /* hil_port_t.send: frames are queued and written in one syscall after the input is processed */
 static void port_send(void *ctx, uint16_t id, const hil_octet_t *data, uint16_t dlc)
 {
-    linux_link_t *l = (linux_link_t *)ctx;
-    size_t n;
-    if (TX_BUF_SIZE - l->tx_len < HIL_FRAME_MAX_WIRE) {
-        if (flush_tx(l) != 0) {
-            l->tx_overflows++;
-            return;
+    app_t *a = (app_t *)ctx;
+    if (a->active && a->inject == INJECT_UNKNOWN_ID && id == HIL_TELEM_FRAME_ID) {
+        queue_unknown_id(a);
+    }
+    if (a->active && a->inject == INJECT_WRONG_DLC && id == HIL_TELEM_FRAME_ID) {
+        a->inject = INJECT_NONE;
+        dlc = SHORT_TELEM_DLC;
+    }
+    if (a->active && a->inject == INJECT_BAD_DUTY && id == HIL_DUTY_FRAME_ID) {
+        hil_duty_t d;
+        hil_octet_t buf[HIL_DUTY_LENGTH];
+        a->inject = INJECT_NONE;
+        if (hil_duty_unpack(&d, data, dlc) == 0) {
+            d.d_a = 40000u; /* > 32768 (duty 1.0) and not the OFF sentinel */
+            if (hil_duty_pack(buf, &d, sizeof buf) > 0) {
+                a->link->ops->queue(a->link, id, buf, HIL_DUTY_LENGTH);
+                return;
+            }
         }
     }
-    n = hil_frame_encode(l->tx + l->tx_len, TX_BUF_SIZE - l->tx_len, id, data, dlc);
-    l->tx_len += n;
+    a->link->ops->queue(a->link, id, data, dlc);
 }
 
-static speed_t baud_constant(long baud)
+static void on_frame(void *user, const hil_frame_t *frame)
 {
-    switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 230400: return B230400;
-    case 460800: return B460800;
-    case 921600: return B921600;
-    case 1000000: return B1000000;
-    case 2000000: return B2000000;
-    case 3000000: return B3000000;
-    case 4000000: return B4000000;
-    default: return 0;
+    app_t *a = (app_t *)user;
+    if (a->echo) {
+        a->echoed++;
+        a->link->ops->queue(a->link, frame->id, frame->data, frame->dlc);
+        return;
     }
-}
-
-static int configure_port(int fd, long baud)
-{
-    struct termios t;
-    if (!isatty(fd)) {
-        return 0; /* a FIFO or socket: nothing to configure */
+    a->active = a->inject != INJECT_NONE && a->session.stats.cycles >= a->inject_cycle;
+    if (a->active && a->inject == INJECT_CRASH && frame->id == HIL_SENSE_FRAME_ID) {
+        fprintf(stderr, "hil_stub: injected crash at cycle %lu\n", (unsigned long)a->session.stats.cycles);
+        abort();
     }
-    if (tcgetattr(fd, &t) != 0) {
-        return -1;
+    if (a->active && a->inject == INJECT_BUS_OFF && frame->id == HIL_SENSE_FRAME_ID) {
+        fprintf(stderr, "hil_stub: injected bus-off at cycle %lu (%s)\n",
+                (unsigned long)a->session.stats.cycles,
+                a->link->ops->bus_off(a->link) == 0 ? "reported to the host"
+                                                    : "this link cannot report it: silent");
+        a->inject = INJECT_SILENT;
+        a->inject_cycle = 0u;
+        a->off_bus = 1;
     }
-    cfmakeraw(&t);
-    t.c_cflag |= (tcflag_t)(CLOCAL | CREAD);
-    t.c_cc[VMIN] = 1;
-    t.c_cc[VTIME] = 0;
-    if (baud > 0) {
-        speed_t s = baud_constant(baud);
-        if (s == 0) {
-            fprintf(stderr, "hil_stub: unsupported baud rate %ld\n", baud);
-            return -1;
+    if (a->active && a->inject == INJECT_SILENT) {
+        return;
+    }
+    if (a->active && a->inject == INJECT_GARBAGE) {
+        if (a->link->ops->noise != NULL) {
+            a->link->ops->noise(a->link);
+        } else {
+            queue_unknown_id(a);
         }
-        cfsetispeed(&t, s);
-        cfsetospeed(&t, s);
     }
-    return tcsetattr(fd, TCSANOW, &t);
+    hil_session_on_frame(&a->session, frame);
+    a->active = 0;
 }
 
 static void usage(void)
 {
-    fprintf(stderr, "usage: hil_stub --port PATH [--baud N] [--idle-timeout-s S] [--quiet] "
-                    "[--inject silent|crash|garbage|bad-duty@CYCLE]\n");
+    fprintf(stderr,
+            "usage: hil_stub (--port PATH [--baud N] | --slcan PATH|fd:N [--baud N] | "
+            "--socketcand [HOST:]PORT|fd:N [--bus NAME] | --socketcan IFACE)\n"
+            "                [--idle-timeout-s S] [--quiet] [--echo]\n"
+            "                [--inject silent|crash|garbage|bad-duty|unknown-id|wrong-dlc|bus-off@CYCLE]\n");
 }
 
 static int parse_inject(const char *arg, inject_t *kind, unsigned long *cycle)
 {
+    static const struct {
+        const char *name;
+        inject_t kind;
+    } kinds[] = {{"silent", INJECT_SILENT},       {"crash", INJECT_CRASH},
+                 {"garbage", INJECT_GARBAGE},     {"bad-duty", INJECT_BAD_DUTY},
+                 {"unknown-id", INJECT_UNKNOWN_ID}, {"wrong-dlc", INJECT_WRONG_DLC},
+                 {"bus-off", INJECT_BUS_OFF}};
     const char *at = strchr(arg, '@');
-    size_t n = at ? (size_t)(at - arg) : 0u;
-    if (at == NULL) {
+    char *end = NULL;
+    size_t n, i;
+    if (at == NULL || at[1] < '0' || at[1] > '9') {
         return -1;
     }
-    *cycle = strtoul(at + 1, NULL, 10);
-    if (n == 6u && strncmp(arg, "silent", n) == 0) {
-        *kind = INJECT_SILENT;
-    } else if (n == 5u && strncmp(arg, "crash", n) == 0) {
-        *kind = INJECT_CRASH;
-    } else if (n == 7u && strncmp(arg, "garbage", n) == 0) {
-        *kind = INJECT_GARBAGE;
-    } else if (n == 8u && strncmp(arg, "bad-duty", n) == 0) {
-        *kind = INJECT_BAD_DUTY;
-    } else {
+    n = (size_t)(at - arg);
+    *cycle = strtoul(at + 1, &end, 10);
+    if (*end != '\0') {
         return -1;
     }
-    return 0;
-}
-
-/* Replace the DUTY frame queued last in the tx buffer by one with an out-of-range raw duty. */
-static void corrupt_last_duty(linux_link_t *l, uint16_t seq)
-{
-    hil_octet_t buf[HIL_DUTY_LENGTH];
-    hil_duty_t d;
-    size_t n;
-    d.seq = seq;
-    d.d_a = 40000u; /* > 32768 (duty 1.0) and not the OFF sentinel */
-    d.d_b = 16384u;
-    d.d_c = 16384u;
-    if (hil_duty_pack(buf, &d, sizeof buf) > 0) {
-        n = hil_frame_encode(l->tx + l->tx_len, TX_BUF_SIZE - l->tx_len, HIL_DUTY_FRAME_ID, buf,
-                             HIL_DUTY_LENGTH);
-        l->tx_len += n;
+    for (i = 0u; i < sizeof kinds / sizeof kinds[0]; ++i) {
+        if (strlen(kinds[i].name) == n && strncmp(arg, kinds[i].name, n) == 0) {
+            *kind = kinds[i].kind;
+            return 0;
+        }
     }
+    return -1;
 }
 
 int main(int argc, char **argv)
 {
-    const char *path = NULL;
+    const char *port_path = NULL, *slcan_spec = NULL, *scd_spec = NULL, *sc_iface = NULL;
+    const char *bus = "hil0";
     long baud = 0;
     double idle_timeout_s = 0.0;
     int quiet = 0;
-    int i, rc = 0;
-    static linux_link_t link;   /* static: large buffers off the stack */
-    static hil_session_t session;
-    hil_deframer_t deframer;
+    int i, rc = 0, links = 0;
+    static app_t app;   /* static: large buffers off the stack */
     hil_port_t port;
-    hil_frame_t frame;
+    char err[256];
     long long last_rx_ms, last_hb_ms;
     uint32_t last_cycles = 0u;
+    int was_open = 0;
     const char *exit_reason = "host closed the link";
-    inject_t inject = INJECT_NONE;
-    unsigned long inject_cycle = 0u;
+    transport_t *t;
 
+    app.inject = INJECT_NONE;
     for (i = 1; i < argc; ++i) {
         if (strcmp(argv[i], "--port") == 0 && i + 1 < argc) {
-            path = argv[++i];
+            port_path = argv[++i];
+            links++;
+        } else if (strcmp(argv[i], "--slcan") == 0 && i + 1 < argc) {
+            slcan_spec = argv[++i];
+            links++;
+        } else if (strcmp(argv[i], "--socketcand") == 0 && i + 1 < argc) {
+            scd_spec = argv[++i];
+            links++;
+        } else if (strcmp(argv[i], "--socketcan") == 0 && i + 1 < argc) {
+            sc_iface = argv[++i];
+            links++;
+        } else if (strcmp(argv[i], "--bus") == 0 && i + 1 < argc) {
+            bus = argv[++i];
         } else if (strcmp(argv[i], "--baud") == 0 && i + 1 < argc) {
             baud = strtol(argv[++i], NULL, 10);
         } else if (strcmp(argv[i], "--idle-timeout-s") == 0 && i + 1 < argc) {
             idle_timeout_s = strtod(argv[++i], NULL);
         } else if (strcmp(argv[i], "--quiet") == 0) {
             quiet = 1;
+        } else if (strcmp(argv[i], "--echo") == 0) {
+            app.echo = 1;
         } else if (strcmp(argv[i], "--inject") == 0 && i + 1 < argc) {
-            if (parse_inject(argv[++i], &inject, &inject_cycle) != 0) {
+            if (parse_inject(argv[++i], &app.inject, &app.inject_cycle) != 0) {
+                fprintf(stderr, "hil_stub: bad --inject '%s'\n", argv[i]);
                 usage();
                 return 2;
             }
         } else {
+            fprintf(stderr, "hil_stub: unknown or incomplete option '%s'\n", argv[i]);
             usage();
             return 2;
         }
     }
-    if (path == NULL) {
+    if (links != 1) {
+        fprintf(stderr, "hil_stub: give exactly one link (--port, --slcan, --socketcand or --socketcan)\n");
         usage();
         return 2;
     }
@@ -233,37 +256,38 @@ int main(int argc, char **argv)
     signal(SIGTERM, on_signal);
     signal(SIGPIPE, SIG_IGN);
 
-    link.fd = open(path, O_RDWR | O_NOCTTY);
-    if (link.fd < 0) {
-        fprintf(stderr, "hil_stub: cannot open %s: %s\n", path, strerror(errno));
+    err[0] = '\0';
+    if (port_path != NULL) {
+        t = serial_transport_open(port_path, baud, err, sizeof err);
+    } else if (slcan_spec != NULL) {
+        t = slcan_transport_open(slcan_spec, baud, err, sizeof err);
+    } else if (scd_spec != NULL) {
+        t = socketcand_transport_open(scd_spec, bus, err, sizeof err);
+    } else {
+        t = socketcan_transport_open(sc_iface, err, sizeof err);
+    }
+    if (t == NULL) {
+        fprintf(stderr, "hil_stub: %s\n", err);
         return 1;
     }
-    if (configure_port(link.fd, baud) != 0) {
-        fprintf(stderr, "hil_stub: cannot configure %s: %s\n", path, strerror(errno));
-        close(link.fd);
-        return 1;
-    }
-    link.tx_len = 0u;
-    link.tx_overflows = 0u;
-
-    port.ctx = &link;
+    app.link = t;
+    port.ctx = &app;
     port.send = port_send;
-    hil_session_init(&session, &port);
-    hil_deframer_init(&deframer);
+    hil_session_init(&app.session, &port);
     last_rx_ms = last_hb_ms = now_ms();
     if (!quiet) {
-        fprintf(stderr, "hil_stub: listening on %s\n", path);
+        fprintf(stderr, "hil_stub: listening on %s%s\n", t->name, app.echo ? " (echo)" : "");
     }
 
     while (!g_stop) {
         struct pollfd p;
         int pr;
-        long long t;
-        p.fd = link.fd;
+        long long now;
+        p.fd = t->fd;
         p.events = POLLIN;
         p.revents = 0;
         pr = poll(&p, 1, HEARTBEAT_PERIOD_MS);
-        t = now_ms();
+        now = now_ms();
         if (pr < 0) {
             if (errno == EINTR) {
                 continue;
@@ -272,63 +296,42 @@ int main(int argc, char **argv)
             rc = 1;
             break;
         }
-        if (pr > 0 && (p.revents & POLLIN)) {
-            hil_octet_t rx[4096];
-            ssize_t n = read(link.fd, rx, sizeof rx);
-            if (n <= 0) {
-                if (n < 0 && (errno == EINTR || errno == EAGAIN)) {
-                    continue;
-                }
-                break; /* EOF or EIO: the host closed its end */
-            }
-            for (i = 0; i < (int)n; ++i) {
-                if (hil_deframer_push(&deframer, rx[i], &frame) == 1) {
-                    int active = inject != INJECT_NONE && session.stats.cycles >= inject_cycle;
-                    if (active && inject == INJECT_CRASH && frame.id == HIL_SENSE_FRAME_ID) {
-                        fprintf(stderr, "hil_stub: injected crash at cycle %lu\n",
-                                (unsigned long)session.stats.cycles);
-                        abort();
-                    }
-                    if (active && inject == INJECT_SILENT) {
-                        continue;
-                    }
-                    if (active && inject == INJECT_GARBAGE && link.tx_len + 8u < TX_BUF_SIZE) {
-                        static const hil_octet_t noise[8] = {0x13u, 0x37u, 0xFFu, 0x01u,
-                                                             0x00u, 0x42u, 0x99u, 0x05u};
-                        memcpy(link.tx + link.tx_len, noise, sizeof noise);
-                        link.tx_len += sizeof noise;
-                    }
-                    hil_session_on_frame(&session, &frame);
-                    if (active && inject == INJECT_BAD_DUTY && frame.id == HIL_SENSE_FRAME_ID) {
-                        /* drop the good answer, send an out-of-range DUTY once */
-                        link.tx_len = 0u;
-                        corrupt_last_duty(&link, session.last_seq);
-                        inject = INJECT_NONE;
-                    }
-                }
-            }
-            if (flush_tx(&link) != 0) {
-                exit_reason = "write failed";
+        if (pr > 0 && (p.revents & (POLLIN | POLLHUP | POLLERR))) {
+            int r = t->ops->read(t, on_frame, &app);
+            if (transport_flush(t) != 0 && r == 0) {
+                exit_reason = t->error;
                 rc = 1;
                 break;
             }
-            last_rx_ms = t;
-        } else if (pr > 0 && (p.revents & (POLLHUP | POLLERR))) {
-            break;
+            if (r > 0) {
+                if (t->error[0] != '\0') {
+                    exit_reason = t->error;
+                }
+                break; /* EOF or hang-up: the host closed its end */
+            }
+            if (r < 0) {
+                exit_reason = t->error;
+                rc = 1;
+                break;
+            }
+            last_rx_ms = now;
         }
+        if (t->open && !was_open) {
+            last_hb_ms = now; /* no frame right behind the channel-open answer */
+        }
+        was_open = t->open;
         /* heartbeat while no cycles flow */
-        if (session.stats.cycles == last_cycles && t - last_hb_ms >= HEARTBEAT_PERIOD_MS) {
-            uint32_t link_errors = deframer.crc_errors + deframer.cobs_errors +
-                                   deframer.length_errors + deframer.overruns;
-            hil_session_heartbeat(&session, link_errors);
-            (void)flush_tx(&link);
-            last_hb_ms = t;
+        if (t->open && !app.echo && app.session.stats.cycles == last_cycles &&
+            now - last_hb_ms >= HEARTBEAT_PERIOD_MS && !app.off_bus) {
+            hil_session_heartbeat(&app.session, (uint32_t)t->rx_errors);
+            (void)transport_flush(t);
+            last_hb_ms = now;
         }
-        if (session.stats.cycles != last_cycles) {
-            last_cycles = session.stats.cycles;
-            last_hb_ms = t;
+        if (app.session.stats.cycles != last_cycles) {
+            last_cycles = app.session.stats.cycles;
+            last_hb_ms = now;
         }
-        if (idle_timeout_s > 0.0 && (double)(t - last_rx_ms) > idle_timeout_s * 1000.0) {
+        if (idle_timeout_s > 0.0 && (double)(now - last_rx_ms) > idle_timeout_s * 1000.0) {
             exit_reason = "idle timeout";
             break;
         }
@@ -338,16 +341,16 @@ int main(int argc, char **argv)
     }
     if (!quiet) {
         fprintf(stderr,
-                "hil_stub: exit (%s): cycles=%lu frames_ok=%lu crc_errors=%lu cobs_errors=%lu "
-                "length_errors=%lu overruns=%lu unknown_ids=%lu seq_errors=%lu "
-                "config_rejected=%lu tx_overflows=%lu\n",
-                exit_reason, (unsigned long)session.stats.cycles,
-                (unsigned long)deframer.frames_ok, (unsigned long)deframer.crc_errors,
-                (unsigned long)deframer.cobs_errors, (unsigned long)deframer.length_errors,
-                (unsigned long)deframer.overruns, (unsigned long)session.stats.unknown_ids,
-                (unsigned long)session.stats.seq_errors,
-                (unsigned long)session.stats.config_rejected, link.tx_overflows);
+                "hil_stub: exit (%s): cycles=%lu unknown_ids=%lu length_errors=%lu seq_errors=%lu "
+                "config_rejected=%lu tx_overflows=%lu echoed=%lu; %s: ",
+                exit_reason, (unsigned long)app.session.stats.cycles,
+                (unsigned long)app.session.stats.unknown_ids,
+                (unsigned long)app.session.stats.length_errors,
+                (unsigned long)app.session.stats.seq_errors,
+                (unsigned long)app.session.stats.config_rejected, t->tx_overflows, app.echoed, t->kind);
+        t->ops->print_stats(t, stderr);
+        fputc('\n', stderr);
     }
-    close(link.fd);
+    t->ops->close(t);
     return rc;
 }
