@@ -84,22 +84,28 @@ def motor_params(profile) -> dict[Param, float]:
     }
 
 
+#: estimator C config field <-> CONFIG parameter (the SMO family)
+SMO_CONFIG_PARAMS = {
+    "k_v": Param.SMO_K_V, "wc_rad_s": Param.SMO_WC_RAD_S, "a_per_a": Param.SMO_SIGMOID_A_PER_A,
+    "lag_comp": Param.SMO_LAG_COMP, "m_per_a": Param.SMO_M_PER_A, "pll_kp": Param.PLL_KP,
+    "pll_ki": Param.PLL_KI, "speed_lpf_rad_s": Param.SPEED_LPF_RAD_S,
+}
+
+
 def estimator_defaults(estimator: Estimator, profile, ts_s: float,
                        given: dict[Param, float]) -> dict[Param, float]:
-    """Gains the controller's estimator needs when the scenario does not set them: the same rules
-    the host reference estimators use (firmware_stub/est_smo.py), so both sides agree."""
-    if Param.SMO_K_V in given:
+    """The controller's estimator settings the scenario leaves open, filled by the same rules the
+    host reference estimators use (firmware_stub/est_smo.py factories), so both sides run the
+    same observer. Settings the scenario gives go into the rules (e.g. m decides k)."""
+    if estimator not in (Estimator.SMO_SIGMOID, Estimator.SMO_TANH):
         return {}
-    if estimator is Estimator.SMO_SIGMOID:
-        from firmware_stub.est_smo import sigmoid_gain_for
+    from firmware_stub.est_smo import smo_sigmoid_for, smo_tanh_for
 
-        return {Param.SMO_K_V: sigmoid_gain_for(profile)}
-    if estimator is Estimator.SMO_TANH:
-        from firmware_stub.est_smo import tanh_gain_for
-
-        m = given.get(Param.SMO_M_PER_A, 0.01)
-        return {Param.SMO_M_PER_A: m, Param.SMO_K_V: tanh_gain_for(profile, ts_s, m)}
-    return {}
+    factory = smo_sigmoid_for if estimator is Estimator.SMO_SIGMOID else smo_tanh_for
+    chosen = {f: given[p] for f, p in SMO_CONFIG_PARAMS.items() if p in given}
+    config = factory(profile, ts_s, **chosen).config
+    return {p: float(config[f]) for f, p in SMO_CONFIG_PARAMS.items()
+            if f in config and p not in given}
 
 
 def git_revision() -> str:

@@ -1,0 +1,53 @@
+"""Every back-EMF estimator of the library closes the loop on the C stub: standstill -> 500 rpm
+on Gong's motor (Table I), held. The scenario is gong_g2_500rpm with the estimator swapped and its
+gains left to the library's rules (firmware_stub/est_smo.py), which the bench sends over CONFIG."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench import channels as ch
+from bench.recording import load_recording
+from bench.runner import run_scenario
+from bench.scenario import SCENARIO_DIR, parse_scenario
+
+BASE = (SCENARIO_DIR / "gong_g2_500rpm.toml").read_text()
+
+
+def scenario_for(estimator: str):
+    text = BASE.replace('estimator = "SMO_SIGN"', f'estimator = "{estimator}"')
+    if estimator != "SMO_SIGN":   # the sign SMO's hand-picked gains do not apply to the others
+        text = text.replace("SMO_K_V = 25.0\nSMO_WC_RAD_S = 300.0\n", "")
+        # the same estimator as a host reference, with the library's default settings: the
+        # bench sends the controller exactly those (runner.estimator_defaults)
+        text = text.replace('estimators = ["SMO_SIGN"]', f'estimators = ["{estimator}"]')
+        text = text.replace("[reference.SMO_SIGN]\nk_v = 25.0\nwc_rad_s = 300.0\n", "")
+    return parse_scenario(text, Path(f"gong_500rpm_{estimator}.toml"))
+
+
+@pytest.mark.parametrize("estimator, pee_rms_max_rad", [
+    ("SMO_SIGN", 0.1),
+    # eq. 15 as printed leaves atan(2w/wc) - atan(w/wc) = 0.10 rad uncompensated at 500 rpm
+    # (docs/estimators_smo.md); the loop holds speed with it
+    ("SMO_SIGMOID", 0.15),
+    ("SMO_TANH", 0.05),
+])
+def test_each_back_emf_estimator_closes_the_loop_at_500rpm(tmp_path, estimator, pee_rms_max_rad):
+    out = tmp_path / f"{estimator}.mcap"
+    result = run_scenario(scenario_for(estimator), out_path=out, progress=False)
+    assert result.ok, result.error
+    rec = load_recording(out)
+    state = rec.topic(ch.PLANT_STATE)
+    telem = rec.topic(ch.CONTROLLER_TELEMETRY)
+    late = state["t_s"] >= 1.0
+    assert np.all(np.abs(state["speed_rpm"][late] - 500.0) < 5.0)
+    assert np.all(telem["state"][late] == 3)            # CLOSED_LOOP on the estimator
+    assert np.all(telem["estimator"][late] == {"SMO_SIGN": 1, "SMO_SIGMOID": 2,
+                                               "SMO_TANH": 3}[estimator])
+    assert np.sqrt(np.mean(telem["pee_rad"][late] ** 2)) < pee_rms_max_rad
+    # the host reference of the same estimator sits on the controller's angle
+    ref = rec.topic(ch.REFERENCE_PREFIX + estimator)
+    idx = np.searchsorted(telem["t_s"], ref["t_s"])
+    r_late = ref["t_s"] >= 1.0
+    diff = np.angle(np.exp(1j * (ref["theta_hat_rad"][r_late] - telem["theta_hat_rad"][idx][r_late])))
+    assert np.sqrt(np.mean(diff ** 2)) < 0.01
