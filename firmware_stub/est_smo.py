@@ -33,6 +33,7 @@ class _Smo:
 
     name = ""
     _c_name = ""
+    _invalid_hint = " (k_v must be set > 0: see the gain rules)"
 
     def __init__(self, rs_ohm: float, ls_h: float, psi_f_wb: float, ts_s: float,
                  **config: float):
@@ -45,7 +46,7 @@ class _Smo:
         if getattr(lib, f"est_{self._c_name}_init")(self._s, self._cfg) != 0:
             fields = ", ".join(f"{k}={getattr(self._cfg, k)}" for k, _ in
                                ffi.typeof(f"est_{self._c_name}_config_t").fields)
-            hint = " (k_v must be set > 0: see the gain rules)" if not self._cfg.k_v > 0 else ""
+            hint = self._invalid_hint if not self._cfg.k_v > 0 else ""
             raise ValueError(f"{cls}: invalid configuration{hint} ({fields})")
         self._step_c = getattr(lib, f"est_{self._c_name}_step")
         self._reset_c = getattr(lib, f"est_{self._c_name}_reset")
@@ -73,6 +74,15 @@ class _Smo:
         i.x, i.y, v.x, v.y = i_alpha_a, i_beta_a, v_alpha_prev_v, v_beta_prev_v
         o = self._step_c(self._s, i[0], v[0])
         return EstimatorOutput(o.theta_e_rad, o.omega_e_rad_s, o.e_alpha_v, o.e_beta_v)
+
+
+class SmoSign(_Smo):
+    """Conventional sign SMO with LPF and atan(w/wc) compensation (Yuan eq. 4-10, Gong eq. 3-7).
+    ``k_v`` <= 0 (default) selects the adaptive gain k = max(k_min_v, k_factor |w^| psi_f)."""
+
+    name = "SMO_SIGN"
+    _c_name = "smo_sign"
+    _invalid_hint = ""
 
 
 class SmoSigmoid(_Smo):
@@ -262,7 +272,7 @@ def smo_tanh_for(profile: Any, ts_s: float, **config: float) -> SmoTanh:
     return SmoTanh(profile.rs_ohm, profile.lq_h, profile.psi_f_wb, ts_s, **config)
 
 
-__all__ = ["SmoSigmoid", "SmoTanh", "DelayComp", "DelayCompOutput", "EstimatorOutput",
+__all__ = ["SmoSign", "SmoSigmoid", "SmoTanh", "DelayComp", "DelayCompOutput", "EstimatorOutput",
            "smo_sigmoid_for", "smo_tanh_for", "sigmoid_gain_for", "tanh_gain_for",
            "sigmoid_min_gain_v", "sigmoid_max_slope_per_a", "tanh_boundary_layer_a",
            "tanh_min_f", "tanh_gain_rule_v", "tanh_stability_bound_v",

@@ -25,6 +25,7 @@ foreach(test_src ${HIL_FW_TESTS})
   add_executable(${test_name} ${test_src})
   target_compile_options(${test_name} PRIVATE ${HIL_STRICT_FLAGS})
   target_link_libraries(${test_name} PRIVATE hil_fw)
+  target_include_directories(${test_name} PRIVATE ${HIL_ROOT}/tests/c)
   add_test(NAME ${test_name} COMMAND ${test_name} ${HIL_ROOT})
 endforeach()
 add_test(NAME firmware_no_8bit_types

@@ -23,7 +23,11 @@ def build(package: str) -> Path:
     tmpdir.mkdir(parents=True, exist_ok=True)
     built = Path(module.ffibuilder.compile(tmpdir=str(tmpdir), verbose=False))
     target = ROOT / package / built.name
-    shutil.copy2(built, target)
+    # write beside it and rename: a process that has the old module loaded keeps its (unlinked)
+    # file instead of seeing its code change under it
+    tmp = target.with_suffix(".tmp")
+    shutil.copy2(built, tmp)
+    tmp.replace(target)
     return target
 
 

@@ -2,17 +2,6 @@
 
 #include <math.h>
 
-static float sign_f(float x)
-{
-    if (x > 0.0f) {
-        return 1.0f;
-    }
-    if (x < 0.0f) {
-        return -1.0f;
-    }
-    return 0.0f;
-}
-
 void est_smo_sign_default_config(est_smo_sign_config_t *cfg, float rs_ohm, float ls_h,
                                  float psi_f_wb, float ts_s)
 {
@@ -73,8 +62,8 @@ const est_output_t *est_smo_sign_step(est_smo_sign_t *s, fw_vec2_t i_ab_a, fw_ve
     s->i_hat_a.y = s->f * s->i_hat_a.y + s->g * (v_ab_prev_v.y - s->z_v.y);
 
     /* switching term on the new error (eq. 6 / Gong 4) */
-    s->z_v.x = s->k_now_v * sign_f(s->i_hat_a.x - i_ab_a.x);
-    s->z_v.y = s->k_now_v * sign_f(s->i_hat_a.y - i_ab_a.y);
+    s->z_v.x = s->k_now_v * fw_signf(s->i_hat_a.x - i_ab_a.x);
+    s->z_v.y = s->k_now_v * fw_signf(s->i_hat_a.y - i_ab_a.y);
 
     /* equivalent control through the LPF (eq. 7 / Gong 6 + LPF) */
     s->e_hat_v.x += s->a_lpf * (s->z_v.x - s->e_hat_v.x);

@@ -51,6 +51,17 @@ float fw_wrap_pi(float angle_rad)
     return a;
 }
 
+float fw_signf(float x)
+{
+    if (x > 0.0f) {
+        return 1.0f;
+    }
+    if (x < 0.0f) {
+        return -1.0f;
+    }
+    return 0.0f;
+}
+
 float fw_clampf(float x, float lo, float hi)
 {
     if (x < lo) {

@@ -31,6 +31,8 @@ fw_vec2_t fw_park_inv(fw_vec2_t dq, float sin_th, float cos_th);
 float fw_wrap_2pi(float angle_rad);
 /** Wrap an angle difference to [-pi, pi). */
 float fw_wrap_pi(float angle_rad);
+/** -1, 0 or +1 by the sign of x (the sliding-mode switching function). */
+float fw_signf(float x);
 /** Clamp x to [lo, hi]. */
 float fw_clampf(float x, float lo, float hi);
 /** Non-zero if x is a finite float (not NaN, not +-inf). */

@@ -16,19 +16,7 @@
 #include "pi_ctrl.h"
 #include "svpwm.h"
 
-static int g_checks = 0;
-static int g_failures = 0;
-
-#define CHECK(cond, ...)                                                  \
-    do {                                                                  \
-        ++g_checks;                                                       \
-        if (!(cond)) {                                                    \
-            ++g_failures;                                                 \
-            fprintf(stderr, "%s:%d: CHECK(%s) failed: ", __FILE__, __LINE__, #cond); \
-            fprintf(stderr, __VA_ARGS__);                                 \
-            fprintf(stderr, "\n");                                        \
-        }                                                                 \
-    } while (0)
+#include "check.h"
 
 static float absf(float x) { return x < 0.0f ? -x : x; }
 
@@ -364,6 +352,5 @@ int main(void)
     test_pi();
     test_smo_sign_tracks_angle();
     test_session();
-    printf("test_firmware: %d checks, %d failures\n", g_checks, g_failures);
-    return g_failures == 0 ? 0 : 1;
+    return check_summary("test_fw_core");
 }

@@ -17,19 +17,7 @@
 #include "est_sdft.h"
 #include "harm_comp.h"
 
-static int g_checks = 0;
-static int g_failures = 0;
-
-#define CHECK(cond, ...)                                                                   \
-    do {                                                                                   \
-        ++g_checks;                                                                        \
-        if (!(cond)) {                                                                     \
-            ++g_failures;                                                                  \
-            fprintf(stderr, "%s:%d: CHECK(%s) failed: ", __FILE__, __LINE__, #cond);       \
-            fprintf(stderr, __VA_ARGS__);                                                  \
-            fprintf(stderr, "\n");                                                         \
-        }                                                                                  \
-    } while (0)
+#include "check.h"
 
 #define TWO_PI 6.283185307179586
 #define DRIFT_N 10000000L
@@ -284,6 +272,5 @@ int main(void)
     test_normalisation_and_refusals();
     test_harm_comp();
     test_drift();
-    printf("test_fw_dft: %d checks, %d failures\n", g_checks, g_failures);
-    return g_failures == 0 ? 0 : 1;
+    return check_summary("test_fw_dft");
 }

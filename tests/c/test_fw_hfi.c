@@ -10,19 +10,7 @@
 
 #include "est_hfi.h"
 
-static int g_checks = 0;
-static int g_failures = 0;
-
-#define CHECK(cond, ...)                                                                   \
-    do {                                                                                   \
-        ++g_checks;                                                                        \
-        if (!(cond)) {                                                                     \
-            ++g_failures;                                                                  \
-            fprintf(stderr, "%s:%d: CHECK(%s) failed: ", __FILE__, __LINE__, #cond);       \
-            fprintf(stderr, __VA_ARGS__);                                                  \
-            fprintf(stderr, "\n");                                                         \
-        }                                                                                  \
-    } while (0)
+#include "check.h"
 
 #define PI_D 3.141592653589793
 #define R_OHM 0.78
@@ -148,6 +136,5 @@ int main(void)
     test_injection();
     test_initial_position();
     test_refusals();
-    printf("test_fw_hfi: %d checks, %d failures\n", g_checks, g_failures);
-    return g_failures == 0 ? 0 : 1;
+    return check_summary("test_fw_hfi");
 }

@@ -12,19 +12,7 @@
 #include "est_smo_tanh.h"
 #include "fw_math.h"
 
-static int g_checks = 0;
-static int g_failures = 0;
-
-#define CHECK(cond, ...)                                                  \
-    do {                                                                  \
-        ++g_checks;                                                       \
-        if (!(cond)) {                                                    \
-            ++g_failures;                                                 \
-            fprintf(stderr, "%s:%d: CHECK(%s) failed: ", __FILE__, __LINE__, #cond); \
-            fprintf(stderr, __VA_ARGS__);                                 \
-            fprintf(stderr, "\n");                                        \
-        }                                                                 \
-    } while (0)
+#include "check.h"
 
 static float absf(float x) { return x < 0.0f ? -x : x; }
 
@@ -344,6 +332,5 @@ int main(void)
     test_delay_comp_synthetic();
     test_delay_comp_guards();
     test_delay_comp_config();
-    printf("test_fw_smo: %d checks, %d failures\n", g_checks, g_failures);
-    return g_failures == 0 ? 0 : 1;
+    return check_summary("test_fw_smo");
 }
