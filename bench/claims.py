@@ -251,6 +251,30 @@ CLAIMS: dict[str, Claim] = {c.id: c for c in (
           ("gong_g3_2000rpm",),
           "The paper closes the loop with its tanh SMO (m = 0.01); gong_g3_2000rpm uses the "
           "conventional sign SMO (eq. 3-7)."),
+    Claim("H1", "Hou (001), Fig. 7-8, section 4.2",
+          "0 -> 10 rpm with full load, 10 -> 50 rpm: speed-estimation error SMO +-4 rpm at 10 and "
+          "+-6 rpm at 50; HF injection + SDFT +-1.5 rpm and +-3 rpm",
+          (Quantity("speed_est_error_rpm", 1.5, "<=", what="HFI speed-estimation error at 10 rpm",
+                    window_s=(0.3, 0.4)),
+           Quantity("speed_est_error_rpm", 3.0, "<=", what="HFI speed-estimation error at 50 rpm",
+                    window_s=(0.55, 0.7)),
+           Quantity("speed_est_error_rpm", 4.0, "<=", what="SMO speed-estimation error at 10 rpm",
+                    source="reference:SMO_SIGN", window_s=(0.3, 0.4)),
+           Quantity("speed_est_error_rpm", 6.0, "<=", what="SMO speed-estimation error at 50 rpm",
+                    source="reference:SMO_SIGN", window_s=(0.55, 0.7)),
+           Quantity("pee_max_rad", math.radians(5.0), "<=", what="HFI position error at 50 rpm "
+                    "(not a paper number: 5 deg sanity bound)", window_s=(0.55, 0.7))),
+          ("hou_h1_hfi",),
+          "HFI closes the loop; the SMO (sign, Ls = Lq, which ignores the saliency) runs as a host "
+          "reference on the same samples. The initial-position detection shifts the time base by "
+          "about 60 ms; full load arrives as a 50 ms ramp (see the scenario)."),
+    Claim("H3", "Hou (001), Fig. 11-12, section 4.3",
+          "initial position at 0, 45, 90, 135, 180 deg: estimation error within +-1 deg, N/S "
+          "polarity right",
+          (Quantity("pee_max_rad", math.radians(1.0), "<=",
+                    what="initial-position error after the procedure (a polarity error reads pi)"),),
+          ("hou_h3_ipd",),
+          "One recording per initial angle (the test suite runs all five)."),
 )}
 
 

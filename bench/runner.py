@@ -44,6 +44,7 @@ TWO_PI = 2.0 * math.pi
 
 _SENSE = MESSAGES["SENSE"]
 _SENSE_AUX = MESSAGES["SENSE_AUX"]
+_SENSE_DUAL = MESSAGES["SENSE_DUAL"]
 _DUTY = MESSAGES["DUTY"]
 _TELEM = MESSAGES["TELEM"]
 _TELEM_EMF = MESSAGES["TELEM_EMF"]
@@ -197,6 +198,8 @@ class LockstepRunner:
 
     def hello_flags(self) -> int:
         flags = HelloFlag.ENCODER_VALID
+        if self.plant.params.dual_sampling:
+            flags |= HelloFlag.DUAL_SAMPLING
         if self.scn.telemetry_emf:
             flags |= HelloFlag.TELEM_EMF
         return int(flags)
@@ -377,6 +380,9 @@ class LockstepRunner:
         consecutive_bad = 0
         last_state = -1
         aux_flags = int(SenseAuxFlag.THETA_ENC_VALID)
+        dual_flag = int(SenseAuxFlag.DUAL_FOLLOWS)
+        dual = bool(self.plant.params.dual_sampling)
+        dual_pack, DUAL_ID = _SENSE_DUAL.pack_values, _SENSE_DUAL.frame_id
         theta_enc_max = TWO_PI - 0.5 * _SENSE_AUX.signal("theta_enc").scale
         nan = math.nan
         progress = _Progress(self.n_cycles, scn.name) if self.progress else None
@@ -389,14 +395,22 @@ class LockstepRunner:
                 while events and events[0].t_s <= t_s + 0.5 * ts:
                     self._apply_event(events.pop(0), t_s, pending_cmds)
 
-                # sensor model (ideal: the wire's 1 mA / 10 mV scaling is the only quantisation)
+                # what the controller's ADC measured (plant sensor model: 12-bit, gain, offset,
+                # noise when the scenario turns it on), then the wire's 1 mA / 10 mV scaling
                 seq = k & 0xFFFF
-                v_dc = snap.v_dc_v
+                smp = plant.sample()
+                v_dc = smp.v_dc_v
                 theta = snap.theta_e_rad
                 theta_enc = theta if theta < theta_enc_max else 0.0   # 16-bit encoder wraps
-                aux = sense_aux_pack((seq, v_dc, theta_enc, aux_flags))
-                sense = sense_pack((seq, snap.i_a_a, snap.i_b_a, snap.i_c_a), saturate=True)
-                tx = pending_cmds + [(AUX_ID, aux), (SENSE_ID, sense)]
+                if dual and smp.dual_valid:
+                    aux = sense_aux_pack((seq, v_dc, theta_enc, aux_flags | dual_flag))
+                    tx = pending_cmds + [(AUX_ID, aux), (DUAL_ID, dual_pack(
+                        (seq, smp.i2_a_a, smp.i2_b_a, smp.i2_c_a), saturate=True))]
+                else:
+                    aux = sense_aux_pack((seq, v_dc, theta_enc, aux_flags))
+                    tx = pending_cmds + [(AUX_ID, aux)]
+                sense = sense_pack((seq, smp.i_a_a, smp.i_b_a, smp.i_c_a), saturate=True)
+                tx.append((SENSE_ID, sense))
                 try:
                     link.send(tx)
                 except LinkError as exc:

@@ -63,7 +63,7 @@ class Scenario:
     estimator: Estimator
     speed_ref_rad_s: float
     controller_params: dict[Param, float]   # explicit overrides, SI
-    plant_overrides: dict[str, float]       # plant_params fields
+    plant_overrides: dict[str, object]      # plant_rt override keys (plant_rt/README.md)
     initial_theta_e_rad: float
     initial_speed_rad_s: float
     initial_load_torque_nm: float
@@ -168,6 +168,23 @@ class _Fields:
             raise self.fail(key, "unknown key (typo?)")
 
 
+def _plant_value(fields: _Fields, key: str):
+    """A plant override: a number, a switch (true/false), a name (load_profile) or a list of
+    numbers (load tables); the plant validates the value itself (ProfileError names the key)."""
+    fields.used.add(key)
+    v = fields.table[key]
+    if isinstance(v, bool):
+        return int(v)
+    if isinstance(v, (int, float)):
+        return fields.number(key)
+    if isinstance(v, str):
+        return v
+    if isinstance(v, list) and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                   for x in v):
+        return [float(x) for x in v]
+    raise fields.fail(key, f"must be a number, true/false, a name or a list of numbers, got {v!r}")
+
+
 def _estimator(fields: _Fields, key: str) -> Estimator:
     name = fields.string(key, "SMO_SIGN").upper()
     try:
@@ -257,7 +274,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     initial_theta = p.number("initial_theta_e_rad", 0.0)
     initial_speed = p.number("initial_speed_rpm", 0.0) / RPM_PER_RAD_S
     initial_load = p.number("load_torque_nm", 0.0)
-    plant_overrides = {k: p.number(k) for k in p.table
+    plant_overrides = {k: _plant_value(p, k) for k in p.table
                        if k not in ("initial_theta_e_rad", "initial_speed_rpm", "load_torque_nm")}
 
     c = top.table_of("controller")

@@ -7,13 +7,19 @@
     rec = snapshot_array(1000)        # numpy structured array, dtype SNAPSHOT_DTYPE
     buf = snapshot_buffer(rec)        # cffi view of it
     plant.snapshot_to(buf, 0)         # C writes the snapshot straight into rec[0]
+    m = plant.sample()                # live cffi plant_sample_t: what the controller's ADC read
+                                      # at t_k (m.i_a_a ...) and, with dual sampling, at
+                                      # t_{k-1} + t_d (m.i2_a_a ...)
+
+    Plant.from_profile("yuan2020", inverter_nonlinear=True, adc_model=1, adc_seed=7)
+                                      # non-idealities: flat keys (plant_rt/profile.py)
 
 Units are SI and named in the fields (see plant_rt/c/plant.h for the timing contract: the
 snapshot after step k is taken at t_{k+1}, the next sampling instant).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import fields, make_dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -23,7 +29,8 @@ from plant_rt.profile import (
     PARAM_FIELDS,
     MotorProfile,
     ProfileError,
-    coerce_number,
+    c_struct,
+    coerce_value,
     unknown_key_error,
     display_path,
     load_profile,
@@ -67,49 +74,57 @@ def snapshot_buffer(array: np.ndarray) -> Any:
     return ffi.from_buffer("plant_snapshot_t[]", array, require_writable=True)
 
 
-@dataclass(frozen=True)
-class PlantParams:
-    """Read-only copy of the plant_params_t the plant was built with (SI)."""
+#: plant_sample_t field names, in struct order (doubles and ints)
+SAMPLE_FIELDS: tuple[str, ...] = tuple(name for name, _ in ffi.typeof("plant_sample_t").fields)
+#: numpy dtype with the exact memory layout of plant_sample_t
+SAMPLE_DTYPE = np.dtype({
+    "names": list(SAMPLE_FIELDS),
+    "formats": ["<f8" if f.type is ffi.typeof("double") else "<i4"
+                for _, f in ffi.typeof("plant_sample_t").fields],
+    "offsets": [f.offset for _, f in ffi.typeof("plant_sample_t").fields],
+    "itemsize": ffi.sizeof("plant_sample_t"),
+})
+assert all(f.type in (ffi.typeof("double"), ffi.typeof("int"))
+           for _, f in ffi.typeof("plant_sample_t").fields)
 
-    rs_ohm: float
-    ld_h: float
-    lq_h: float
-    psi_f_wb: float
-    pole_pairs: int
-    j_kgm2: float
-    b_nms: float
-    v_dc_v: float
-    ts_s: float
-    t_delay_s: float
-    substeps: int
 
-    def as_dict(self) -> dict[str, float | int]:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+def _as_dict(self) -> dict[str, Any]:
+    return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+#: Read-only copy of the parameters the plant was built with (SI; every flat key of
+#: plant_rt.profile.PARAM_FIELDS: the 11 plant_params_t base fields, then the non-idealities).
+PlantParams = make_dataclass(
+    "PlantParams", [(name, Any) for name in PARAM_FIELDS], frozen=True,
+    namespace={"as_dict": _as_dict, "__doc__": "Read-only copy of the plant parameters (SI)."})
 
 
 class Plant:
     """PMSM + inverter + mechanics, one ``step`` per PWM/control period.
 
-    Plant(profile, **overrides): any plant_params_t field can be overridden (same validation
-    as profile files; errors are ProfileError naming the profile file and the field).
+    Plant(profile, **overrides): any parameter (flat key, plant_rt.profile.PARAM_FIELDS) can be
+    overridden (same validation as profile files; errors are ProfileError naming the profile
+    file and the field). Non-idealities are switched on by overrides, e.g.
+    ``Plant(prof, inverter_nonlinear=True, dead_time_s=2e-6)``.
     """
 
-    def __init__(self, profile: MotorProfile, **overrides: float | int):
+    def __init__(self, profile: MotorProfile, **overrides: Any):
         values = profile.plant_params()
         where = f"{display_path(profile.path)} (with overrides)"
         for key, value in overrides.items():
             if key not in PARAM_FIELDS:
                 raise unknown_key_error(where, f"overrides.{key}", key, tuple(PARAM_FIELDS))
             section, kind = PARAM_FIELDS[key]
-            values[key] = coerce_number(where, f"{section}.{key}", value, kind)
+            values[key] = coerce_value(where, f"{section}.{key}", value, kind)
         validate_params(values, where, lambda n: f"{PARAM_FIELDS[n][0]}.{n}" if n in PARAM_FIELDS else n)
         self._profile = profile
         self._params = PlantParams(**values)  # type: ignore[arg-type]
-        self._cparams = ffi.new("plant_params_t *", values)
+        self._cparams = ffi.new("plant_params_t *", c_struct(values))
         self._pl = ffi.new("plant_t *")
         if lib.plant_init(self._pl, self._cparams) != 0:  # cannot happen after validate_params
             raise ProfileError(f"{where}: plant_init rejected the parameters")
         self._snap = ffi.new("plant_snapshot_t *")
+        self._sample = ffi.new("plant_sample_t *")
         self._energy = ffi.new("plant_energy_t *")
         self._step_c = lib.plant_step_abc
 
@@ -177,6 +192,23 @@ class Plant:
         s = self.snapshot()
         return {name: getattr(s, name) for name in SNAPSHOT_FIELDS}
 
+    def sample(self) -> Any:
+        """What the controller's ADC measured for the period starting now, as a live cffi
+        ``plant_sample_t *`` (refreshed by every call; see plant.h "Sampling"):
+        i_a_a, i_b_a, i_c_a, v_dc_v at t_k; with dual sampling i2_a_a, i2_b_a, i2_c_a at
+        t2_s = t_{k-1} + t_d (dual_valid = 1 from the second period on); raw codes code_*."""
+        lib.plant_sample(self._pl, self._sample)
+        return self._sample
+
+    def sample_dict(self) -> dict[str, float | int]:
+        """The sample as a plain dict {field: value}."""
+        m = self.sample()
+        return {name: getattr(m, name) for name in SAMPLE_FIELDS}
+
+    def load_torque_at(self, t_s: float) -> float:
+        """Load torque the plant applies at time t [N m]: set torque + load profile (not the dyno)."""
+        return lib.plant_load_torque_at(self._pl, t_s)
+
     def energy(self) -> dict[str, float]:
         """Energy bookkeeping since the last reset [J] (see plant_energy_t in plant.h)."""
         lib.plant_energy(self._pl, self._energy)
@@ -185,15 +217,22 @@ class Plant:
 
     # -- control -------------------------------------------------------------------------------
     def set_load_torque(self, torque_nm: float) -> None:
-        """Load torque [N m] from now on; positive opposes positive rotation."""
+        """Load torque [N m] from now on, added to the profile's load_profile; positive opposes
+        positive rotation. Ignored in dyno mode (the dynamometer imposes the speed)."""
         lib.plant_set_load_torque(self._pl, torque_nm)
+
+    def set_dyno_speed(self, omega_m_rad_s: float) -> None:
+        """Dynamometer set speed [rad/s, mechanical] (dyno mode; the speed slews to it at
+        dyno_accel_rad_s2, or steps at the next period start if that is 0)."""
+        lib.plant_set_dyno_speed(self._pl, omega_m_rad_s)
 
     def set_initial(self, theta_e_rad: float, omega_m_rad_s: float) -> None:
         """Rotor electrical angle [rad] (wrapped) and mechanical speed [rad/s]; currents and t kept."""
         lib.plant_set_initial(self._pl, theta_e_rad, omega_m_rad_s)
 
     def reset(self) -> None:
-        """Back to t = 0, zero currents and speed, no load torque, previous duties 0.5."""
+        """Back to t = 0, zero currents and speed (dyno mode: the dyno's set speed), no load
+        torque, previous duties 0.5, noise generator reseeded (the same samples again)."""
         lib.plant_reset(self._pl)
 
     def step_abc(self, duties: Sequence[float]) -> None:

@@ -4,13 +4,35 @@ File layout (every key is required unless marked optional; unknown keys are erro
 
     [profile]     name, kind ("SPMSM" | "IPMSM"), source (citation), assumptions (list of str)
     [motor]       rs_ohm [ohm], ld_h [H], lq_h [H], psi_f_wb [Wb, peak phase], pole_pairs [-]
-    [mechanics]   j_kgm2 [kg m^2], b_nms [N m s/rad]
-    [drive]       v_dc_v [V], ts_s [s] (PWM = control period), t_delay_s [s] (sampling -> new duties)
+    [mechanics]   j_kgm2 [kg m^2], b_nms [N m s/rad],
+                  coulomb_nm [N m], coulomb_band_rad_s [rad/s],
+                  load_profile ("none" | "step" | "ramp" | "table"), load_t0_s, load_t1_s [s],
+                  load_torque0_nm, load_torque1_nm [N m], load_table_t_s [s], load_table_nm [N m]
+                  (lists, <= 32 points), dyno (bool), dyno_speed_rad_s, dyno_accel_rad_s2
+    [drive]       v_dc_v [V], ts_s [s] (PWM = control period), t_delay_s [s] (sampling -> new duties),
+                  full_period_delay (bool: the new duties act from the next period boundary)
+    [inverter]    inverter_nonlinear (bool), dead_time_s [s], v_switch_drop_v [V], r_switch_ohm [ohm],
+                  v_diode_drop_v [V], r_diode_ohm [ohm], i_cap_band_a [A]
+    [magnetics]   saturation (bool), sat_l_inf_ratio [-], sat_i_scale_a [A], sat_i_knee_a [A]
+    [sensors]     adc_model (bool), adc_bits, adc_full_scale_a [A], adc_gain_err_ia/_ib/_ic [-],
+                  adc_offset_ia_a/_ib_a/_ic_a [A], adc_noise_a_rms [A], adc_vdc_full_scale_v [V],
+                  adc_vdc_gain_err [-], adc_vdc_offset_v [V], adc_vdc_noise_v_rms [V], adc_seed,
+                  dual_sampling (bool)
     [simulation]  substeps [-] (RK4 steps per period)
     [rated]       speed_rad_s [rad/s, mechanical], torque_nm [N m], current_a [A, peak phase];
                   optional: power_w, speed_rpm, bus_current_a, corner_speed_rad_s, voltage_constant_ce
     [cite]        "<section>.<key>" = "where the value comes from" for every value above
-                  (a paper table, or "assumption: why")
+                  (a paper table, or "assumption: why"); "<section>.*" covers the values of that
+                  section that have no entry of their own
+
+The keys are flat and unique across sections: ``Plant(profile, **overrides)`` takes any of them
+(a scenario's [plant] table). Booleans also accept 0/1 (numbers), load_profile also accepts its
+code 0..3. Each non-ideality group has a switch (inverter_nonlinear, saturation, adc_model,
+dual_sampling, full_period_delay, dyno; Coulomb friction and the load profile are off at 0 /
+"none"); the shipped profiles keep every switch off, so a scenario turns on what it needs and
+gets the profile's values. Every value is also checked as if its switch were on (a physically
+impossible value is an error even while its effect is off; the integrator's step limits, which
+depend on V_dc and substeps, only when the effect is on).
 
 Every problem raises :class:`ProfileError` whose message names the file and the dotted field,
 e.g. ``plant_rt/profiles/x.toml: motor.ld_h: must be > 0, got -0.002``. The physical rules are
@@ -28,8 +50,15 @@ from typing import Any, Callable, Mapping
 PROFILE_DIR = Path(__file__).resolve().parent / "profiles"
 _REPO_ROOT = Path(__file__).resolve().parents[1]
 
-#: plant_params_t fields in C order -> (section in the TOML file, python type)
-PARAM_FIELDS: dict[str, tuple[str, type]] = {
+#: Kinds of values besides float and int.
+BOOL = "bool"            # TOML true/false (or 0/1); C int 0/1
+LOAD_KIND = "load_kind"  # "none" | "step" | "ramp" | "table" (or 0..3); C int
+FLOAT_LIST = "float_list"  # list of numbers; C array + count
+LOAD_KINDS = ("none", "step", "ramp", "table")
+LOAD_TABLE_MAX = 32      # MECH_LOAD_TABLE_MAX in mechanics.h
+
+#: The 11 base plant_params_t fields, in C order -> (section in the TOML file, python type)
+BASE_FIELDS: dict[str, tuple[str, Any]] = {
     "rs_ohm": ("motor", float),
     "ld_h": ("motor", float),
     "lq_h": ("motor", float),
@@ -42,13 +71,68 @@ PARAM_FIELDS: dict[str, tuple[str, type]] = {
     "t_delay_s": ("drive", float),
     "substeps": ("simulation", int),
 }
+
+#: Non-ideality fields (flat key = C field name) -> (TOML section, python type, C group
+#: inside plant_params_t or None for a top-level field). Order = C order.
+NONIDEAL_FIELDS: dict[str, tuple[str, Any, str | None]] = {
+    "full_period_delay": ("drive", BOOL, None),
+    "inverter_nonlinear": ("inverter", BOOL, "inverter"),
+    "dead_time_s": ("inverter", float, "inverter"),
+    "v_switch_drop_v": ("inverter", float, "inverter"),
+    "r_switch_ohm": ("inverter", float, "inverter"),
+    "v_diode_drop_v": ("inverter", float, "inverter"),
+    "r_diode_ohm": ("inverter", float, "inverter"),
+    "i_cap_band_a": ("inverter", float, "inverter"),
+    "saturation": ("magnetics", BOOL, "magnetics"),
+    "sat_l_inf_ratio": ("magnetics", float, "magnetics"),
+    "sat_i_scale_a": ("magnetics", float, "magnetics"),
+    "sat_i_knee_a": ("magnetics", float, "magnetics"),
+    "adc_model": ("sensors", BOOL, "sensors"),
+    "adc_bits": ("sensors", int, "sensors"),
+    "adc_full_scale_a": ("sensors", float, "sensors"),
+    "adc_gain_err_ia": ("sensors", float, "sensors"),
+    "adc_gain_err_ib": ("sensors", float, "sensors"),
+    "adc_gain_err_ic": ("sensors", float, "sensors"),
+    "adc_offset_ia_a": ("sensors", float, "sensors"),
+    "adc_offset_ib_a": ("sensors", float, "sensors"),
+    "adc_offset_ic_a": ("sensors", float, "sensors"),
+    "adc_noise_a_rms": ("sensors", float, "sensors"),
+    "adc_vdc_full_scale_v": ("sensors", float, "sensors"),
+    "adc_vdc_gain_err": ("sensors", float, "sensors"),
+    "adc_vdc_offset_v": ("sensors", float, "sensors"),
+    "adc_vdc_noise_v_rms": ("sensors", float, "sensors"),
+    "adc_seed": ("sensors", int, "sensors"),
+    "dual_sampling": ("sensors", BOOL, "sensors"),
+    "coulomb_nm": ("mechanics", float, "mechanics"),
+    "coulomb_band_rad_s": ("mechanics", float, "mechanics"),
+    "load_profile": ("mechanics", LOAD_KIND, "mechanics"),
+    "load_t0_s": ("mechanics", float, "mechanics"),
+    "load_t1_s": ("mechanics", float, "mechanics"),
+    "load_torque0_nm": ("mechanics", float, "mechanics"),
+    "load_torque1_nm": ("mechanics", float, "mechanics"),
+    "load_table_t_s": ("mechanics", FLOAT_LIST, "mechanics"),
+    "load_table_nm": ("mechanics", FLOAT_LIST, "mechanics"),
+    "dyno": ("mechanics", BOOL, "mechanics"),
+    "dyno_speed_rad_s": ("mechanics", float, "mechanics"),
+    "dyno_accel_rad_s2": ("mechanics", float, "mechanics"),
+}
+
+#: Every flat parameter key -> (section in the TOML file, python type); base fields first.
+PARAM_FIELDS: dict[str, tuple[str, Any]] = {
+    **BASE_FIELDS,
+    **{k: (sec, kind) for k, (sec, kind, _) in NONIDEAL_FIELDS.items()},
+}
+
+#: The switches, forced on when a profile's values are checked ("as if on").
+SWITCHES = ("full_period_delay", "inverter_nonlinear", "saturation", "adc_model", "dual_sampling", "dyno")
 MAX_SUBSTEPS = 100_000  # PLANT_MAX_SUBSTEPS in plant.h
 
 RATED_REQUIRED = ("speed_rad_s", "torque_nm", "current_a")
 RATED_OPTIONAL = ("power_w", "speed_rpm", "bus_current_a", "corner_speed_rad_s", "voltage_constant_ce")
 PROFILE_KEYS = ("name", "kind", "source", "assumptions")
 KINDS = ("SPMSM", "IPMSM")
-SECTIONS = ("profile", "motor", "mechanics", "drive", "simulation", "rated", "cite")
+SECTIONS = ("profile", "motor", "mechanics", "drive", "inverter", "magnetics", "sensors",
+            "simulation", "rated", "cite")
 
 
 class ProfileError(ValueError):
@@ -78,10 +162,18 @@ class MotorProfile:
     assumptions: list[str]         # every value not from the paper, with its reason
     cite: dict[str, str] = field(default_factory=dict)  # "section.key" -> source of the value
     raw: dict[str, Any] = field(default_factory=dict)   # the parsed TOML document
+    nonideal: dict[str, Any] = field(default_factory=dict)  # NONIDEAL_FIELDS values (flat)
 
-    def plant_params(self) -> dict[str, float | int]:
-        """The 11 ``plant_params_t`` fields (C order) as a dict."""
-        return {name: getattr(self, name) for name in PARAM_FIELDS}
+    def plant_params(self) -> dict[str, Any]:
+        """Every plant parameter, flat (C order): the 11 base fields, then the non-idealities."""
+        base = {name: getattr(self, name) for name in BASE_FIELDS}
+        return {**base, **{k: self.nonideal[k] for k in NONIDEAL_FIELDS}}
+
+    def __getattr__(self, name: str) -> Any:  # profile.dead_time_s etc.
+        nonideal = self.__dict__.get("nonideal", {})
+        if name in nonideal:
+            return nonideal[name]
+        raise AttributeError(name)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -117,12 +209,200 @@ _RULES: list[tuple[str, Callable[[Mapping[str, Any]], bool], str]] = [
 ]
 
 
-def check_params(params: Mapping[str, Any]) -> tuple[str, str] | None:
-    """First violated rule as (field, reason), or None. Same rules/order as plant_params_check."""
+def _flag(name: str):
+    return (name, lambda p: p[name] in (0, 1), "must be 0 or 1")
+
+
+def _when(cond: Callable[[Mapping[str, Any]], bool], name: str,
+          ok: Callable[[Mapping[str, Any]], bool], reason: str):
+    """A rule that applies only when cond(p) holds (the group's switch is on)."""
+    return (name, lambda p: (not cond(p)) or ok(p), reason)
+
+
+def _sat(p: Mapping[str, Any]) -> bool:
+    return bool(p["saturation"])
+
+
+def _inv(p: Mapping[str, Any]) -> bool:
+    return bool(p["inverter_nonlinear"])
+
+
+def _adc(p: Mapping[str, Any]) -> bool:
+    return bool(p["adc_model"])
+
+
+def _l_min(p: Mapping[str, Any]) -> float:
+    return min(p["ld_h"] * (p["sat_l_inf_ratio"] if p["saturation"] else 1.0), p["lq_h"])
+
+
+def _band_ok(p: Mapping[str, Any]) -> bool:
+    """RK4 stability across the dead-time band (plant_params_check_nonideal)."""
+    h = p["ts_s"] / p["substeps"]
+    slope = (p["dead_time_s"] / p["ts_s"] * p["v_dc_v"]
+             + 2.0 * (p["v_switch_drop_v"] + p["v_diode_drop_v"])) / (2.0 * p["i_cap_band_a"])
+    return h * slope <= 2.0 * _l_min(p)
+
+
+def _coulomb_ok(p: Mapping[str, Any]) -> bool:
+    h = p["ts_s"] / p["substeps"]
+    return h * p["coulomb_nm"] <= 2.0 * p["j_kgm2"] * p["coulomb_band_rad_s"]
+
+
+def _load_code(p: Mapping[str, Any]) -> int:
+    v = p["load_profile"]
+    return LOAD_KINDS.index(v) if isinstance(v, str) and v in LOAD_KINDS else v
+
+
+def _kind_is(*codes: int):
+    return lambda p: _load_code(p) in codes
+
+
+def _table_first_bad(p: Mapping[str, Any]) -> str | None:
+    """The table rules are per point in C (finite t, finite T, increasing, point by point)."""
+    t, v = list(p["load_table_t_s"]), list(p["load_table_nm"])
+    for k in range(min(len(t), len(v))):
+        if not _finite(t[k]):
+            return "load_table_t_s: must be finite"
+        if not _finite(v[k]):
+            return "load_table_nm: must be finite"
+        if k > 0 and not t[k] > t[k - 1]:
+            return "load_table_t_s: must be strictly increasing"
+    return None
+
+
+_NONIDEAL_RULES: list[tuple[str, Callable[[Mapping[str, Any]], bool], str]] = [
+    _flag("full_period_delay"),
+    _flag("saturation"),
+    _when(_sat, "sat_l_inf_ratio", lambda p: _finite(p["sat_l_inf_ratio"]), "must be finite"),
+    _when(_sat, "sat_l_inf_ratio", lambda p: p["sat_l_inf_ratio"] > 0.0, "must be > 0"),
+    _when(_sat, "sat_l_inf_ratio", lambda p: p["sat_l_inf_ratio"] <= 1.0, "must be <= 1"),
+    _when(_sat, "sat_i_scale_a", lambda p: _finite(p["sat_i_scale_a"]), "must be finite"),
+    _when(_sat, "sat_i_scale_a", lambda p: p["sat_i_scale_a"] > 0.0, "must be > 0"),
+    _when(_sat, "sat_i_knee_a", lambda p: _finite(p["sat_i_knee_a"]), "must be finite"),
+    _when(_sat, "sat_i_knee_a", lambda p: p["sat_i_knee_a"] <= 0.0, "must be <= 0"),
+    _when(_sat, "sat_i_knee_a", lambda p: p["sat_i_knee_a"] >= -3.0 * p["sat_i_scale_a"],
+          "must be >= -3 sat_i_scale_a"),
+    _flag("inverter_nonlinear"),
+    _when(_inv, "dead_time_s", lambda p: _finite(p["dead_time_s"]), "must be finite"),
+    _when(_inv, "dead_time_s", lambda p: p["dead_time_s"] >= 0.0, "must be >= 0"),
+    _when(_inv, "dead_time_s", lambda p: 2.0 * p["dead_time_s"] < p["ts_s"], "must be < ts_s / 2"),
+    *[r for name in ("v_switch_drop_v", "r_switch_ohm", "v_diode_drop_v", "r_diode_ohm")
+      for r in (_when(_inv, name, (lambda n: lambda p: _finite(p[n]))(name), "must be finite"),
+                _when(_inv, name, (lambda n: lambda p: p[n] >= 0.0)(name), "must be >= 0"))],
+    _when(_inv, "i_cap_band_a", lambda p: _finite(p["i_cap_band_a"]), "must be finite"),
+    _when(_inv, "i_cap_band_a", lambda p: p["i_cap_band_a"] > 0.0, "must be > 0"),
+    _when(_inv, "i_cap_band_a", _band_ok, "too small for the RK4 step (raise it or substeps)"),
+    _flag("adc_model"),
+    _flag("dual_sampling"),
+    _when(_adc, "adc_bits", lambda p: 1 <= p["adc_bits"] <= 24, "must be 1 .. 24"),
+    _when(_adc, "adc_full_scale_a", lambda p: _finite(p["adc_full_scale_a"]), "must be finite"),
+    _when(_adc, "adc_full_scale_a", lambda p: p["adc_full_scale_a"] > 0.0, "must be > 0"),
+    *[_when(_adc, n, (lambda n: lambda p: _finite(p[n]) and p[n] > -1.0)(n), "must be finite and > -1")
+      for n in ("adc_gain_err_ia", "adc_gain_err_ib", "adc_gain_err_ic")],
+    *[_when(_adc, n, (lambda n: lambda p: _finite(p[n]))(n), "must be finite")
+      for n in ("adc_offset_ia_a", "adc_offset_ib_a", "adc_offset_ic_a")],
+    _when(_adc, "adc_noise_a_rms", lambda p: _finite(p["adc_noise_a_rms"]), "must be finite"),
+    _when(_adc, "adc_noise_a_rms", lambda p: p["adc_noise_a_rms"] >= 0.0, "must be >= 0"),
+    _when(_adc, "adc_vdc_full_scale_v", lambda p: _finite(p["adc_vdc_full_scale_v"]), "must be finite"),
+    _when(_adc, "adc_vdc_full_scale_v", lambda p: p["adc_vdc_full_scale_v"] > 0.0, "must be > 0"),
+    _when(_adc, "adc_vdc_gain_err", lambda p: _finite(p["adc_vdc_gain_err"]) and p["adc_vdc_gain_err"] > -1.0,
+          "must be finite and > -1"),
+    _when(_adc, "adc_vdc_offset_v", lambda p: _finite(p["adc_vdc_offset_v"]), "must be finite"),
+    _when(_adc, "adc_vdc_noise_v_rms", lambda p: _finite(p["adc_vdc_noise_v_rms"]), "must be finite"),
+    _when(_adc, "adc_vdc_noise_v_rms", lambda p: p["adc_vdc_noise_v_rms"] >= 0.0, "must be >= 0"),
+    ("coulomb_nm", lambda p: _finite(p["coulomb_nm"]), "must be finite"),
+    ("coulomb_nm", lambda p: p["coulomb_nm"] >= 0.0, "must be >= 0"),
+    _when(lambda p: p["coulomb_nm"] > 0.0, "coulomb_band_rad_s", lambda p: _finite(p["coulomb_band_rad_s"]),
+          "must be finite"),
+    _when(lambda p: p["coulomb_nm"] > 0.0, "coulomb_band_rad_s", lambda p: p["coulomb_band_rad_s"] > 0.0,
+          "must be > 0"),
+    _when(lambda p: p["coulomb_nm"] > 0.0, "coulomb_band_rad_s", _coulomb_ok,
+          "too small for the RK4 step (raise it or substeps)"),
+    ("load_profile", lambda p: _load_code(p) in (0, 1, 2, 3), "must be none, step, ramp or table"),
+    _when(_kind_is(1, 2), "load_t0_s", lambda p: _finite(p["load_t0_s"]), "must be finite"),
+    _when(_kind_is(1, 2), "load_torque0_nm", lambda p: _finite(p["load_torque0_nm"]), "must be finite"),
+    _when(_kind_is(1, 2), "load_torque1_nm", lambda p: _finite(p["load_torque1_nm"]), "must be finite"),
+    _when(_kind_is(2), "load_t1_s", lambda p: _finite(p["load_t1_s"]), "must be finite"),
+    _when(_kind_is(2), "load_t1_s", lambda p: p["load_t1_s"] > p["load_t0_s"], "must be > load_t0_s for a ramp"),
+    # Python only (C has one count): both lists must have the same length
+    _when(_kind_is(3), "load_table_nm", lambda p: len(p["load_table_nm"]) == len(p["load_table_t_s"]),
+          "must have as many points as load_table_t_s"),
+    _when(_kind_is(3), "load_table_t_s", lambda p: 1 <= len(p["load_table_t_s"]) <= LOAD_TABLE_MAX,
+          f"must have 1 to {LOAD_TABLE_MAX} points"),
+    # per point, as C: reported by _table_first_bad (see check_params)
+    _flag("dyno"),
+    _when(lambda p: bool(p["dyno"]), "dyno_speed_rad_s", lambda p: _finite(p["dyno_speed_rad_s"]), "must be finite"),
+    _when(lambda p: bool(p["dyno"]), "dyno_accel_rad_s2", lambda p: _finite(p["dyno_accel_rad_s2"]), "must be finite"),
+    _when(lambda p: bool(p["dyno"]), "dyno_accel_rad_s2", lambda p: p["dyno_accel_rad_s2"] >= 0.0, "must be >= 0"),
+]
+_TABLE_RULES_AFTER = "load_table_t_s"  # the per-point table rules run right after this rule name
+
+
+STEP_LIMIT_REASON = "too small for the RK4 step (raise it or substeps)"
+
+
+def check_params(params: Mapping[str, Any], *, step_limits: bool = True) -> tuple[str, str] | None:
+    """First violated rule as (field, reason), or None. Same rules/order as plant_params_check.
+
+    ``params`` holds the 11 base fields and, optionally, the non-ideality fields (missing ones
+    take their "off" defaults, as a zero-initialised plant_params_t). step_limits=False skips
+    the integrator's stability limits (they depend on V_dc and substeps, not on physics).
+    """
     for name, ok, reason in _RULES:
         if not ok(params):
             return name, reason
+    p = {**NONIDEAL_DEFAULTS, **params}
+    for name, ok, reason in _NONIDEAL_RULES:
+        if not step_limits and reason == STEP_LIMIT_REASON:
+            continue
+        if not ok(p):
+            return name, reason
+        if name == _TABLE_RULES_AFTER and _load_code(p) == 3:
+            bad = _table_first_bad(p)
+            if bad is not None:
+                field_, _, why = bad.partition(": ")
+                return field_, why
     return None
+
+
+#: "Off" values of the non-ideality fields = a zero-initialised plant_params_t.
+NONIDEAL_DEFAULTS: dict[str, Any] = {
+    k: (False if kind == BOOL else "none" if kind == LOAD_KIND else () if kind == FLOAT_LIST
+        else 0 if kind is int else 0.0)
+    for k, (_, kind, _) in NONIDEAL_FIELDS.items()
+}
+
+
+def switches_on(params: Mapping[str, Any]) -> dict[str, Any]:
+    """params with every non-ideality switch on (to check values "as if on")."""
+    return {**params, **{k: True for k in SWITCHES}}
+
+
+def c_struct(params: Mapping[str, Any]) -> dict[str, Any]:
+    """The flat parameters as the nested initialiser of a C ``plant_params_t`` (cffi)."""
+    p = {**NONIDEAL_DEFAULTS, **params}
+    out: dict[str, Any] = {k: p[k] for k in BASE_FIELDS}
+    groups: dict[str, dict[str, Any]] = {}
+    for key, (_, kind, group) in NONIDEAL_FIELDS.items():
+        value = p[key]
+        if kind == BOOL:
+            value = int(value) if value in (0, 1) else value  # keep bad values bad (checked in C)
+        elif kind == LOAD_KIND:
+            value = _load_code(p)
+            value = value if isinstance(value, int) else -1
+        elif kind == FLOAT_LIST:
+            value = [float(x) for x in list(value)[:LOAD_TABLE_MAX]]
+        if group is None:
+            out[key] = value
+        else:
+            groups.setdefault(group, {})[key] = value
+    mech = groups["mechanics"]
+    n_t, n_v = len(p["load_table_t_s"]), len(p["load_table_nm"])
+    mech["load_table_n"] = n_t if n_t != n_v else n_t
+    if n_t != n_v:
+        mech["load_table_n"] = min(n_t, n_v)
+    out.update(groups)
+    return out
 
 
 def c_check_params(params: Mapping[str, Any]) -> str | None:
@@ -132,7 +412,7 @@ def c_check_params(params: Mapping[str, Any]) -> str | None:
     """
     from plant_rt._plant_c import ffi, lib  # noqa: PLC0415 (optional dependency)
 
-    cp = ffi.new("plant_params_t *", {k: params[k] for k in PARAM_FIELDS})
+    cp = ffi.new("plant_params_t *", c_struct(params))
     msg = lib.plant_params_check(cp)
     return None if msg == ffi.NULL else ffi.string(msg).decode()
 
@@ -157,6 +437,9 @@ def validate_params(params: Mapping[str, Any], where: str, qualify: Callable[[st
     """Raise ProfileError "<where>: <qualified field>: <reason>, got <value>" if non-physical.
 
     Applies the Python rules, then the C ``plant_params_check`` (if built); they must agree.
+    Then the values of the effects that are off are checked as if their switches were on, so a
+    physically impossible value is reported even while its effect is off (not the integrator's
+    step limits, which depend on V_dc and substeps and matter only when the effect runs).
     """
     bad = check_params(params)
     if bad is not None:
@@ -167,6 +450,12 @@ def validate_params(params: Mapping[str, Any], where: str, qualify: Callable[[st
         name, _, reason = c_msg.partition(": ")
         raise ProfileError(f"{where}: {qualify(name)}: {reason}, got {params.get(name)!r} "
                            "(plant_params_check)")
+    if any(k in params for k in NONIDEAL_FIELDS):
+        on = switches_on(params)
+        bad = check_params(on, step_limits=False)
+        if bad is not None:
+            name, reason = bad
+            raise ProfileError(f"{where}: {qualify(name)}: {reason}, got {on[name]!r}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -190,6 +479,34 @@ def unknown_key_error(where: str, dotted: str, key: str, allowed: list[str] | tu
     close = difflib.get_close_matches(key, allowed, n=1)
     hint = f" (did you mean {close[0]!r}?)" if close else f" (expected one of: {', '.join(allowed)})"
     return ProfileError(f"{where}: {dotted}: unknown key{hint}")
+
+
+def coerce_value(where: str, dotted: str, value: Any, kind: Any) -> Any:
+    """A parameter value of any kind (see PARAM_FIELDS) in its canonical Python form:
+    float, int, bool (BOOL: true/false or 0/1), load-profile name (LOAD_KIND: name or 0..3),
+    tuple of floats (FLOAT_LIST)."""
+    if kind == BOOL:
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, (int, float)) and value in (0, 1):
+            return bool(value)
+        raise ProfileError(f"{where}: {dotted}: must be a boolean (true/false or 0/1), got {value!r}")
+    if kind == LOAD_KIND:
+        if isinstance(value, str) and value in LOAD_KINDS:
+            return value
+        if (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and float(value).is_integer() and 0 <= value <= 3):
+            return LOAD_KINDS[int(value)]
+        raise ProfileError(f"{where}: {dotted}: must be one of {', '.join(LOAD_KINDS)} (or 0..3), "
+                           f"got {value!r}")
+    if kind == FLOAT_LIST:
+        if not isinstance(value, (list, tuple)):
+            raise ProfileError(f"{where}: {dotted}: must be a list of numbers, got {value!r}")
+        return tuple(coerce_number(where, f"{dotted}[{k}]", x, float) for k, x in enumerate(value))
+    if (kind is int and isinstance(value, float) and value.is_integer()
+            and dotted.rpartition(".")[2] in NONIDEAL_FIELDS):
+        return int(value)  # the new integer keys also take 12.0 (a bench [plant] table is floats)
+    return coerce_number(where, dotted, value, kind)
 
 
 def coerce_number(where: str, dotted: str, value: Any, kind: type) -> float | int:
@@ -245,7 +562,7 @@ def parse_profile(doc: Mapping[str, Any], path: Path) -> MotorProfile:
         raise ProfileError(f"{where}: profile.assumptions: must be a list of strings, got {assumptions!r}")
 
     # plant parameters, section by section
-    params: dict[str, float | int] = {}
+    params: dict[str, Any] = {}
     sections: dict[str, list[str]] = {}
     for pname, (section, _) in PARAM_FIELDS.items():
         sections.setdefault(section, []).append(pname)
@@ -257,7 +574,7 @@ def parse_profile(doc: Mapping[str, Any], path: Path) -> MotorProfile:
         for pname in names:
             if pname not in tab:
                 raise ProfileError(f"{where}: {section}.{pname}: missing")
-            params[pname] = coerce_number(where, f"{section}.{pname}", tab[pname], PARAM_FIELDS[pname][1])
+            params[pname] = coerce_value(where, f"{section}.{pname}", tab[pname], PARAM_FIELDS[pname][1])
 
     def qualify(pname: str) -> str:
         return f"{PARAM_FIELDS[pname][0]}.{pname}" if pname in PARAM_FIELDS else pname
@@ -285,21 +602,24 @@ def parse_profile(doc: Mapping[str, Any], path: Path) -> MotorProfile:
             raise ProfileError(f"{where}: rated.{key}: must be finite and > 0, got {value!r}")
         rated[key] = v
 
-    # [cite]: one entry per value, no more, no less
+    # [cite]: one entry per value (or a "<section>.*" entry for the rest of a section)
     cite_tab = _table(doc, where, "cite")
     valued = [f"{PARAM_FIELDS[p][0]}.{p}" for p in PARAM_FIELDS] + [f"rated.{k}" for k in rated]
+    wildcards = sorted({f"{PARAM_FIELDS[p][0]}.*" for p in NONIDEAL_FIELDS})
     for key, value in cite_tab.items():
-        if key not in valued:
-            raise unknown_key_error(where, f"cite.{key}", key, valued)
+        if key not in valued and key not in wildcards:
+            raise unknown_key_error(where, f"cite.{key}", key, valued + wildcards)
         _string(where, f"cite.{key}", value)
     for key in valued:
-        if key not in cite_tab:
+        if key not in cite_tab and f"{key.split('.')[0]}.*" not in cite_tab:
             raise ProfileError(f"{where}: cite.{key}: missing (every value needs a source or "
                                "'assumption: why')")
 
+    base = {k: params[k] for k in BASE_FIELDS}
+    nonideal = {k: params[k] for k in NONIDEAL_FIELDS}
     return MotorProfile(name=name, path=Path(path), kind=kind, source=source,
                         rated=rated, assumptions=list(assumptions), cite=dict(cite_tab),
-                        raw=dict(doc), **params)  # type: ignore[arg-type]
+                        raw=dict(doc), nonideal=nonideal, **base)  # type: ignore[arg-type]
 
 
 def load_profile(name_or_path: str | Path) -> MotorProfile:

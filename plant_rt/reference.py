@@ -17,6 +17,22 @@ averaging, computation-delay split and mechanics, but
 * ``scipy.integrate.solve_ivp`` restarted at every input discontinuity (the delay instant and
   the period boundaries), rtol 1e-10 by default.
 
+Non-idealities (same definitions as plant_rt/c, re-derived here, not translated):
+
+* d-axis saturation: the state stays the stationary flux linkage; the currents follow by
+  inverting psi_d(i_d) numerically (Newton on the documented flux curve, with bisection
+  fallback) instead of integrating di_d/dt = .../L_inc(i_d) as the C plant does;
+* inverter: each enabled leg's average pole voltage from the conduction intervals of the two
+  current directions (dead interval spent on the lower diode for i > 0, on the upper diode
+  for i < 0), blended by the parasitic-capacitance sign; disabled legs' diodes with their drop;
+* friction B w + T_c tanh(w / w_c); the load profile in CONTINUOUS time (``load_mode=
+  "continuous"``, the physical profile; the plant holds each period's exact mean) or as the
+  plant's per-period mean (``"period_mean"``); the dynamometer's imposed speed;
+* the state at the actuation instants t_k + t_d (the plant's second samples).
+
+``leg_average_switched`` is a third, switch-level model of one inverter leg (gate timing, dead
+time, node capacitance, device drops) that the averaged leg formula is checked against.
+
 Duty semantics (same contract as the plant): duties[k] (a, b, c) are commanded for period k
 (t_k = k Ts); they act from t_k + t_delay; before that the previous duties act (0.5 before
 the first period). duty < 0 (or NaN) disables the leg, duty > 1 acts as 1.
@@ -38,7 +54,7 @@ INV_CLARKE = np.array([[1.0, 0.0], [-0.5, _S3 / 2.0], [-0.5, -_S3 / 2.0]])
 
 @dataclass(frozen=True)
 class RefParams:
-    """Plant constants (SI) used by the reference."""
+    """Plant constants (SI) used by the reference (non-idealities default to off)."""
 
     rs_ohm: float
     ld_h: float
@@ -50,17 +66,221 @@ class RefParams:
     v_dc_v: float
     ts_s: float
     t_delay_s: float
+    full_period_delay: bool = False
+    inverter_nonlinear: bool = False
+    dead_time_s: float = 0.0
+    v_switch_drop_v: float = 0.0
+    r_switch_ohm: float = 0.0
+    v_diode_drop_v: float = 0.0
+    r_diode_ohm: float = 0.0
+    i_cap_band_a: float = 0.0
+    saturation: bool = False
+    sat_l_inf_ratio: float = 1.0
+    sat_i_scale_a: float = 1.0
+    sat_i_knee_a: float = 0.0
+    coulomb_nm: float = 0.0
+    coulomb_band_rad_s: float = 1.0
+    load_profile: str = "none"
+    load_t0_s: float = 0.0
+    load_t1_s: float = 0.0
+    load_torque0_nm: float = 0.0
+    load_torque1_nm: float = 0.0
+    load_table_t_s: tuple = ()
+    load_table_nm: tuple = ()
+    dyno: bool = False
+    dyno_speed_rad_s: float = 0.0
+    dyno_accel_rad_s2: float = 0.0
 
     @classmethod
     def of(cls, obj: Any) -> "RefParams":
-        """From a mapping or any object with these attributes (MotorProfile, Plant.params)."""
-        get = obj.__getitem__ if isinstance(obj, Mapping) else lambda k: getattr(obj, k)
-        return cls(**{f: get(f) for f in cls.__dataclass_fields__})
+        """From a mapping or any object with these attributes (MotorProfile, Plant.params);
+        missing non-ideality fields are off."""
+        fields_ = cls.__dataclass_fields__
+        if isinstance(obj, Mapping):
+            return cls(**{f: obj[f] for f in fields_ if f in obj})
+        return cls(**{f: getattr(obj, f) for f in fields_ if hasattr(obj, f)})
+
+    @property
+    def t_act_s(self) -> float:
+        """Sampling instant -> actuation instant."""
+        return self.ts_s if self.full_period_delay else self.t_delay_s
+
+
+# ---------------------------------------------------------------------------------------------
+# non-ideality building blocks (written from the physics, see the module doc)
+
+def psi_d_curve(p: RefParams, i_d: float) -> float:
+    """d-axis flux linkage [Wb]: psi_f + L_s i + K I_s [tanh((i - i0)/I_s) + tanh(i0/I_s)]."""
+    if not p.saturation:
+        return p.psi_f_wb + p.ld_h * i_d
+    l_s = p.sat_l_inf_ratio * p.ld_h
+    k = (p.ld_h - l_s) * math.cosh(p.sat_i_knee_a / p.sat_i_scale_a) ** 2
+    return (p.psi_f_wb + l_s * i_d + k * p.sat_i_scale_a
+            * (math.tanh((i_d - p.sat_i_knee_a) / p.sat_i_scale_a) + math.tanh(p.sat_i_knee_a / p.sat_i_scale_a)))
+
+
+def ld_inc_curve(p: RefParams, i_d: float) -> float:
+    """Incremental d-axis inductance [H] (derivative of psi_d_curve)."""
+    if not p.saturation:
+        return p.ld_h
+    l_s = p.sat_l_inf_ratio * p.ld_h
+    k = (p.ld_h - l_s) * math.cosh(p.sat_i_knee_a / p.sat_i_scale_a) ** 2
+    return l_s + k / math.cosh((i_d - p.sat_i_knee_a) / p.sat_i_scale_a) ** 2
+
+
+def i_d_of_psi(p: RefParams, psi_d: float, guess: float = 0.0) -> float:
+    """Invert psi_d_curve (strictly increasing): Newton from guess, bisection safeguard."""
+    x = guess
+    for _ in range(60):
+        f = psi_d_curve(p, x) - psi_d
+        step = f / ld_inc_curve(p, x)
+        x -= step
+        if abs(step) <= 1e-15 * (1.0 + abs(x)):
+            return x
+    lo, hi = -1e4, 1e4  # pragma: no cover - Newton converges on this monotone curve
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if psi_d_curve(p, mid) < psi_d:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def capacitance_sign(i: float, i_c: float) -> float:
+    """Average of the dead-time error of a leg whose node capacitance C is slewed by the phase
+    current, normalised: 0 at i = 0, +-1 far away; i_c = C V_dc / t_dt (module doc)."""
+    if i_c <= 0.0:
+        return float(np.sign(i))
+    a = abs(i)
+    g = a / (2.0 * i_c) if a <= i_c else 1.0 - i_c / (2.0 * a)
+    return math.copysign(g, i) if a > 0.0 else 0.0
+
+
+def leg_average(p: RefParams, duty: float, i: float) -> tuple[float, float]:
+    """(average pole voltage [V], fraction of the period tied to the + rail) of an enabled leg
+    with the non-idealities, from the conduction intervals of the current's direction."""
+    vdc = p.v_dc_v
+    delta = p.dead_time_s / p.ts_s
+    # + rail time: current out of the leg loses the dead interval of the rising edge (lower
+    # diode), current into the leg gains the one of the falling edge (upper diode); across the
+    # capacitance band the node slews, which blends the two
+    up_out = min(max(duty - delta, 0.0), 1.0)
+    up_in = min(max(duty + delta, 0.0), 1.0)
+    share_out = 0.5 * (1.0 + capacitance_sign(i, p.i_cap_band_a))
+    up = share_out * up_out + (1.0 - share_out) * up_in
+    # conduction drops of the devices carrying i; thresholds switch on over the band
+    onset = math.tanh(abs(i) / p.i_cap_band_a) if p.i_cap_band_a > 0.0 else float(i != 0.0)
+    v_sw = p.v_switch_drop_v * onset + p.r_switch_ohm * abs(i)
+    v_di = p.v_diode_drop_v * onset + p.r_diode_ohm * abs(i)
+    if i > 0.0:    # upper switch (up_out of the period), lower diode (the rest)
+        drop = up_out * v_sw + (1.0 - up_out) * v_di
+    elif i < 0.0:  # upper diode, lower switch; both lift the node
+        drop = -(up_in * v_di + (1.0 - up_in) * v_sw)
+    else:
+        drop = 0.0
+    return up * vdc - drop, up
+
+
+def load_profile_value(p: RefParams, t: float) -> float:
+    """The load profile at time t [N m] (continuous time, module doc of mechanics.h)."""
+    kind = p.load_profile
+    if kind == "none":
+        return 0.0
+    if kind == "step":
+        return p.load_torque0_nm if t < p.load_t0_s else p.load_torque1_nm
+    if kind == "ramp":
+        ts, vs = (p.load_t0_s, p.load_t1_s), (p.load_torque0_nm, p.load_torque1_nm)
+    else:
+        ts, vs = tuple(p.load_table_t_s), tuple(p.load_table_nm)
+    return float(np.interp(t, ts, vs))
+
+
+def load_profile_breaks(p: RefParams) -> list[float]:
+    """Instants where the profile (or its slope) jumps."""
+    if p.load_profile in ("step",):
+        return [p.load_t0_s]
+    if p.load_profile == "ramp":
+        return [p.load_t0_s, p.load_t1_s]
+    if p.load_profile == "table":
+        return list(p.load_table_t_s)
+    return []
+
+
+def load_profile_period_mean(p: RefParams, t0: float, t1: float, n: int = 2001) -> float:
+    """Mean of the profile over [t0, t1], by dense quadrature split at the breakpoints."""
+    pts = sorted({t0, t1, *[b for b in load_profile_breaks(p) if t0 < b < t1]})
+    area = 0.0
+    for a, b in zip(pts[:-1], pts[1:]):
+        # the profile is linear between breakpoints: the trapezoid on the open interval is exact
+        eps = 1e-12 * (b - a)
+        area += 0.5 * (b - a) * (load_profile_value(p, a + eps) + load_profile_value(p, b - eps))
+    return area / (t1 - t0)
+
+
+def leg_average_switched(v_dc_v: float, ts_s: float, duty: float, i_a: float, *,
+                         dead_time_s: float = 0.0, c_node_f: float = 0.0,
+                         v_switch_drop_v: float = 0.0, v_diode_drop_v: float = 0.0) -> float:
+    """Average pole voltage over one PWM period of ONE leg, modelled at switch level.
+
+    Centre-aligned PWM: the high-side command is on for duty*Ts centred in the period, the
+    low-side command is its complement. Each switch turns on dead_time_s after its command
+    rises (turn-off is immediate). The phase current i_a (> 0 out of the leg) is constant over
+    the period. With a gate on, the node sits at the conducting device's terminal: upper
+    switch V_dc - V_sw (i > 0) or upper diode V_dc + V_d (i < 0); lower diode -V_d (i > 0) or
+    lower switch +V_sw (i < 0). With both gates off (dead intervals) the current slews the
+    node capacitance, dv/dt = -i / C, until a diode clamps it at -V_d or V_dc + V_d (C = 0:
+    clamped at once). Integrated exactly, segment by segment.
+    """
+    v_top, v_bot = v_dc_v + v_diode_drop_v, -v_diode_drop_v
+    hi_level = v_dc_v - v_switch_drop_v if i_a > 0.0 else v_top
+    lo_level = v_bot if i_a > 0.0 else v_switch_drop_v
+    t_on, t_off = 0.5 * ts_s * (1.0 - duty), 0.5 * ts_s * (1.0 + duty)
+    # gate windows (clipped to the period); the low gate is on from 0 to t_on and again from
+    # t_off + dead to Ts; the high gate from t_on + dead to t_off
+    events = sorted({0.0, ts_s, *[x for x in (t_on, t_on + dead_time_s, t_off, t_off + dead_time_s)
+                                   if 0.0 < x < ts_s]})
+
+    def gate(tm: float) -> str:
+        if t_on + dead_time_s <= tm < t_off:
+            return "hi"
+        if tm < t_on or tm >= t_off + dead_time_s:
+            return "lo"
+        return "dead"
+
+    v = lo_level if duty < 1.0 else hi_level  # node voltage at t = 0 (steady PWM)
+    area = 0.0
+    for a, b in zip(events[:-1], events[1:]):
+        length = b - a
+        g = gate(0.5 * (a + b))
+        if g == "hi":
+            v = hi_level
+            area += v * length
+        elif g == "lo":
+            v = lo_level
+            area += v * length
+        else:
+            bound = v_bot if i_a > 0.0 else v_top
+            if c_node_f <= 0.0 or i_a == 0.0:
+                if c_node_f <= 0.0 and i_a != 0.0:
+                    v = bound
+                area += v * length
+                continue
+            rate = -i_a / c_node_f
+            t_c = (bound - v) / rate  # >= 0: the node moves towards the clamping diode
+            if t_c >= length:
+                area += v * length + 0.5 * rate * length * length
+                v += rate * length
+            else:
+                area += v * t_c + 0.5 * rate * t_c * t_c + bound * (length - t_c)
+                v = bound
+    return area / ts_s
 
 
 @dataclass
 class ReferenceResult:
-    """Solution at the sampling instants t_k = k Ts, k = 0..n (n + 1 rows)."""
+    """Solution at the sampling instants t_k = k Ts, k = 0..n (n + 1 rows); ``i_abc_act_a``
+    at the actuation instants t_k + t_d, k = 0..n-1 (n rows)."""
 
     t_s: np.ndarray
     i_abc_a: np.ndarray       # (n+1, 3)
@@ -72,10 +292,12 @@ class ReferenceResult:
     theta_e_rad: np.ndarray   # wrapped [0, 2 pi)
     theta_m_rad: np.ndarray   # unwrapped, theta_m(0) = theta_e0 / p
     torque_e_nm: np.ndarray
+    i_abc_act_a: np.ndarray | None = None   # (n, 3) at t_k + t_d
+    torque_dyno_nm: np.ndarray | None = None  # dyno mode: T_e - friction - J a (n+1)
 
 
 class _Model:
-    def __init__(self, p: RefParams, frame: str, diode_i0_a: float):
+    def __init__(self, p: RefParams, frame: str, diode_i0_a: float, load_mode: str = "continuous"):
         self.p = p
         self.frame = frame
         self.i0 = diode_i0_a
@@ -84,12 +306,24 @@ class _Model:
         self.duty = np.full(3, 0.5)
         self.enabled = np.ones(3, dtype=bool)
         self.load_nm = 0.0
+        self.load_mode = load_mode
+        self.t_offset = 0.0        # absolute time of the segment start (solve_ivp runs from 0)
+        self.dyno_accel = 0.0
+        self._id_guess = 0.0
+        if frame == "dq" and p.saturation:
+            raise ValueError("the dq formulation of the reference is linear; use 'alphabeta'")
 
     def set_inputs(self, duty: np.ndarray, load_nm: float) -> None:
         d = np.asarray(duty, dtype=float)
         self.enabled = d >= 0.0  # NaN compares False -> disabled
         self.duty = np.where(self.enabled, np.minimum(d, 1.0), 0.0)
         self.load_nm = float(load_nm)
+
+    def load_torque(self, t_abs: float) -> float:
+        """Set torque + profile (continuous time, or the period's mean set by simulate)."""
+        if self.load_mode == "continuous":
+            return self.load_nm + load_profile_value(self.p, t_abs)
+        return self.load_nm
 
     @property
     def has_disabled(self) -> bool:
@@ -103,6 +337,14 @@ class _Model:
         if self.frame == "dq":
             c, s = math.cos(th), math.sin(th)
             return np.array([c * x[0] - s * x[1], s * x[0] + c * x[1]])
+        if p.saturation:
+            c, s = math.cos(th), math.sin(th)
+            psi_d = c * x[0] + s * x[1]
+            psi_q = -s * x[0] + c * x[1]
+            i_d = i_d_of_psi(p, psi_d, self._id_guess)
+            self._id_guess = i_d
+            i_q = psi_q / p.lq_h
+            return np.array([c * i_d - s * i_q, s * i_d + c * i_q])
         c2, s2 = math.cos(2.0 * th), math.sin(2.0 * th)
         lam = np.array([x[0] - p.psi_f_wb * math.cos(th), x[1] - p.psi_f_wb * math.sin(th)])
         linv = np.array([[self.m0 + self.m2 * c2, self.m2 * s2], [self.m2 * s2, self.m0 - self.m2 * c2]])
@@ -110,11 +352,16 @@ class _Model:
 
     def phase_voltages_ab(self, i_ab: np.ndarray) -> np.ndarray:
         """alpha-beta phase voltages [V] from the inverter legs (isolated star)."""
-        vdc = self.p.v_dc_v
+        p = self.p
+        vdc = p.v_dc_v
         v_pole = self.duty * vdc
+        i_abc = INV_CLARKE @ i_ab
+        if p.inverter_nonlinear:
+            v_pole = np.array([leg_average(p, self.duty[k], i_abc[k])[0] for k in range(3)])
         if self.has_disabled:
-            i_abc = INV_CLARKE @ i_ab
-            diode = 0.5 * vdc * (1.0 - np.tanh(i_abc / self.i0))
+            th = np.tanh(i_abc / self.i0)
+            drop = (p.v_diode_drop_v + p.r_diode_ohm * np.abs(i_abc)) if p.inverter_nonlinear else 0.0
+            diode = 0.5 * vdc * (1.0 - th) - drop * th
             v_pole = np.where(self.enabled, v_pole, diode)
         v_phase = v_pole - v_pole.mean()
         return CLARKE @ v_phase
@@ -137,7 +384,12 @@ class _Model:
         else:
             d0, d1 = v_ab - p.rs_ohm * i_ab
             te = 1.5 * p.pole_pairs * (x[0] * i_ab[1] - x[1] * i_ab[0])
-        dw = (te - p.b_nms * wm - self.load_nm) / p.j_kgm2
+        if p.dyno:
+            dw = self.dyno_accel
+        else:
+            friction = p.b_nms * wm + p.coulomb_nm * math.tanh(wm / p.coulomb_band_rad_s) \
+                if p.coulomb_nm > 0.0 else p.b_nms * wm
+            dw = (te - friction - self.load_torque(self.t_offset + _t)) / p.j_kgm2
         return np.array([d0, d1, dw, we])
 
     def initial_state(self, theta_e0: float, omega_m0: float) -> np.ndarray:
@@ -150,49 +402,86 @@ class _Model:
 def simulate(params: Any, duties: np.ndarray, *, theta_e0: float = 0.0, omega_m0: float = 0.0,
              load_torque_nm: float | np.ndarray = 0.0, frame: str = "alphabeta",
              rtol: float = 1e-10, atol: np.ndarray | None = None,
-             diode_i0_a: float = 1e-6) -> ReferenceResult:
+             diode_i0_a: float = 1e-6, load_mode: str = "continuous",
+             dyno_targets_rad_s: np.ndarray | None = None,
+             method: str | None = None) -> ReferenceResult:
     """Integrate n = len(duties) periods from zero current at (theta_e0, omega_m0).
 
     params: mapping/object with the plant constants (RefParams fields; e.g. a MotorProfile).
     duties: (n, 3) duties commanded for each period (see module doc).
-    load_torque_nm: constant, or (n,) per period (changes at the period start t_k).
+    load_torque_nm: constant, or (n,) per period (changes at the period start t_k); the load
+    profile of params is added (load_mode "continuous": the profile in continuous time;
+    "period_mean": its mean over each period, as the plant applies it).
+    dyno_targets_rad_s: dyno mode, (n,) set speed per period (default: params.dyno_speed_rad_s;
+    the rotor starts at it, as the plant after reset, unless omega_m0 is given explicitly).
+    method: solve_ivp method (default DOP853, Radau when a leg is disabled).
     Returns the state at t_0..t_n.
     """
     p = RefParams.of(params)
     if frame not in ("alphabeta", "dq"):
         raise ValueError(f"frame must be 'alphabeta' or 'dq', got {frame!r}")
+    if load_mode not in ("continuous", "period_mean"):
+        raise ValueError(f"load_mode must be 'continuous' or 'period_mean', got {load_mode!r}")
     duties = np.asarray(duties, dtype=float)
     if duties.ndim != 2 or duties.shape[1] != 3:
         raise ValueError(f"duties must have shape (n, 3), got {duties.shape}")
     n = duties.shape[0]
     load = np.broadcast_to(np.asarray(load_torque_nm, dtype=float), (n,))
-    model = _Model(p, frame, diode_i0_a)
+    model = _Model(p, frame, diode_i0_a, load_mode)
     if atol is None:
         flux_or_current = 1e-13 if frame == "alphabeta" else 1e-10
         atol = np.array([flux_or_current, flux_or_current, 1e-10, 1e-12])
+    targets = (np.full(n, p.dyno_speed_rad_s) if dyno_targets_rad_s is None
+               else np.broadcast_to(np.asarray(dyno_targets_rad_s, dtype=float), (n,)))
 
     x = model.initial_state(theta_e0 % (2.0 * math.pi), omega_m0)
     theta_unwrapped = theta_e0 % (2.0 * math.pi)
     theta_m0 = theta_unwrapped / p.pole_pairs
     out = np.empty((n + 1, 4))
     theta_unw = np.empty(n + 1)
+    act = np.empty((n, 3))
+    accel = np.zeros(n + 1)
     out[0] = x
     theta_unw[0] = theta_unwrapped
     prev = np.full(3, 0.5)
-    segments = ((p.t_delay_s, True), (p.ts_s - p.t_delay_s, False))
+    t_act = p.t_act_s
+    segments = ((t_act, True), (p.ts_s - t_act, False))
+    breaks = load_profile_breaks(p) if load_mode == "continuous" else []
     for k in range(n):
+        t_k = k * p.ts_s
+        if p.dyno:
+            dw = targets[k] - x[2]
+            if p.dyno_accel_rad_s2 > 0.0:
+                model.dyno_accel = float(np.clip(dw / p.ts_s, -p.dyno_accel_rad_s2, p.dyno_accel_rad_s2))
+            else:
+                model.dyno_accel = 0.0
+                x = np.array([x[0], x[1], targets[k], x[3]])
+            accel[k + 1] = model.dyno_accel
+        extra = load[k]
+        if load_mode == "period_mean" and p.load_profile != "none":
+            extra = load[k] + load_profile_period_mean(p, t_k, t_k + p.ts_s)
+        t_seg = t_k
         for length, old in segments:
             if length <= 0.0:
+                if old:
+                    act[k] = (INV_CLARKE @ model.currents_ab(x))
                 continue
-            model.set_inputs(prev if old else duties[k], load[k])
-            method = "Radau" if model.has_disabled else "DOP853"
-            th_start = x[3] % (2.0 * math.pi)  # keep theta small: its rtol is then absolute
-            x = np.array([x[0], x[1], x[2], th_start])
-            sol = solve_ivp(model.rhs, (0.0, length), x, method=method, rtol=rtol, atol=atol)
-            if not sol.success:
-                raise RuntimeError(f"reference: solve_ivp failed in period {k}: {sol.message}")
-            x = sol.y[:, -1]
-            theta_unwrapped += x[3] - th_start
+            model.set_inputs(prev if old else duties[k], extra)
+            meth = method or ("Radau" if model.has_disabled else "DOP853")
+            # split at load-profile breakpoints inside the segment (continuous load)
+            cuts = [t_seg] + [b for b in breaks if t_seg < b < t_seg + length] + [t_seg + length]
+            for a, b in zip(cuts[:-1], cuts[1:]):
+                th_start = x[3] % (2.0 * math.pi)  # keep theta small: its rtol is then absolute
+                x = np.array([x[0], x[1], x[2], th_start])
+                model.t_offset = a
+                sol = solve_ivp(model.rhs, (0.0, b - a), x, method=meth, rtol=rtol, atol=atol)
+                if not sol.success:
+                    raise RuntimeError(f"reference: solve_ivp failed in period {k}: {sol.message}")
+                x = sol.y[:, -1]
+                theta_unwrapped += x[3] - th_start
+            t_seg += length
+            if old:
+                act[k] = INV_CLARKE @ model.currents_ab(x)
         prev = duties[k]
         out[k + 1] = x
         theta_unw[k + 1] = theta_unwrapped
@@ -201,7 +490,16 @@ def simulate(params: Any, duties: np.ndarray, *, theta_e0: float = 0.0, omega_m0
     th = out[:, 3]
     i_d = np.cos(th) * i_ab[:, 0] + np.sin(th) * i_ab[:, 1]
     i_q = -np.sin(th) * i_ab[:, 0] + np.cos(th) * i_ab[:, 1]
-    te = 1.5 * p.pole_pairs * (p.psi_f_wb * i_q + (p.ld_h - p.lq_h) * i_d * i_q)
+    if p.saturation:
+        psi_d = np.array([psi_d_curve(p, v) for v in i_d])
+        te = 1.5 * p.pole_pairs * (psi_d * i_q - p.lq_h * i_q * i_d)
+    else:
+        te = 1.5 * p.pole_pairs * (p.psi_f_wb * i_q + (p.ld_h - p.lq_h) * i_d * i_q)
+    torque_dyno = None
+    if p.dyno:
+        w = out[:, 2]
+        fr = p.b_nms * w + (p.coulomb_nm * np.tanh(w / p.coulomb_band_rad_s) if p.coulomb_nm > 0 else 0.0)
+        torque_dyno = te - fr - p.j_kgm2 * accel
     return ReferenceResult(
         t_s=np.arange(n + 1) * p.ts_s,
         i_abc_a=i_ab @ INV_CLARKE.T,
@@ -213,4 +511,6 @@ def simulate(params: Any, duties: np.ndarray, *, theta_e0: float = 0.0, omega_m0
         theta_e_rad=np.mod(th, 2.0 * math.pi),
         theta_m_rad=theta_m0 + (theta_unw - theta_unw[0]) / p.pole_pairs,
         torque_e_nm=te,
+        i_abc_act_a=act,
+        torque_dyno_nm=torque_dyno,
     )

@@ -53,9 +53,17 @@ def test_overrides_are_applied_and_validated():
         Plant.from_profile("gong2020", j_kgm2=0)
 
 
+BASE_SNAPSHOT_FIELDS = (  # the original 27 fields: names and order are part of the API
+    "t_s", "i_a_a", "i_b_a", "i_c_a", "i_alpha_a", "i_beta_a", "i_d_a", "i_q_a",
+    "omega_m_rad_s", "omega_e_rad_s", "theta_e_rad", "theta_m_rad", "torque_e_nm", "torque_load_nm",
+    "e_alpha_v", "e_beta_v", "v_dc_v", "v_a_v", "v_b_v", "v_c_v", "v_alpha_v", "v_beta_v",
+    "v_d_v", "v_q_v", "duty_a", "duty_b", "duty_c")
+
+
 def test_snapshot_dtype_matches_c_layout():
-    assert SNAPSHOT_DTYPE.itemsize == SNAPSHOT_SIZE == 27 * 8
-    assert SNAPSHOT_FIELDS[0] == "t_s" and SNAPSHOT_FIELDS[-1] == "duty_c"
+    assert SNAPSHOT_DTYPE.itemsize == SNAPSHOT_SIZE == 30 * 8
+    assert SNAPSHOT_FIELDS[:27] == BASE_SNAPSHOT_FIELDS     # appended fields only
+    assert SNAPSHOT_FIELDS[27:] == ("psi_alpha_wb", "psi_beta_wb", "torque_friction_nm")
     assert "theta_e_rad" in SNAPSHOT_FIELDS and "v_q_v" in SNAPSHOT_FIELDS
     plant = Plant.from_profile("gong2020")
     plant.set_initial(1.0, 30.0)
@@ -158,6 +166,8 @@ def test_reset_and_set_initial():
     for name in SNAPSHOT_FIELDS:
         if name.startswith("duty_"):
             assert d[name] == 0.5
+        elif name == "psi_alpha_wb":  # theta_e = 0, no current: the PM flux on alpha
+            assert d[name] == plant.params.psi_f_wb
         elif name != "v_dc_v":
             assert d[name] == 0.0, name
     assert plant.events == 0
@@ -194,3 +204,38 @@ def test_missing_compiled_module_says_make_build():
     assert "make build" in res.stdout
 
 
+
+
+# ------------------------------------------------------------------------------------------------
+# non-idealities in the Python API
+
+def test_new_parameters_are_flat_overridable_and_visible():
+    plant = Plant.from_profile("yuan2020", inverter_nonlinear=True, dead_time_s=1.5e-6, adc_model=True,
+                               adc_seed=3, load_profile="step", load_t0_s=0.01, load_torque1_nm=0.4)
+    prm = plant.params
+    assert prm.inverter_nonlinear is True and prm.dead_time_s == 1.5e-6
+    assert prm.adc_model is True and prm.adc_seed == 3 and prm.load_profile == "step"
+    assert prm.v_switch_drop_v == load_profile("yuan2020").v_switch_drop_v   # the profile's value
+    d = prm.as_dict()
+    assert list(d)[:11] == ["rs_ohm", "ld_h", "lq_h", "psi_f_wb", "pole_pairs", "j_kgm2", "b_nms",
+                            "v_dc_v", "ts_s", "t_delay_s", "substeps"]
+    assert d["dead_time_s"] == 1.5e-6
+    prof = load_profile("yuan2020")
+    assert prof.dead_time_s == prof.nonideal["dead_time_s"]           # attribute access on profiles
+    with pytest.raises(AttributeError):
+        prof.no_such_field  # noqa: B018
+
+
+def test_sample_is_live_and_dyno_and_load_api():
+    plant = Plant.from_profile("gong2020", dual_sampling=True, load_profile="ramp", load_t0_s=0.0,
+                               load_t1_s=1.0, load_torque1_nm=2.0)
+    m = plant.sample()
+    plant.step(0.55, 0.5, 0.45)
+    assert plant.sample() is m and m.t_s == pytest.approx(1e-4) and m.dual_valid == 1
+    assert plant.load_torque_at(0.5) == pytest.approx(1.0)
+    plant.set_load_torque(0.25)
+    assert plant.load_torque_at(0.5) == pytest.approx(1.25)
+    dyno = Plant.from_profile("gong2020", dyno=True, dyno_speed_rad_s=5.0)
+    dyno.set_dyno_speed(7.0)
+    dyno.step(0.5, 0.5, 0.5)
+    assert dyno.snapshot().omega_m_rad_s == 7.0

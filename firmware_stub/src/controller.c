@@ -53,6 +53,7 @@ void ctrl_config_defaults(ctrl_config_t *cfg)
     cfg->hfi_ki = 0.0f;
     cfg->hfi_ipd_timeout_s = 0.5f;
     cfg->hfi_pol_bias_a = 0.0f;    /* 0: Hou's method (HF current alone) */
+    cfg->hfi_lock_tol_rad = 0.05f;
     cfg->delay_comp_mode = 0.0f;
     cfg->delay_comp_td_s = 0.0f;
     cfg->harm_comp_enable = 0.0f;
@@ -164,7 +165,10 @@ static int estimator_init(controller_t *c)
         hc.ipd_on_reset = 1;
         hc.ipd_timeout_s = k->hfi_ipd_timeout_s;
         hc.pol_bias_a = k->hfi_pol_bias_a;
-        hc.speed_lpf_rad_s = k->speed_lpf_rad_s;
+        hc.lock_tol_rad = k->hfi_lock_tol_rad;
+        if (k->speed_lpf_rad_s > 0.0f) {
+            hc.speed_lpf_rad_s = k->speed_lpf_rad_s;
+        }
         c->hfi_out = NULL;
         return est_hfi_init(&c->est_state.hfi, &hc);
     }
@@ -441,7 +445,9 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
         theta = c->est.theta_e_rad;
         omega_e = c->est.omega_e_rad_s;
         if (c->state == CTRL_STATE_INITIAL_POSITION) {
-            /* references set above */
+            /* references set above; the rotor is at standstill while the estimate converges:
+             * no speed-dependent feed-forward or angle advance from a speed not yet known */
+            omega_e = 0.0f;
         } else if (c->mode == CTRL_MODE_SPEED) {
             c->id_ref_a = c->id_handover_a * fw_clampf(id_fade, 0.0f, 1.0f);
             c->speed_div_count++;

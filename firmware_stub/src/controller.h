@@ -88,6 +88,8 @@ typedef struct {
     float pll_kp, pll_ki, speed_lpf_rad_s;
     /* HF injection (Hou): amplitude, frequency, tracking loop, polarity test */
     float hfi_u_v, hfi_f_hz, hfi_bw_rad_s, hfi_kp, hfi_ki, hfi_ipd_timeout_s, hfi_pol_bias_a;
+    float hfi_lock_tol_rad;   /**< IPD: |2 dtheta|/2 below this (for the lock time) counts as
+                                   converged; above the noise of a 12-bit ADC (~0.03 rad) */
     /* calculation-delay pre-compensation (Gong eq. 20-22): 0 off, 1 with delay_comp_td_s,
      * 2 estimate t_d from the dual samples (eq. 20) and compensate with the estimate */
     float delay_comp_mode, delay_comp_td_s;

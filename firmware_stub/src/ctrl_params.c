@@ -54,6 +54,7 @@ static const param_entry_t k_params[] = {
     P(HIL_PARAM_HFI_PI_KI, hfi_ki, 0.0f, 1e10f),
     P(HIL_PARAM_IPD_TIME_S, hfi_ipd_timeout_s, 0.0f, 100.0f),
     P(HIL_PARAM_HFI_POL_BIAS_A, hfi_pol_bias_a, 0.0f, 1e3f),
+    P(HIL_PARAM_HFI_LOCK_TOL_RAD, hfi_lock_tol_rad, 1e-4f, 1.0f),
     P(HIL_PARAM_DELAY_COMP_ENABLE, delay_comp_mode, 0.0f, 2.0f),
     P(HIL_PARAM_DELAY_COMP_TD_S, delay_comp_td_s, 0.0f, 1.0f),
     P(HIL_PARAM_HARM_COMP_ENABLE, harm_comp_enable, 0.0f, 1.0f),

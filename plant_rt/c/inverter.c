@@ -16,6 +16,15 @@ int inverter_init(inverter_t *inv, const inverter_config_t *cfg)
      * the rounding noise of the state (|i| ~ 1..100 A -> ulp ~ 1e-14 A). */
     inv->i_zero_a = 1e-9;
     inv->v_tol_v = 1e-9 * cfg->v_dc_v;
+    inv->nonlinear = 0;
+    inv->nl.dead_time_s = 0.0;
+    inv->nl.ts_s = 1.0;
+    inv->nl.v_switch_drop_v = 0.0;
+    inv->nl.r_switch_ohm = 0.0;
+    inv->nl.v_diode_drop_v = 0.0;
+    inv->nl.r_diode_ohm = 0.0;
+    inv->nl.i_cap_band_a = 0.0;
+    inv->delta = 0.0;
     inverter_reset(inv);
     return 0;
 }
@@ -100,10 +109,11 @@ int inverter_step(const inverter_t *inv, const double duty[3], const double i_ab
 
 inverter_leg_mode_t inverter_open_leg_mode(const inverter_t *inv, double v_open_terminal_v)
 {
-    if (v_open_terminal_v > inv->cfg.v_dc_v + inv->v_tol_v) {
+    const double vd = inv->nl.v_diode_drop_v; /* 0 when ideal */
+    if (v_open_terminal_v > inv->cfg.v_dc_v + vd + inv->v_tol_v) {
         return INV_LEG_DIODE_HIGH;
     }
-    if (v_open_terminal_v < -inv->v_tol_v) {
+    if (v_open_terminal_v < -vd - inv->v_tol_v) {
         return INV_LEG_DIODE_LOW;
     }
     return INV_LEG_OPEN;
@@ -111,7 +121,118 @@ inverter_leg_mode_t inverter_open_leg_mode(const inverter_t *inv, double v_open_
 
 double inverter_open_margin(const inverter_t *inv, double v_open_terminal_v)
 {
-    const double lo = v_open_terminal_v + inv->v_tol_v;
-    const double hi = inv->cfg.v_dc_v + inv->v_tol_v - v_open_terminal_v;
+    const double vd = inv->nl.v_diode_drop_v;
+    const double lo = v_open_terminal_v + vd + inv->v_tol_v;
+    const double hi = inv->cfg.v_dc_v + vd + inv->v_tol_v - v_open_terminal_v;
     return (lo < hi) ? lo : hi;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* non-idealities                                                                             */
+
+int inverter_set_nonlinear(inverter_t *inv, const inverter_nl_config_t *cfg)
+{
+    if (cfg == 0) {
+        const double v_dc = inv->cfg.v_dc_v;
+        inverter_config_t keep;
+        keep.v_dc_v = v_dc;
+        return inverter_init(inv, &keep);
+    }
+    if (!isfinite(cfg->ts_s) || !(cfg->ts_s > 0.0) || !isfinite(cfg->dead_time_s) ||
+        !(cfg->dead_time_s >= 0.0) || !(2.0 * cfg->dead_time_s < cfg->ts_s)) {
+        return -1;
+    }
+    if (!(cfg->v_switch_drop_v >= 0.0) || !isfinite(cfg->v_switch_drop_v) ||
+        !(cfg->r_switch_ohm >= 0.0) || !isfinite(cfg->r_switch_ohm) ||
+        !(cfg->v_diode_drop_v >= 0.0) || !isfinite(cfg->v_diode_drop_v) ||
+        !(cfg->r_diode_ohm >= 0.0) || !isfinite(cfg->r_diode_ohm) ||
+        !(cfg->i_cap_band_a >= 0.0) || !isfinite(cfg->i_cap_band_a)) {
+        return -1;
+    }
+    inv->nl = *cfg;
+    inv->delta = cfg->dead_time_s / cfg->ts_s;
+    inv->nonlinear = 1;
+    return 0;
+}
+
+double inverter_smooth_sign(const inverter_t *inv, double i_a)
+{
+    const double ic = inv->nl.i_cap_band_a;
+    const double x = fabs(i_a);
+    double g;
+    if (!(ic > 0.0)) {
+        return (i_a > 0.0) ? 1.0 : ((i_a < 0.0) ? -1.0 : 0.0);
+    }
+    g = (x <= ic) ? 0.5 * x / ic : 1.0 - 0.5 * ic / x;
+    return (i_a < 0.0) ? -g : g;
+}
+
+static double clamp01(double x)
+{
+    return (x < 0.0) ? 0.0 : ((x > 1.0) ? 1.0 : x);
+}
+
+double inverter_leg_voltage(const inverter_t *inv, double duty, double i_a, double *f_hi)
+{
+    const double vdc = inv->cfg.v_dc_v;
+    double ai, onset, vs, vd, fp, fn, w, f, drop;
+    if (!inv->nonlinear) {
+        if (f_hi != 0) *f_hi = duty;
+        return duty * vdc;
+    }
+    /* + rail fraction: the dead interval is lost (i > 0) or gained (i < 0), blended across the
+     * capacitance band */
+    fp = clamp01(duty - inv->delta);
+    fn = clamp01(duty + inv->delta);
+    w = 0.5 * (1.0 + inverter_smooth_sign(inv, i_a));
+    f = w * fp + (1.0 - w) * fn;
+    /* conduction drop of the devices that carry the current (direction = sign of i): threshold
+     * rising smoothly from zero current, tanh(|i| / i_c), plus the slope resistance */
+    ai = fabs(i_a);
+    if (!(inv->nl.i_cap_band_a > 0.0)) {
+        onset = (ai > 0.0) ? 1.0 : 0.0;
+    } else if (ai < 20.0 * inv->nl.i_cap_band_a) {
+        onset = tanh(ai / inv->nl.i_cap_band_a);
+    } else {
+        onset = 1.0; /* tanh(x) rounds to 1 for x > 19.1 */
+    }
+    vs = inv->nl.v_switch_drop_v * onset + inv->nl.r_switch_ohm * ai;
+    vd = inv->nl.v_diode_drop_v * onset + inv->nl.r_diode_ohm * ai;
+    if (i_a > 0.0) {
+        drop = fp * vs + (1.0 - fp) * vd;     /* upper switch, lower diode */
+    } else if (i_a < 0.0) {
+        drop = -(fn * vd + (1.0 - fn) * vs);  /* upper diode, lower switch */
+    } else {
+        drop = 0.0;
+    }
+    if (f_hi != 0) *f_hi = f;
+    return f * vdc - drop;
+}
+
+void inverter_pole_voltages_i(const inverter_t *inv, const double duty[3],
+                              const inverter_leg_mode_t mode[3], const double i_abc_a[3],
+                              double v_pole_v[3], double f_hi[3])
+{
+    int k;
+    for (k = 0; k < 3; ++k) {
+        const double vd = inv->nl.v_diode_drop_v + inv->nl.r_diode_ohm * fabs(i_abc_a[k]);
+        double f = 0.0;
+        switch (mode[k]) {
+        case INV_LEG_PWM:
+            v_pole_v[k] = inverter_leg_voltage(inv, inverter_sanitize_duty(duty[k]), i_abc_a[k], &f);
+            break;
+        case INV_LEG_DIODE_HIGH:
+            v_pole_v[k] = inv->cfg.v_dc_v + vd;
+            f = 1.0;
+            break;
+        case INV_LEG_DIODE_LOW:
+            v_pole_v[k] = -vd;
+            break;
+        case INV_LEG_OPEN:
+        default:
+            v_pole_v[k] = 0.0;
+            break;
+        }
+        if (f_hi != 0) f_hi[k] = f;
+    }
 }

@@ -15,6 +15,43 @@
  *
  * This module classifies legs and makes pole and phase voltages; which phase is open and what
  * voltage appears on it needs the machine model and is resolved by the plant (plant.c).
+ *
+ * Non-idealities (inverter_set_nonlinear; off after inverter_init): an average-value model of
+ * each leg over one PWM period with dead time, device on-state drops and a current sign that
+ * is smooth near zero (parasitic capacitance). Per active leg, with d the commanded high-side
+ * fraction, delta = t_dt / Ts and i the phase current (> 0 out of the leg):
+ *
+ *   + rail fraction. i > 0: the dead interval at the rising edge of the high-side command is
+ *          spent on the lower diode: f_p = clamp(d - delta, 0, 1); i < 0: the dead interval at
+ *          the falling edge is spent on the upper diode: f_n = clamp(d + delta, 0, 1);
+ *          f = w f_p + (1 - w) f_n,  w = (1 + g(i)) / 2,
+ *          g(i) = sign(i) * ( |i|/(2 i_c)        for |i| <= i_c
+ *                             1 - i_c/(2|i|)     for |i| >  i_c ).
+ *   drops. The devices that carry i conduct: i > 0 the upper switch for f_p and the lower
+ *          diode for 1 - f_p, i < 0 the upper diode for f_n and the lower switch for 1 - f_n:
+ *          h(i) = +(f_p V_s + (1 - f_p) V_d)   (i > 0),   -(f_n V_d + (1 - f_n) V_s)   (i < 0),
+ *          V_s = v_switch q(i) + r_switch |i|,  V_d = v_diode q(i) + r_diode |i|,
+ *          q(i) = tanh(|i| / i_c): the threshold rises smoothly from zero current (a real
+ *          device's drop also starts at 0 V; the threshold is a linearisation at larger
+ *          currents), so h is continuous at i = 0.
+ *   v_xN = f V_dc - h(i).
+ *
+ * Without drops this is v_xN = d V_dc - g(i) (t_dt/Ts) V_dc: the classical dead-time voltage
+ * error -sign(i) t_dt/Ts V_dc (e.g. Choi & Sul 1995; Urasaki et al. 2005, ref. [24] of Yuan
+ * et al.) with the sign replaced by g. g is the exact average over one period of a leg whose
+ * output node capacitance C (both devices' C_oss, snubbers, cable) is slewed by the phase
+ * current during the dead intervals: the node moves at i/C, and i_c = C V_dc / t_dt is the
+ * current that slews it rail to rail in exactly t_dt (derivation in plant_rt/README.md; checked
+ * against a switch-level single-leg model in tests/test_plant_inverter_nl.py). g is
+ * continuous with a continuous slope. Far outside the band (|i| >> i_c, q = 1, g -> +-1):
+ *   i > 0: v_xN = f_p (V_dc - V_s) - (1 - f_p) V_d,   i < 0: f_n (V_dc + V_d) + (1 - f_n) V_s.
+ * The bus current is i_dc = sum_x f_x i_x (energy drawn from the DC link); the leg's loss is
+ * (f_x V_dc - v_xN) i_x = h(i_x) i_x >= 0 (conduction loss; the dead time itself is lossless).
+ * Disabled legs: a conducting diode adds its drop (DIODE_LOW: v_xN = -(v_diode + r_diode |i|),
+ * DIODE_HIGH: V_dc + v_diode + r_diode |i|) and an open terminal must leave
+ * [-v_diode, V_dc + v_diode] to conduct.
+ * Not modelled: minimum-pulse suppression (a duty of exactly 0 or 1 is treated like any other),
+ * turn-on/off delays other than the dead time, the PWM ripple.
  */
 #ifndef INVERTER_H
 #define INVERTER_H
@@ -32,11 +69,25 @@ typedef struct inverter_config {
     double v_dc_v; /**< DC-link voltage [V], > 0, stiff (ideal source/sink) */
 } inverter_config_t;
 
+/** Non-idealities of the legs (see the top of this file). All zero = ideal. */
+typedef struct inverter_nl_config {
+    double dead_time_s;      /**< t_dt per commutation [s], 0 <= t_dt < ts_s / 2 */
+    double ts_s;             /**< PWM period [s], > 0 */
+    double v_switch_drop_v;  /**< switch on-state threshold drop [V], >= 0 */
+    double r_switch_ohm;     /**< switch on-state slope resistance [ohm], >= 0 */
+    double v_diode_drop_v;   /**< diode forward threshold drop [V], >= 0 */
+    double r_diode_ohm;      /**< diode slope resistance [ohm], >= 0 */
+    double i_cap_band_a;     /**< i_c = C_node V_dc / t_dt [A], >= 0; 0 = hard sign */
+} inverter_nl_config_t;
+
 /** Config + derived threshold (caller owns the memory). The inverter itself has no state. */
 typedef struct inverter {
     inverter_config_t cfg;
     double i_zero_a; /**< |i| at or below this is "zero" for diode conduction [A] */
     double v_tol_v;  /**< slack when comparing an open terminal voltage with the rails [V] */
+    int nonlinear;   /**< 1 after inverter_set_nonlinear with a non-NULL config */
+    inverter_nl_config_t nl;
+    double delta;    /**< t_dt / Ts */
 } inverter_t;
 
 /** Returns 0, or -1 if v_dc_v is not finite and > 0. */
@@ -86,5 +137,33 @@ inverter_leg_mode_t inverter_open_leg_mode(const inverter_t *inv, double v_open_
 
 /** Margin [V] by which an open terminal voltage is inside the rails (negative = outside). */
 double inverter_open_margin(const inverter_t *inv, double v_open_terminal_v);
+
+/* ---- non-idealities ---- */
+
+/**
+ * Switch the leg non-idealities on (cfg != NULL) or off (NULL: the ideal averaged inverter).
+ * Returns 0, or -1 (and leaves the inverter ideal) if a value is out of range.
+ */
+int inverter_set_nonlinear(inverter_t *inv, const inverter_nl_config_t *cfg);
+
+/** The smooth current sign g(i) in [-1, 1] (sign(i) if i_cap_band_a = 0). */
+double inverter_smooth_sign(const inverter_t *inv, double i_a);
+
+/**
+ * Average pole voltage v_xN [V] of an active leg over the interval its duty acts on, for
+ * sanitised duty in [0, 1] and phase current i_a [A]; *f_hi (if not NULL) receives the
+ * fraction of the period the leg connects the phase to the + rail (bus current = f_hi i).
+ * Ideal inverter: duty * V_dc and f_hi = duty.
+ */
+double inverter_leg_voltage(const inverter_t *inv, double duty, double i_a, double *f_hi);
+
+/**
+ * Pole voltages of all legs for the given modes and phase currents, with the non-idealities
+ * (reduces to inverter_pole_voltages when ideal); f_hi (may be NULL) as in
+ * inverter_leg_voltage (DIODE_HIGH: 1, DIODE_LOW and OPEN: 0).
+ */
+void inverter_pole_voltages_i(const inverter_t *inv, const double duty[3],
+                              const inverter_leg_mode_t mode[3], const double i_abc_a[3],
+                              double v_pole_v[3], double f_hi[3]);
 
 #endif

@@ -21,6 +21,13 @@
  * Approximations: ideal diodes (no forward drop, no reverse recovery), a stiff DC bus, the
  * PWM averaged over the period (no ripple, no dead time), no commutation of the PWM carrier
  * with the diode intervals (a disabled leg is off for the whole interval its duty applies).
+ *
+ * Non-idealities (plant.h): with the inverter non-linearity on, the pole voltages depend on
+ * the phase currents and are evaluated at every RK4 stage (inverter_pole_voltages_i); with
+ * saturation on, pmsm_machine_* use psi_d(i_d) and L_inc(i_d); the load torque of a period is
+ * the set torque + the exact mean of the load profile over the period (held constant inside
+ * it); in dyno mode the speed derivative is the imposed acceleration of the period. Every
+ * effect that is off leaves the arithmetic of the ideal plant unchanged (bit for bit).
  */
 #include "plant.h"
 
@@ -37,13 +44,17 @@ enum {
     Q_VA, Q_VB, Q_VC, Q_VD, Q_VQ,           /* int v dt [V s] */
     Q_THM,                                  /* int omega_m dt [rad] */
     Q_EIN, Q_ECU, Q_EVISC, Q_ELOAD,         /* energies [J] */
+    Q_ECOUL, Q_EINV,                        /* Coulomb friction loss, inverter loss [J] */
     S_N
 };
 
 /** Leg modes held over one RK4 step. */
 typedef struct step_mode {
     inverter_leg_mode_t leg[3];
-    double v_pole_v[3]; /* pole voltages of the source legs */
+    double duty[3];     /* sanitised duties in effect */
+    double v_pole_v[3]; /* pole voltages of the source legs (ideal inverter) */
+    double v_phase_v[3];           /* ideal inverter, no open phase: phase voltages ... */
+    double v_alpha_v, v_beta_v;    /* ... and their alpha-beta components (constant over the step) */
     int n_open;         /* 0, 1 (open_phase open) or >= 2 (all currents zero) */
     int open_phase;
     int has_disabled;   /* any disabled leg: guards must be watched */
@@ -79,7 +90,129 @@ const char *plant_params_check(const plant_params_t *p)
     if (p->t_delay_s > p->ts_s) return "t_delay_s: must be <= ts_s";
     if (p->substeps < 1) return "substeps: must be >= 1";
     if (p->substeps > PLANT_MAX_SUBSTEPS) return "substeps: must be <= 100000";
+    return plant_params_check_nonideal(p);
+}
+
+/* The new groups, in this order (plant_rt/profile.py mirrors it rule by rule). */
+static const char *check_flag(int v, const char *msg)
+{
+    return (v == 0 || v == 1) ? NULL : msg;
+}
+
+const char *plant_params_check_nonideal(const plant_params_t *p)
+{
+    const plant_inverter_params_t *iv = &p->inverter;
+    const plant_magnetics_params_t *mg = &p->magnetics;
+    const plant_sensor_params_t *se = &p->sensors;
+    const plant_mechanics_params_t *me = &p->mechanics;
+    const double h = p->ts_s / (double)p->substeps; /* longest RK4 step */
+    double l_min;
+    const char *msg;
+    if ((msg = check_flag(p->full_period_delay, "full_period_delay: must be 0 or 1")) != NULL) return msg;
+    /* magnetics first: the inverter's stability rule needs the smallest inductance */
+    if ((msg = check_flag(mg->saturation, "saturation: must be 0 or 1")) != NULL) return msg;
+    if (mg->saturation) {
+        if (!isfinite(mg->sat_l_inf_ratio)) return "sat_l_inf_ratio: must be finite";
+        if (!(mg->sat_l_inf_ratio > 0.0)) return "sat_l_inf_ratio: must be > 0";
+        if (!(mg->sat_l_inf_ratio <= 1.0)) return "sat_l_inf_ratio: must be <= 1";
+        if (!isfinite(mg->sat_i_scale_a)) return "sat_i_scale_a: must be finite";
+        if (!(mg->sat_i_scale_a > 0.0)) return "sat_i_scale_a: must be > 0";
+        if (!isfinite(mg->sat_i_knee_a)) return "sat_i_knee_a: must be finite";
+        if (!(mg->sat_i_knee_a <= 0.0)) return "sat_i_knee_a: must be <= 0";
+        if (!(mg->sat_i_knee_a >= -3.0 * mg->sat_i_scale_a)) return "sat_i_knee_a: must be >= -3 sat_i_scale_a";
+    }
+    l_min = fmin(p->ld_h * (mg->saturation ? mg->sat_l_inf_ratio : 1.0), p->lq_h);
+    if ((msg = check_flag(iv->inverter_nonlinear, "inverter_nonlinear: must be 0 or 1")) != NULL) return msg;
+    if (iv->inverter_nonlinear) {
+        if (!isfinite(iv->dead_time_s)) return "dead_time_s: must be finite";
+        if (!(iv->dead_time_s >= 0.0)) return "dead_time_s: must be >= 0";
+        if (!(2.0 * iv->dead_time_s < p->ts_s)) return "dead_time_s: must be < ts_s / 2";
+        if (!isfinite(iv->v_switch_drop_v)) return "v_switch_drop_v: must be finite";
+        if (!(iv->v_switch_drop_v >= 0.0)) return "v_switch_drop_v: must be >= 0";
+        if (!isfinite(iv->r_switch_ohm)) return "r_switch_ohm: must be finite";
+        if (!(iv->r_switch_ohm >= 0.0)) return "r_switch_ohm: must be >= 0";
+        if (!isfinite(iv->v_diode_drop_v)) return "v_diode_drop_v: must be finite";
+        if (!(iv->v_diode_drop_v >= 0.0)) return "v_diode_drop_v: must be >= 0";
+        if (!isfinite(iv->r_diode_ohm)) return "r_diode_ohm: must be finite";
+        if (!(iv->r_diode_ohm >= 0.0)) return "r_diode_ohm: must be >= 0";
+        if (!isfinite(iv->i_cap_band_a)) return "i_cap_band_a: must be finite";
+        /* > 0: a hard sign makes the right-hand side discontinuous at i = 0, where the fixed-
+         * step RK4 chatters (zero-current clamping) and loses the energy balance */
+        if (!(iv->i_cap_band_a > 0.0)) return "i_cap_band_a: must be > 0";
+        {
+            /* slope of the pole voltage across the band, as a resistance (dead time:
+             * delta V_dc / (2 i_c); drop onset: at most max(v_s, v_d) / i_c; bounded by
+             * (delta V_dc + 2 (v_s + v_d)) / (2 i_c)): RK4 stays stable (and accurate) while
+             * h * slope / L_min <= 2 */
+            const double slope_ohm = (iv->dead_time_s / p->ts_s * p->v_dc_v +
+                                      2.0 * (iv->v_switch_drop_v + iv->v_diode_drop_v)) /
+                                     (2.0 * iv->i_cap_band_a);
+            if (!(h * slope_ohm <= 2.0 * l_min)) {
+                return "i_cap_band_a: too small for the RK4 step (raise it or substeps)";
+            }
+        }
+    }
+    if ((msg = check_flag(se->adc_model, "adc_model: must be 0 or 1")) != NULL) return msg;
+    if ((msg = check_flag(se->dual_sampling, "dual_sampling: must be 0 or 1")) != NULL) return msg;
+    if (se->adc_model) {
+        if (se->adc_bits < 1 || se->adc_bits > 24) return "adc_bits: must be 1 .. 24";
+        if (!isfinite(se->adc_full_scale_a)) return "adc_full_scale_a: must be finite";
+        if (!(se->adc_full_scale_a > 0.0)) return "adc_full_scale_a: must be > 0";
+        if (!isfinite(se->adc_gain_err_ia) || !(se->adc_gain_err_ia > -1.0)) return "adc_gain_err_ia: must be finite and > -1";
+        if (!isfinite(se->adc_gain_err_ib) || !(se->adc_gain_err_ib > -1.0)) return "adc_gain_err_ib: must be finite and > -1";
+        if (!isfinite(se->adc_gain_err_ic) || !(se->adc_gain_err_ic > -1.0)) return "adc_gain_err_ic: must be finite and > -1";
+        if (!isfinite(se->adc_offset_ia_a)) return "adc_offset_ia_a: must be finite";
+        if (!isfinite(se->adc_offset_ib_a)) return "adc_offset_ib_a: must be finite";
+        if (!isfinite(se->adc_offset_ic_a)) return "adc_offset_ic_a: must be finite";
+        if (!isfinite(se->adc_noise_a_rms)) return "adc_noise_a_rms: must be finite";
+        if (!(se->adc_noise_a_rms >= 0.0)) return "adc_noise_a_rms: must be >= 0";
+        if (!isfinite(se->adc_vdc_full_scale_v)) return "adc_vdc_full_scale_v: must be finite";
+        if (!(se->adc_vdc_full_scale_v > 0.0)) return "adc_vdc_full_scale_v: must be > 0";
+        if (!isfinite(se->adc_vdc_gain_err) || !(se->adc_vdc_gain_err > -1.0)) return "adc_vdc_gain_err: must be finite and > -1";
+        if (!isfinite(se->adc_vdc_offset_v)) return "adc_vdc_offset_v: must be finite";
+        if (!isfinite(se->adc_vdc_noise_v_rms)) return "adc_vdc_noise_v_rms: must be finite";
+        if (!(se->adc_vdc_noise_v_rms >= 0.0)) return "adc_vdc_noise_v_rms: must be >= 0";
+    }
+    if (!isfinite(me->coulomb_nm)) return "coulomb_nm: must be finite";
+    if (!(me->coulomb_nm >= 0.0)) return "coulomb_nm: must be >= 0";
+    if (me->coulomb_nm > 0.0) {
+        if (!isfinite(me->coulomb_band_rad_s)) return "coulomb_band_rad_s: must be finite";
+        if (!(me->coulomb_band_rad_s > 0.0)) return "coulomb_band_rad_s: must be > 0";
+        /* d(friction)/d(omega) / J at zero speed: RK4 stable while h * rate <= 2 */
+        if (!(h * me->coulomb_nm <= 2.0 * p->j_kgm2 * me->coulomb_band_rad_s)) {
+            return "coulomb_band_rad_s: too small for the RK4 step (raise it or substeps)";
+        }
+    }
+    {
+        mechanics_load_profile_t lp;
+        if (me->load_profile < 0 || me->load_profile > 3) return "load_profile: must be none, step, ramp or table";
+        plant_load_profile_from_params(me, &lp);
+        if ((msg = mechanics_load_profile_check(&lp)) != NULL) return msg;
+    }
+    if ((msg = check_flag(me->dyno, "dyno: must be 0 or 1")) != NULL) return msg;
+    if (me->dyno) {
+        if (!isfinite(me->dyno_speed_rad_s)) return "dyno_speed_rad_s: must be finite";
+        if (!isfinite(me->dyno_accel_rad_s2)) return "dyno_accel_rad_s2: must be finite";
+        if (!(me->dyno_accel_rad_s2 >= 0.0)) return "dyno_accel_rad_s2: must be >= 0";
+    }
     return NULL;
+}
+
+void plant_load_profile_from_params(const plant_mechanics_params_t *me, mechanics_load_profile_t *lp)
+{
+    int k, n;
+    memset(lp, 0, sizeof *lp);
+    lp->kind = me->load_profile;
+    lp->t0_s = me->load_t0_s;
+    lp->t1_s = me->load_t1_s;
+    lp->torque0_nm = me->load_torque0_nm;
+    lp->torque1_nm = me->load_torque1_nm;
+    lp->table_n = me->load_table_n;
+    n = (me->load_table_n < 0) ? 0 : ((me->load_table_n > MECH_LOAD_TABLE_MAX) ? MECH_LOAD_TABLE_MAX : me->load_table_n);
+    for (k = 0; k < n; ++k) {
+        lp->table_t_s[k] = me->load_table_t_s[k];
+        lp->table_nm[k] = me->load_table_nm[k];
+    }
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -87,7 +220,16 @@ const char *plant_params_check(const plant_params_t *p)
 
 static double wrap_2pi(double x)
 {
-    double r = fmod(x, PL_TWO_PI);
+    double r;
+    /* the usual case, one turn at most past either end: the subtraction is exact (Sterbenz for
+     * [2pi, 4pi); for [-2pi, 0) it is the same operation fmod's result gets below) */
+    if (x >= 0.0 && x < PL_TWO_PI) {
+        return x;
+    }
+    if (x >= PL_TWO_PI && x < 2.0 * PL_TWO_PI) {
+        return x - PL_TWO_PI;
+    }
+    r = fmod(x, PL_TWO_PI);
     if (r < 0.0) {
         r += PL_TWO_PI;
     }
@@ -128,17 +270,53 @@ static void emf_abc(const plant_t *pl, const double *s, double e_abc[3])
     pmsm_inv_clarke(ea, eb, &e_abc[0], &e_abc[1], &e_abc[2]);
 }
 
+/**
+ * Pole voltages [V] of the mode's source legs at state s (and, if f_hi is not NULL, the
+ * fraction of time each leg ties its phase to the + rail). Ideal inverter: the mode's
+ * precomputed voltages (they do not depend on the currents).
+ */
+static void pole_voltages_at(const plant_t *pl, const step_mode_t *mode, const double *s,
+                             double v_pole[3], double f_hi[3])
+{
+    double i_abc[3];
+    if (!pl->inverter.nonlinear) {
+        v_pole[0] = mode->v_pole_v[0];
+        v_pole[1] = mode->v_pole_v[1];
+        v_pole[2] = mode->v_pole_v[2];
+        if (f_hi != NULL) {
+            int k;
+            for (k = 0; k < 3; ++k) {
+                f_hi[k] = (mode->leg[k] == INV_LEG_PWM) ? mode->duty[k]
+                          : ((mode->leg[k] == INV_LEG_DIODE_HIGH) ? 1.0 : 0.0);
+            }
+        }
+        return;
+    }
+    currents_abc(s, i_abc);
+    inverter_pole_voltages_i(&pl->inverter, mode->duty, mode->leg, i_abc, v_pole, f_hi);
+}
+
+/** Inverter loss power [W]: sum_x (f_x V_dc - v_xN) i_x. */
+static double inverter_loss_power(const plant_t *pl, const double v_pole[3], const double f_hi[3],
+                                  const double i_abc[3])
+{
+    const double vdc = pl->params.v_dc_v;
+    return (f_hi[0] * vdc - v_pole[0]) * i_abc[0] + (f_hi[1] * vdc - v_pole[1]) * i_abc[1] +
+           (f_hi[2] * vdc - v_pole[2]) * i_abc[2];
+}
+
 /** Terminal voltage v_xN [V] the open phase floats to, for mode->n_open == 1. */
 static double open_terminal_voltage(const plant_t *pl, const step_mode_t *mode, const double *s)
 {
     const int x = mode->open_phase;
     const int y = (x + 1) % 3;
     const int z = (x + 2) % 3;
-    double did, diq, lam;
+    double did, diq, lam, vp[3];
+    pole_voltages_at(pl, mode, s, vp, NULL);
     pmsm_machine_derivs_open_phase(&pl->machine, s[S_ID], s[S_IQ], s[S_TH],
                                    (double)pl->params.pole_pairs * s[S_WM], x,
-                                   mode->v_pole_v[y] - mode->v_pole_v[z], &did, &diq, &lam);
-    return 0.5 * (mode->v_pole_v[y] + mode->v_pole_v[z]) + 1.5 * lam;
+                                   vp[y] - vp[z], &did, &diq, &lam);
+    return 0.5 * (vp[y] + vp[z]) + 1.5 * lam;
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -151,6 +329,7 @@ static void finish_mode(const plant_t *pl, const double duty[3], step_mode_t *mo
     mode->open_phase = -1;
     mode->has_disabled = 0;
     for (k = 0; k < 3; ++k) {
+        mode->duty[k] = duty[k];
         if (mode->leg[k] == INV_LEG_OPEN) {
             ++mode->n_open;
             mode->open_phase = k;
@@ -160,6 +339,9 @@ static void finish_mode(const plant_t *pl, const double duty[3], step_mode_t *mo
         }
     }
     inverter_pole_voltages(&pl->inverter, duty, mode->leg, mode->v_pole_v);
+    inverter_phase_voltages(mode->v_pole_v, mode->v_phase_v);
+    mode->v_alpha_v = mode->v_phase_v[0];
+    mode->v_beta_v = (mode->v_phase_v[0] + 2.0 * mode->v_phase_v[1]) * PL_INV_SQRT3;
 }
 
 /**
@@ -200,7 +382,7 @@ static void resolve_mode(const plant_t *pl, const double duty[3], double *s, ste
                     if (e[k] > e[kmax]) kmax = k;
                     if (e[k] < e[kmin]) kmin = k;
                 }
-                if (e[kmax] - e[kmin] > inv->cfg.v_dc_v + inv->v_tol_v) {
+                if (e[kmax] - e[kmin] > inv->cfg.v_dc_v + 2.0 * inv->nl.v_diode_drop_v + inv->v_tol_v) {
                     mode->leg[kmax] = INV_LEG_DIODE_HIGH; /* current leaves the machine there */
                     mode->leg[kmin] = INV_LEG_DIODE_LOW;
                     continue; /* the middle phase is decided as a single open phase */
@@ -211,11 +393,12 @@ static void resolve_mode(const plant_t *pl, const double duty[3], double *s, ste
                 int z = 0;
                 int worst = -1;
                 double worst_margin = 0.0;
-                double v_n;
+                double v_n, vp[3];
                 for (k = 0; k < 3; ++k) {
                     if (mode->leg[k] != INV_LEG_OPEN) z = k;
                 }
-                v_n = mode->v_pole_v[z] - e[z];
+                pole_voltages_at(pl, mode, s, vp, NULL);
+                v_n = vp[z] - e[z];
                 for (k = 0; k < 3; ++k) {
                     if (k != z) {
                         const double m = inverter_open_margin(inv, v_n + e[k]);
@@ -260,15 +443,16 @@ static double mode_margin(const plant_t *pl, const step_mode_t *mode, const doub
         if (mode->n_open == 3) {
             const double emax = fmax(e[0], fmax(e[1], e[2]));
             const double emin = fmin(e[0], fmin(e[1], e[2]));
-            const double m = inv->cfg.v_dc_v + inv->v_tol_v - (emax - emin);
+            const double m = inv->cfg.v_dc_v + 2.0 * inv->nl.v_diode_drop_v + inv->v_tol_v - (emax - emin);
             if (m < margin) margin = m;
         } else {
             int z = 0;
-            double v_n;
+            double v_n, vp[3];
             for (k = 0; k < 3; ++k) {
                 if (mode->leg[k] != INV_LEG_OPEN) z = k;
             }
-            v_n = mode->v_pole_v[z] - e[z];
+            pole_voltages_at(pl, mode, s, vp, NULL);
+            v_n = vp[z] - e[z];
             for (k = 0; k < 3; ++k) {
                 if (k != z) {
                     const double m = inverter_open_margin(inv, v_n + e[k]);
@@ -303,22 +487,42 @@ static void enforce_mode(const step_mode_t *mode, double *s)
 /* ------------------------------------------------------------------------------------------ */
 /* right-hand side and RK4                                                                    */
 
-static void deriv(const plant_t *pl, const step_mode_t *mode, const double *s, double *ds)
+/**
+ * Right-hand side at state s; sn, cs = sin and cos of s[S_TH] (the caller has them: rk4
+ * rotates the step's start angle by each stage's small offset).
+ */
+static void deriv(const plant_t *pl, const step_mode_t *mode, const double *s, double sn, double cs,
+                  double *ds)
 {
     const plant_params_t *p = &pl->params;
     const double id = s[S_ID];
     const double iq = s[S_IQ];
     const double wm = s[S_WM];
     const double we = (double)p->pole_pairs * wm;
-    const double sn = sin(s[S_TH]);
-    const double cs = cos(s[S_TH]);
     double v[3];
-    double valpha, vbeta, vd, vq, did, diq, te;
+    double valpha, vbeta, vd, vq, did, diq, te, tl, accel;
+    double p_inv = 0.0;
 
     if (mode->n_open == 0) {
-        inverter_phase_voltages(mode->v_pole_v, v);
-        valpha = v[0];
-        vbeta = (v[0] + 2.0 * v[1]) * PL_INV_SQRT3;
+        if (pl->inverter.nonlinear) {
+            double i_abc[3], vp[3], f[3];
+            const double ia = id * cs - iq * sn;
+            const double ib = id * sn + iq * cs;
+            i_abc[0] = ia;
+            i_abc[1] = -0.5 * ia + 0.5 * PL_SQRT3 * ib;
+            i_abc[2] = -0.5 * ia - 0.5 * PL_SQRT3 * ib;
+            inverter_pole_voltages_i(&pl->inverter, mode->duty, mode->leg, i_abc, vp, f);
+            inverter_phase_voltages(vp, v);
+            p_inv = inverter_loss_power(pl, vp, f, i_abc);
+            valpha = v[0];
+            vbeta = (v[0] + 2.0 * v[1]) * PL_INV_SQRT3;
+        } else { /* constant over the step: computed once in finish_mode */
+            v[0] = mode->v_phase_v[0];
+            v[1] = mode->v_phase_v[1];
+            v[2] = mode->v_phase_v[2];
+            valpha = mode->v_alpha_v;
+            vbeta = mode->v_beta_v;
+        }
         vd = valpha * cs + vbeta * sn;
         vq = -valpha * sn + vbeta * cs;
         pmsm_machine_derivs(&pl->machine, id, iq, vd, vq, we, &did, &diq);
@@ -326,10 +530,17 @@ static void deriv(const plant_t *pl, const step_mode_t *mode, const double *s, d
         const int x = mode->open_phase;
         const int y = (x + 1) % 3;
         const int z = (x + 2) % 3;
-        const double d_yz = mode->v_pole_v[y] - mode->v_pole_v[z];
-        double lam;
+        double vp[3], f[3], d_yz, lam;
+        pole_voltages_at(pl, mode, s, vp, f);
+        d_yz = vp[y] - vp[z];
         pmsm_machine_derivs_open_phase(&pl->machine, id, iq, s[S_TH], we, x, d_yz, &did, &diq,
                                        &lam);
+        if (pl->inverter.nonlinear) {
+            double i_abc[3];
+            currents_abc(s, i_abc);
+            i_abc[x] = 0.0;
+            p_inv = inverter_loss_power(pl, vp, f, i_abc);
+        }
         v[x] = lam;
         v[y] = 0.5 * (d_yz - lam);
         v[z] = 0.5 * (-d_yz - lam);
@@ -348,9 +559,17 @@ static void deriv(const plant_t *pl, const step_mode_t *mode, const double *s, d
         diq = 0.0;
     }
     te = pmsm_machine_torque(&pl->machine, id, iq);
+    if (p->mechanics.dyno) {
+        /* speed imposed: the dynamometer supplies whatever torque that takes */
+        accel = pl->dyno_accel_now_rad_s2;
+        tl = te - mechanics_friction_torque(&pl->mech, wm) - p->j_kgm2 * accel;
+    } else {
+        tl = pl->torque_load_period_nm;
+        accel = mechanics_accel(&pl->mech, wm, te, tl);
+    }
     ds[S_ID] = did;
     ds[S_IQ] = diq;
-    ds[S_WM] = mechanics_accel(&pl->mech, wm, te, pl->torque_load_nm);
+    ds[S_WM] = accel;
     ds[S_TH] = we;
     ds[Q_VA] = v[0];
     ds[Q_VB] = v[1];
@@ -361,22 +580,61 @@ static void deriv(const plant_t *pl, const step_mode_t *mode, const double *s, d
     ds[Q_EIN] = 1.5 * (vd * id + vq * iq);
     ds[Q_ECU] = 1.5 * p->rs_ohm * (id * id + iq * iq);
     ds[Q_EVISC] = p->b_nms * wm * wm;
-    ds[Q_ELOAD] = pl->torque_load_nm * wm;
+    ds[Q_ELOAD] = tl * wm;
+    ds[Q_ECOUL] = (pl->mech.coulomb_nm > 0.0)
+                      ? pl->mech.coulomb_nm * tanh(wm * pl->mech.inv_coulomb_band) * wm
+                      : 0.0;
+    ds[Q_EINV] = p_inv;
 }
+
+/**
+ * sin and cos of (theta0 + d) from s0 = sin(theta0), c0 = cos(theta0): the stages of an RK4
+ * step are a small angle d (= omega_e * stage time, |d| <~ 0.1 rad) away from its start, so the
+ * step needs one sin/cos pair and a rotation (Taylor series of sin d and cos d to d^13 / d^12:
+ * truncation < 1e-17 for |d| <= 0.5; beyond that libm is used). Accurate to about 1 ulp.
+ */
+static void rotate_angle(double s0, double c0, double theta0, double d, double *s, double *c)
+{
+    const double d2 = d * d;
+    double sd, cd;
+    if (!(fabs(d) <= 0.5)) {
+        *s = sin(theta0 + d);
+        *c = cos(theta0 + d);
+        return;
+    }
+    /* Horner in d^2 with the factorials' reciprocals (multiplications only) */
+    sd = d + d * d2 * (-1.0 / 6.0 + d2 * (1.0 / 120.0 + d2 * (-1.0 / 5040.0 + d2 * (1.0 / 362880.0 +
+             d2 * (-1.0 / 39916800.0 + d2 * (1.0 / 6227020800.0))))));
+    cd = 1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 + d2 * (-1.0 / 720.0 + d2 * (1.0 / 40320.0 +
+             d2 * (-1.0 / 3628800.0 + d2 * (1.0 / 479001600.0))))));
+    *s = s0 * cd + c0 * sd;
+    *c = c0 * cd - s0 * sd;
+}
+
+/* The derivatives depend on the dynamic states only (S_ID .. S_TH, the first N_DYN entries),
+ * never on the quadrature channels: the stages advance just those. */
+#define N_DYN 4
 
 static void rk4(const plant_t *pl, const step_mode_t *mode, const double *s0, double h, double *s1)
 {
-    double k1[S_N], k2[S_N], k3[S_N], k4[S_N], tmp[S_N];
+    double k1[S_N], k2[S_N], k3[S_N], k4[S_N], tmp[N_DYN];
     const double h2 = 0.5 * h;
     const double h6 = h / 6.0;
+    const double th0 = s0[S_TH];
+    const double sn0 = sin(th0);
+    const double cs0 = cos(th0);
+    double sn, cs;
     int i;
-    deriv(pl, mode, s0, k1);
-    for (i = 0; i < S_N; ++i) tmp[i] = s0[i] + h2 * k1[i];
-    deriv(pl, mode, tmp, k2);
-    for (i = 0; i < S_N; ++i) tmp[i] = s0[i] + h2 * k2[i];
-    deriv(pl, mode, tmp, k3);
-    for (i = 0; i < S_N; ++i) tmp[i] = s0[i] + h * k3[i];
-    deriv(pl, mode, tmp, k4);
+    deriv(pl, mode, s0, sn0, cs0, k1);
+    for (i = 0; i < N_DYN; ++i) tmp[i] = s0[i] + h2 * k1[i];
+    rotate_angle(sn0, cs0, th0, h2 * k1[S_TH], &sn, &cs);
+    deriv(pl, mode, tmp, sn, cs, k2);
+    for (i = 0; i < N_DYN; ++i) tmp[i] = s0[i] + h2 * k2[i];
+    rotate_angle(sn0, cs0, th0, h2 * k2[S_TH], &sn, &cs);
+    deriv(pl, mode, tmp, sn, cs, k3);
+    for (i = 0; i < N_DYN; ++i) tmp[i] = s0[i] + h * k3[i];
+    rotate_angle(sn0, cs0, th0, h * k3[S_TH], &sn, &cs);
+    deriv(pl, mode, tmp, sn, cs, k4);
     for (i = 0; i < S_N; ++i) s1[i] = s0[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
 }
 
@@ -447,13 +705,87 @@ static void substep(plant_t *pl, const double duty[3], double h, double *s)
 /* ------------------------------------------------------------------------------------------ */
 /* public API                                                                                 */
 
+/** Convert the three phase currents (and, if vdc_code != NULL, the bus voltage) as the ADC would. */
+static void adc_currents(plant_t *pl, const double i_abc[3], double out[3], int code[3])
+{
+    int k;
+    if (!pl->params.sensors.adc_model) {
+        for (k = 0; k < 3; ++k) {
+            out[k] = i_abc[k];
+            code[k] = -1;
+        }
+        return;
+    }
+    for (k = 0; k < 3; ++k) {
+        out[k] = sensor_adc_convert(&pl->adc_i[k], &pl->rng, i_abc[k], &code[k]);
+    }
+}
+
+/**
+ * The first sample of the period starting now (t_s), from the state y. Ideal sensors: nothing
+ * to draw, plant_sample computes the exact values when asked.
+ */
+static void take_first_sample(plant_t *pl)
+{
+    plant_sample_t *sm = &pl->sample;
+    double i_abc[3], meas[3];
+    int code[3];
+    if (!pl->params.sensors.adc_model) {
+        return;
+    }
+    currents_abc(pl->y, i_abc);
+    adc_currents(pl, i_abc, meas, code);
+    sm->t_s = pl->t_s;
+    sm->i_a_a = meas[0];
+    sm->i_b_a = meas[1];
+    sm->i_c_a = meas[2];
+    sm->code_a = code[0];
+    sm->code_b = code[1];
+    sm->code_c = code[2];
+    if (pl->params.sensors.adc_model) {
+        sm->v_dc_v = sensor_adc_convert(&pl->adc_vdc, &pl->rng, pl->params.v_dc_v, &sm->code_vdc);
+    } else {
+        sm->v_dc_v = pl->params.v_dc_v;
+        sm->code_vdc = -1;
+    }
+}
+
+/** The second sample of the present period, at its actuation instant (state s). */
+static void take_second_sample(plant_t *pl, const double *s)
+{
+    plant_sample_t *sm = &pl->sample;
+    double i_abc[3], meas[3];
+    int code[3];
+    const int dual = pl->params.sensors.dual_sampling;
+    if (!dual && !pl->params.sensors.adc_model) {
+        return; /* nothing to record, no random draws to keep in step */
+    }
+    currents_abc(s, i_abc);
+    adc_currents(pl, i_abc, meas, code); /* draws even without dual sampling: same stream */
+    sm->i2_a_a = dual ? meas[0] : 0.0;
+    sm->i2_b_a = dual ? meas[1] : 0.0;
+    sm->i2_c_a = dual ? meas[2] : 0.0;
+    sm->code2_a = dual ? code[0] : -1;
+    sm->code2_b = dual ? code[1] : -1;
+    sm->code2_c = dual ? code[2] : -1;
+    sm->dual_valid = dual;
+}
+
+static void sync_parts(plant_t *pl)
+{
+    pl->machine.i_d_a = pl->y[S_ID];
+    pl->machine.i_q_a = pl->y[S_IQ];
+    pl->mech.omega_m_rad_s = pl->y[S_WM];
+    pl->mech.theta_m_rad = pl->theta_m_rad;
+}
+
 int plant_init(plant_t *pl, const plant_params_t *p)
 {
     pmsm_machine_config_t mc;
     inverter_config_t ic;
     mechanics_config_t kc;
-    double frac;
-    int n;
+    double frac, td;
+    int n, k;
     if (pl == NULL || plant_params_check(p) != NULL) {
         return -1;
     }
@@ -472,13 +804,57 @@ int plant_init(plant_t *pl, const plant_params_t *p)
         mechanics_init(&pl->mech, &kc) != 0) {
         return -1;
     }
+    /* non-idealities */
+    if (p->inverter.inverter_nonlinear) {
+        inverter_nl_config_t nl;
+        nl.dead_time_s = p->inverter.dead_time_s;
+        nl.ts_s = p->ts_s;
+        nl.v_switch_drop_v = p->inverter.v_switch_drop_v;
+        nl.r_switch_ohm = p->inverter.r_switch_ohm;
+        nl.v_diode_drop_v = p->inverter.v_diode_drop_v;
+        nl.r_diode_ohm = p->inverter.r_diode_ohm;
+        nl.i_cap_band_a = p->inverter.i_cap_band_a;
+        if (inverter_set_nonlinear(&pl->inverter, &nl) != 0) return -1;
+    }
+    if (p->magnetics.saturation) {
+        pmsm_saturation_config_t sc;
+        sc.l_inf_ratio = p->magnetics.sat_l_inf_ratio;
+        sc.i_scale_a = p->magnetics.sat_i_scale_a;
+        sc.i_knee_a = p->magnetics.sat_i_knee_a;
+        if (pmsm_machine_set_saturation(&pl->machine, &sc) != 0) return -1;
+    }
+    if (p->mechanics.coulomb_nm > 0.0 &&
+        mechanics_set_coulomb(&pl->mech, p->mechanics.coulomb_nm, p->mechanics.coulomb_band_rad_s) != 0) {
+        return -1;
+    }
+    plant_load_profile_from_params(&p->mechanics, &pl->load);
+    for (k = 0; k < 3; ++k) {
+        pl->adc_i[k].bits = p->sensors.adc_bits;
+        pl->adc_i[k].bipolar = 1;
+        pl->adc_i[k].full_scale = p->sensors.adc_full_scale_a;
+        pl->adc_i[k].noise_rms = p->sensors.adc_noise_a_rms;
+    }
+    pl->adc_i[0].gain_err = p->sensors.adc_gain_err_ia;
+    pl->adc_i[1].gain_err = p->sensors.adc_gain_err_ib;
+    pl->adc_i[2].gain_err = p->sensors.adc_gain_err_ic;
+    pl->adc_i[0].offset = p->sensors.adc_offset_ia_a;
+    pl->adc_i[1].offset = p->sensors.adc_offset_ib_a;
+    pl->adc_i[2].offset = p->sensors.adc_offset_ic_a;
+    pl->adc_vdc.bits = p->sensors.adc_bits;
+    pl->adc_vdc.bipolar = 0;
+    pl->adc_vdc.full_scale = p->sensors.adc_vdc_full_scale_v;
+    pl->adc_vdc.gain_err = p->sensors.adc_vdc_gain_err;
+    pl->adc_vdc.offset = p->sensors.adc_vdc_offset_v;
+    pl->adc_vdc.noise_rms = p->sensors.adc_vdc_noise_v_rms;
     /* split the period at the delay instant; every step <= ts/substeps */
+    td = p->full_period_delay ? p->ts_s : p->t_delay_s;
+    pl->t_delay_eff_s = td;
     n = p->substeps;
-    frac = p->t_delay_s / p->ts_s;
-    if (!(p->t_delay_s > 0.0)) {
+    frac = td / p->ts_s;
+    if (!(td > 0.0)) {
         pl->seg_steps[0] = 0;
         pl->seg_steps[1] = n;
-    } else if (!(p->t_delay_s < p->ts_s)) {
+    } else if (!(td < p->ts_s)) {
         pl->seg_steps[0] = n;
         pl->seg_steps[1] = 0;
     } else {
@@ -487,8 +863,8 @@ int plant_init(plant_t *pl, const plant_params_t *p)
         if (pl->seg_steps[0] < 1) pl->seg_steps[0] = 1;
         if (pl->seg_steps[1] < 1) pl->seg_steps[1] = 1;
     }
-    pl->seg_h_s[0] = (pl->seg_steps[0] > 0) ? p->t_delay_s / (double)pl->seg_steps[0] : 0.0;
-    pl->seg_h_s[1] = (pl->seg_steps[1] > 0) ? (p->ts_s - p->t_delay_s) / (double)pl->seg_steps[1] : 0.0;
+    pl->seg_h_s[0] = (pl->seg_steps[0] > 0) ? td / (double)pl->seg_steps[0] : 0.0;
+    pl->seg_h_s[1] = (pl->seg_steps[1] > 0) ? (p->ts_s - td) / (double)pl->seg_steps[1] : 0.0;
     plant_reset(pl);
     return 0;
 }
@@ -509,8 +885,22 @@ void plant_reset(plant_t *pl)
         pl->duty_now[k] = 0.5;
     }
     for (k = 0; k < 5; ++k) pl->v_avg[k] = 0.0;
-    for (k = 0; k < 4; ++k) pl->energy[k] = 0.0;
+    for (k = 0; k < 6; ++k) pl->energy[k] = 0.0;
     pl->events = 0UL;
+    pl->torque_load_period_nm = 0.0;
+    pl->dyno_accel_now_rad_s2 = 0.0;
+    pl->dyno_target_rad_s = pl->params.mechanics.dyno_speed_rad_s;
+    if (pl->params.mechanics.dyno) {
+        pl->y[S_WM] = pl->dyno_target_rad_s;
+        pl->mech.omega_m_rad_s = pl->y[S_WM];
+    }
+    /* sensors: reseed, first sample of period 0, no second sample yet */
+    sensor_rng_seed(&pl->rng, pl->params.sensors.adc_seed);
+    memset(&pl->sample, 0, sizeof pl->sample);
+    pl->sample.code2_a = -1;
+    pl->sample.code2_b = -1;
+    pl->sample.code2_c = -1;
+    take_first_sample(pl);
 }
 
 void plant_set_initial(plant_t *pl, double theta_e_rad, double omega_m_rad_s)
@@ -527,6 +917,46 @@ void plant_set_load_torque(plant_t *pl, double torque_nm)
     pl->torque_load_nm = torque_nm;
 }
 
+void plant_set_dyno_speed(plant_t *pl, double omega_m_rad_s)
+{
+    pl->dyno_target_rad_s = omega_m_rad_s;
+}
+
+double plant_load_torque_at(const plant_t *pl, double t_s)
+{
+    return pl->torque_load_nm + mechanics_load_profile_at(&pl->load, t_s);
+}
+
+/** Start of a period: the load it sees, or the dynamometer's imposed acceleration. */
+static void begin_period_mechanics(plant_t *pl)
+{
+    const plant_params_t *p = &pl->params;
+    if (p->mechanics.dyno) {
+        const double w0 = pl->y[S_WM];
+        const double dw = pl->dyno_target_rad_s - w0;
+        const double a_max = p->mechanics.dyno_accel_rad_s2;
+        if (!(a_max > 0.0)) {
+            if (dw > 0.0 || dw < 0.0) { /* speed step: the dyno supplies the kinetic energy */
+                const double w1 = pl->dyno_target_rad_s;
+                pl->energy[3] -= 0.5 * p->j_kgm2 * (w1 * w1 - w0 * w0);
+                pl->y[S_WM] = w1;
+                pl->mech.omega_m_rad_s = w1;
+            }
+            pl->dyno_accel_now_rad_s2 = 0.0;
+        } else {
+            double a = dw / p->ts_s;
+            if (a > a_max) a = a_max;
+            if (a < -a_max) a = -a_max;
+            pl->dyno_accel_now_rad_s2 = a;
+        }
+    } else if (pl->load.kind == MECH_LOAD_NONE) {
+        pl->torque_load_period_nm = pl->torque_load_nm;
+    } else {
+        pl->torque_load_period_nm =
+            pl->torque_load_nm + mechanics_load_profile_mean(&pl->load, pl->t_s, pl->t_s + p->ts_s);
+    }
+}
+
 void plant_step(plant_t *pl, const double duty_abc[3])
 {
     double s[S_N];
@@ -535,6 +965,7 @@ void plant_step(plant_t *pl, const double duty_abc[3])
     for (k = 0; k < 3; ++k) {
         duty_new[k] = inverter_sanitize_duty(duty_abc[k]);
     }
+    begin_period_mechanics(pl);
     for (i = 0; i < S_N; ++i) s[i] = 0.0;
     for (i = 0; i < 4; ++i) s[i] = pl->y[i];
     for (seg = 0; seg < 2; ++seg) {
@@ -559,22 +990,23 @@ void plant_step(plant_t *pl, const double duty_abc[3])
             }
             s[S_TH] = wrap_2pi(s[S_TH]);
         }
+        if (seg == 0) {
+            take_second_sample(pl, s); /* the actuation instant t_k + t_d */
+        }
     }
     for (i = 0; i < 4; ++i) pl->y[i] = s[i];
     for (k = 0; k < 5; ++k) pl->v_avg[k] = s[Q_VA + k] / pl->params.ts_s;
-    for (k = 0; k < 4; ++k) pl->energy[k] += s[Q_EIN + k];
+    for (k = 0; k < 6; ++k) pl->energy[k] += s[Q_EIN + k];
     pl->theta_m_rad += s[Q_THM];
     /* mirror the state into the parts (their own fields serve stand-alone use and debugging) */
-    pl->machine.i_d_a = s[S_ID];
-    pl->machine.i_q_a = s[S_IQ];
-    pl->mech.omega_m_rad_s = s[S_WM];
-    pl->mech.theta_m_rad = pl->theta_m_rad;
+    sync_parts(pl);
     for (k = 0; k < 3; ++k) {
         pl->duty_prev[k] = duty_new[k];
         pl->duty_now[k] = duty_new[k];
     }
     ++pl->period;
     pl->t_s = (double)pl->period * pl->params.ts_s;
+    take_first_sample(pl);
 }
 
 void plant_step_abc(plant_t *pl, double duty_a, double duty_b, double duty_c)
@@ -602,7 +1034,15 @@ void plant_snapshot(const plant_t *pl, plant_snapshot_t *out)
     out->theta_e_rad = th;
     out->theta_m_rad = pl->theta_m_rad;
     out->torque_e_nm = pmsm_machine_torque(&pl->machine, out->i_d_a, out->i_q_a);
-    out->torque_load_nm = pl->torque_load_nm;
+    out->torque_friction_nm = mechanics_friction_torque(&pl->mech, wm);
+    if (p->mechanics.dyno) {
+        out->torque_load_nm =
+            out->torque_e_nm - out->torque_friction_nm - p->j_kgm2 * pl->dyno_accel_now_rad_s2;
+    } else if (pl->load.kind == MECH_LOAD_NONE) {
+        out->torque_load_nm = pl->torque_load_nm;
+    } else {
+        out->torque_load_nm = plant_load_torque_at(pl, pl->t_s);
+    }
     out->e_alpha_v = -we * p->psi_f_wb * sin(th);
     out->e_beta_v = we * p->psi_f_wb * cos(th);
     out->v_dc_v = p->v_dc_v;
@@ -615,6 +1055,8 @@ void plant_snapshot(const plant_t *pl, plant_snapshot_t *out)
     out->duty_a = pl->duty_now[0];
     out->duty_b = pl->duty_now[1];
     out->duty_c = pl->duty_now[2];
+    pmsm_inv_park(pmsm_machine_psi_d(&pl->machine, out->i_d_a), p->lq_h * out->i_q_a, th,
+                  &out->psi_alpha_wb, &out->psi_beta_wb);
 }
 
 void plant_run(plant_t *pl, const double *duties_abc, size_t n, plant_snapshot_t *out)
@@ -636,4 +1078,26 @@ void plant_energy(const plant_t *pl, plant_energy_t *out)
     out->load_work_j = pl->energy[3];
     out->magnetic_j = pmsm_machine_stored_energy(&pl->machine, pl->y[S_ID], pl->y[S_IQ]);
     out->kinetic_j = 0.5 * pl->params.j_kgm2 * pl->y[S_WM] * pl->y[S_WM];
+    out->coulomb_loss_j = pl->energy[4];
+    out->inverter_loss_j = pl->energy[5];
+    out->dc_bus_in_j = pl->energy[0] + pl->energy[5];
+}
+
+void plant_sample(const plant_t *pl, plant_sample_t *out)
+{
+    *out = pl->sample;
+    out->t_s = pl->t_s;
+    out->t2_s = pl->t_s - pl->params.ts_s + pl->t_delay_eff_s;
+    if (!pl->params.sensors.adc_model) { /* ideal sensors: the exact values at t_k */
+        double i_abc[3];
+        currents_abc(pl->y, i_abc);
+        out->i_a_a = i_abc[0];
+        out->i_b_a = i_abc[1];
+        out->i_c_a = i_abc[2];
+        out->v_dc_v = pl->params.v_dc_v;
+        out->code_a = -1;
+        out->code_b = -1;
+        out->code_c = -1;
+        out->code_vdc = -1;
+    }
 }

@@ -1,9 +1,10 @@
-# Plant core (PMSM dq model + averaged inverter + mechanics + RK4 system object), C99, double.
+# Plant core (PMSM dq model + averaged inverter + mechanics + sensors + RK4 system object), C99, double.
 # Included by the top-level CMakeLists.txt, which defines HIL_ROOT and HIL_STRICT_FLAGS.
 add_library(hil_plant STATIC
   ${HIL_ROOT}/plant_rt/c/pmsm_machine.c
   ${HIL_ROOT}/plant_rt/c/inverter.c
   ${HIL_ROOT}/plant_rt/c/mechanics.c
+  ${HIL_ROOT}/plant_rt/c/sensor.c
   ${HIL_ROOT}/plant_rt/c/plant.c
 )
 target_include_directories(hil_plant PUBLIC ${HIL_ROOT}/plant_rt/c)
@@ -15,3 +16,10 @@ add_executable(test_plant ${HIL_ROOT}/tests/c/test_plant.c)
 target_compile_options(test_plant PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(test_plant PRIVATE hil_plant)
 add_test(NAME plant COMMAND test_plant)
+
+# The non-idealities (inverter non-linearity, saturation, ADC/PRNG, friction/load/dyno), each
+# part alone and in the assembled plant.
+add_executable(test_plant_nonideal ${HIL_ROOT}/tests/c/test_plant_nonideal.c)
+target_compile_options(test_plant_nonideal PRIVATE ${HIL_STRICT_FLAGS})
+target_link_libraries(test_plant_nonideal PRIVATE hil_plant)
+add_test(NAME plant_nonideal COMMAND test_plant_nonideal)

@@ -25,8 +25,88 @@ int pmsm_machine_init(pmsm_machine_t *m, const pmsm_machine_config_t *cfg)
     m->inv_ld = 1.0 / cfg->ld_h;
     m->inv_lq = 1.0 / cfg->lq_h;
     m->k_torque = 1.5 * (double)cfg->pole_pairs;
+    m->saturated = 0;
+    m->sat_ls_h = cfg->ld_h;
+    m->sat_k_h = 0.0;
+    m->sat_is_a = 1.0;
+    m->sat_i0_a = 0.0;
+    m->sat_t0 = 0.0;
+    m->sat_j0 = 0.0;
     pmsm_machine_reset(m);
     return 0;
+}
+
+/* ---- saturation ---- */
+
+/** ln cosh(u) without overflow. */
+static double log_cosh(double u)
+{
+    const double a = fabs(u);
+    return a + log1p(exp(-2.0 * a)) - 0.69314718055994530942;
+}
+
+/** Primitive of x sech^2((x - i0)/Is) [A^2]: Is^2 (u tanh u - ln cosh u) + i0 Is tanh u. */
+static double sat_primitive(const pmsm_machine_t *m, double i_d_a)
+{
+    const double is = m->sat_is_a;
+    const double u = (i_d_a - m->sat_i0_a) / is;
+    const double th = tanh(u);
+    return is * is * (u * th - log_cosh(u)) + m->sat_i0_a * is * th;
+}
+
+int pmsm_machine_set_saturation(pmsm_machine_t *m, const pmsm_saturation_config_t *sat)
+{
+    double c;
+    m->saturated = 0;
+    if (sat == 0) {
+        return 0;
+    }
+    if (!isfinite(sat->l_inf_ratio) || !(sat->l_inf_ratio > 0.0) || !(sat->l_inf_ratio <= 1.0) ||
+        !isfinite(sat->i_scale_a) || !(sat->i_scale_a > 0.0) || !isfinite(sat->i_knee_a) ||
+        !(sat->i_knee_a <= 0.0) || !(sat->i_knee_a >= -3.0 * sat->i_scale_a)) {
+        return -1;
+    }
+    c = cosh(sat->i_knee_a / sat->i_scale_a);
+    m->sat_ls_h = sat->l_inf_ratio * m->cfg.ld_h;
+    m->sat_k_h = (m->cfg.ld_h - m->sat_ls_h) * c * c;
+    m->sat_is_a = sat->i_scale_a;
+    m->sat_i0_a = sat->i_knee_a;
+    m->sat_t0 = tanh(sat->i_knee_a / sat->i_scale_a);
+    m->saturated = 1;
+    m->sat_j0 = sat_primitive(m, 0.0);
+    return 0;
+}
+
+double pmsm_machine_psi_d(const pmsm_machine_t *m, double i_d_a)
+{
+    if (!m->saturated) {
+        return m->cfg.ld_h * i_d_a + m->cfg.psi_f_wb;
+    }
+    return m->cfg.psi_f_wb + m->sat_ls_h * i_d_a +
+           m->sat_k_h * m->sat_is_a * (tanh((i_d_a - m->sat_i0_a) / m->sat_is_a) + m->sat_t0);
+}
+
+void pmsm_machine_flux_d(const pmsm_machine_t *m, double i_d_a, double *psi_d_wb, double *ld_inc_h)
+{
+    double th;
+    if (!m->saturated) {
+        *psi_d_wb = m->cfg.ld_h * i_d_a + m->cfg.psi_f_wb;
+        *ld_inc_h = m->cfg.ld_h;
+        return;
+    }
+    th = tanh((i_d_a - m->sat_i0_a) / m->sat_is_a);
+    *psi_d_wb = m->cfg.psi_f_wb + m->sat_ls_h * i_d_a + m->sat_k_h * m->sat_is_a * (th + m->sat_t0);
+    *ld_inc_h = m->sat_ls_h + m->sat_k_h * (1.0 - th) * (1.0 + th); /* sech^2 = 1 - tanh^2 */
+}
+
+double pmsm_machine_ld_inc(const pmsm_machine_t *m, double i_d_a)
+{
+    double c;
+    if (!m->saturated) {
+        return m->cfg.ld_h;
+    }
+    c = cosh((i_d_a - m->sat_i0_a) / m->sat_is_a);
+    return m->sat_ls_h + m->sat_k_h / (c * c);
 }
 
 void pmsm_machine_reset(pmsm_machine_t *m)
@@ -39,6 +119,13 @@ void pmsm_machine_derivs(const pmsm_machine_t *m, double i_d_a, double i_q_a, do
                          double v_q_v, double omega_e_rad_s, double *di_d, double *di_q)
 {
     const pmsm_machine_config_t *c = &m->cfg;
+    if (m->saturated) {
+        double psi_d, ld_inc;
+        pmsm_machine_flux_d(m, i_d_a, &psi_d, &ld_inc);
+        *di_d = (v_d_v - c->rs_ohm * i_d_a + omega_e_rad_s * c->lq_h * i_q_a) / ld_inc;
+        *di_q = (v_q_v - c->rs_ohm * i_q_a - omega_e_rad_s * psi_d) * m->inv_lq;
+        return;
+    }
     *di_d = (v_d_v - c->rs_ohm * i_d_a + omega_e_rad_s * c->lq_h * i_q_a) * m->inv_ld;
     *di_q = (v_q_v - c->rs_ohm * i_q_a - omega_e_rad_s * (c->ld_h * i_d_a + c->psi_f_wb)) * m->inv_lq;
 }
@@ -55,15 +142,18 @@ void pmsm_machine_derivs_open_phase(const pmsm_machine_t *m, double i_d_a, doubl
     const double wq = sin(phi);
     /* Known voltage component along n = J u_x (J w in dq, = (-wq, wd)). */
     const double a_n = v_yz_v * PM_INV_SQRT3;
+    double psi_d, ld_inc, inv_ld, bd, bq, jw_dot_i, w_linv_w, lambda;
+    /* d-axis flux and inverse incremental inductance (linear: L_d i_d + psi_f, 1/L_d) */
+    pmsm_machine_flux_d(m, i_d_a, &psi_d, &ld_inc);
+    inv_ld = m->saturated ? 1.0 / ld_inc : m->inv_ld;
     /* Unconstrained right-hand side without the unknown open-phase voltage. */
-    const double bd = -a_n * wq - c->rs_ohm * i_d_a + omega_e_rad_s * c->lq_h * i_q_a;
-    const double bq = a_n * wd - c->rs_ohm * i_q_a - omega_e_rad_s * (c->ld_h * i_d_a + c->psi_f_wb);
+    bd = -a_n * wq - c->rs_ohm * i_d_a + omega_e_rad_s * c->lq_h * i_q_a;
+    bq = a_n * wd - c->rs_ohm * i_q_a - omega_e_rad_s * psi_d;
     /* d/dt (w . i) = dw/dt . i + w . di/dt = 0 with dw/dt = -omega J w. */
-    const double jw_dot_i = -wq * i_d_a + wd * i_q_a;
-    const double w_linv_w = wd * wd * m->inv_ld + wq * wq * m->inv_lq;
-    const double lambda =
-        (omega_e_rad_s * jw_dot_i - (wd * bd * m->inv_ld + wq * bq * m->inv_lq)) / w_linv_w;
-    *di_d = (bd + lambda * wd) * m->inv_ld;
+    jw_dot_i = -wq * i_d_a + wd * i_q_a;
+    w_linv_w = wd * wd * inv_ld + wq * wq * m->inv_lq;
+    lambda = (omega_e_rad_s * jw_dot_i - (wd * bd * inv_ld + wq * bq * m->inv_lq)) / w_linv_w;
+    *di_d = (bd + lambda * wd) * inv_ld;
     *di_q = (bq + lambda * wq) * m->inv_lq;
     *v_open_v = lambda;
 }
@@ -71,11 +161,19 @@ void pmsm_machine_derivs_open_phase(const pmsm_machine_t *m, double i_d_a, doubl
 double pmsm_machine_torque(const pmsm_machine_t *m, double i_d_a, double i_q_a)
 {
     const pmsm_machine_config_t *c = &m->cfg;
+    if (m->saturated) {
+        return m->k_torque * (pmsm_machine_psi_d(m, i_d_a) * i_q_a - c->lq_h * i_d_a * i_q_a);
+    }
     return m->k_torque * (c->psi_f_wb * i_q_a + (c->ld_h - c->lq_h) * i_d_a * i_q_a);
 }
 
 double pmsm_machine_stored_energy(const pmsm_machine_t *m, double i_d_a, double i_q_a)
 {
+    if (m->saturated) {
+        const double wd = 0.5 * m->sat_ls_h * i_d_a * i_d_a +
+                          m->sat_k_h * (sat_primitive(m, i_d_a) - m->sat_j0);
+        return 1.5 * (wd + 0.5 * m->cfg.lq_h * i_q_a * i_q_a);
+    }
     return 0.75 * (m->cfg.ld_h * i_d_a * i_d_a + m->cfg.lq_h * i_q_a * i_q_a);
 }
 

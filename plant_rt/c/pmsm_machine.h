@@ -19,6 +19,21 @@
  * Besides the plain model (pmsm_machine_derivs) the module gives the dynamics with one phase
  * open-circuited (pmsm_machine_derivs_open_phase), used by the plant when a disabled inverter
  * leg carries no current. Double precision, host only, no heap.
+ *
+ * d-axis saturation (pmsm_machine_set_saturation; off after init). The d-axis flux linkage is
+ *     psi_d(i_d) = psi_f + L_s i_d + K I_s [tanh((i_d - i_0)/I_s) + tanh(i_0/I_s)]
+ *     L_inc(i_d) = dpsi_d/di_d = L_s + K sech^2((i_d - i_0)/I_s),   K = (L_d - L_s) cosh^2(i_0/I_s)
+ * with L_s = l_inf_ratio * L_d (the incremental inductance deep in saturation), I_s the current
+ * scale and i_0 <= 0 the knee (where the magnet's bias is cancelled and L_inc peaks at
+ * L_s + K). By construction psi_d(0) = psi_f and L_inc(0) = L_d (the small-signal inductance
+ * stays the profile value); L_inc falls monotonically for i_d > i_0, i.e. for every positive
+ * i_d (current adding to the PM flux, N side) and rises towards the knee for negative i_d.
+ * The q axis stays linear (psi_q = L_q i_q, no cross saturation). Then
+ *     L_inc(i_d) di_d/dt = v_d - R i_d + omega_e psi_q
+ *     L_q di_q/dt        = v_q - R i_q - omega_e psi_d(i_d)
+ *     T_e = 1.5 p (psi_d i_q - psi_q i_d)
+ *     W   = 1.5 [ int_0^i_d x L_inc(x) dx + L_q i_q^2 / 2 ]    (field energy; closed form)
+ * which reduce exactly to the linear model above when saturation is off.
  */
 #ifndef PMSM_MACHINE_H
 #define PMSM_MACHINE_H
@@ -32,9 +47,24 @@ typedef struct pmsm_machine_config {
     int pole_pairs;  /**< p [-] */
 } pmsm_machine_config_t;
 
+/** d-axis saturation parameters (see the top of this file). */
+typedef struct pmsm_saturation_config {
+    double l_inf_ratio; /**< L_s / L_d, 0 < ratio <= 1 (1: linear) */
+    double i_scale_a;   /**< I_s [A], > 0 */
+    double i_knee_a;    /**< i_0 [A], -3 I_s <= i_0 <= 0 */
+} pmsm_saturation_config_t;
+
 /** Config, derived coefficients and state (caller owns the memory). */
 typedef struct pmsm_machine {
     pmsm_machine_config_t cfg;
+    /* saturation (saturated = 0: linear d axis) */
+    int saturated;
+    double sat_ls_h;   /**< L_s [H] */
+    double sat_k_h;    /**< K [H] */
+    double sat_is_a;   /**< I_s [A] */
+    double sat_i0_a;   /**< i_0 [A] */
+    double sat_t0;     /**< tanh(i_0 / I_s) */
+    double sat_j0;     /**< energy primitive at i_d = 0 [A^2] */
     /* derived */
     double inv_ld;   /**< 1/L_d [1/H] */
     double inv_lq;   /**< 1/L_q [1/H] */
@@ -71,8 +101,23 @@ void pmsm_machine_derivs_open_phase(const pmsm_machine_t *m, double i_d_a, doubl
 /** Electromagnetic torque [N m]. */
 double pmsm_machine_torque(const pmsm_machine_t *m, double i_d_a, double i_q_a);
 
-/** Magnetic co-energy of the stator currents, 0.75 (L_d i_d^2 + L_q i_q^2) [J]. */
+/**
+ * Energy stored in the field by the stator currents [J]: 0.75 (L_d i_d^2 + L_q i_q^2) when
+ * linear, 1.5 [int_0^i_d x L_inc dx + L_q i_q^2 / 2] with saturation.
+ */
 double pmsm_machine_stored_energy(const pmsm_machine_t *m, double i_d_a, double i_q_a);
+
+/**
+ * Switch d-axis saturation on (sat != NULL) or off (NULL). Returns 0, or -1 (saturation left
+ * off) if a value is out of range.
+ */
+int pmsm_machine_set_saturation(pmsm_machine_t *m, const pmsm_saturation_config_t *sat);
+/** d-axis flux linkage including the PM [Wb] (psi_f + L_d i_d when linear). */
+double pmsm_machine_psi_d(const pmsm_machine_t *m, double i_d_a);
+/** psi_d and L_inc together (one tanh; sech^2 = 1 - tanh^2) [Wb], [H]. */
+void pmsm_machine_flux_d(const pmsm_machine_t *m, double i_d_a, double *psi_d_wb, double *ld_inc_h);
+/** Incremental d-axis inductance dpsi_d/di_d [H] (L_d when linear). */
+double pmsm_machine_ld_inc(const pmsm_machine_t *m, double i_d_a);
 
 /**
  * Stand-alone use: advance the state by dt_s [s] with constant dq voltages and a constant

@@ -46,6 +46,7 @@ static void check_close(double got, double want, double tol, const char *what, i
 static plant_params_t gong_params(void)
 {
     plant_params_t p;
+    memset(&p, 0, sizeof p); /* every non-ideality off */
     p.rs_ohm = 0.6383;
     p.ld_h = 2e-3;
     p.lq_h = 2e-3;
