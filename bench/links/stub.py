@@ -45,6 +45,9 @@ def stub_path() -> Path:
     return path
 
 
+STUB_START_TIMEOUT_S = 5.0   # for the stub to open its port ("listening on" on stderr)
+
+
 class StubProcess:
     """A running hil_stub and ``link``, the bench's end of the link to it."""
 
@@ -57,6 +60,7 @@ class StubProcess:
         self.executable = executable or stub_path()
         self.mode = mode
         self.stderr_tail: collections.deque[str] = collections.deque(maxlen=20)
+        self._listening = threading.Event()   # the stub said it has its port open
         self.proc: subprocess.Popen | None = None
         self._reader: threading.Thread | None = None
         if mode == "serial":
@@ -101,6 +105,10 @@ class StubProcess:
         master, slave, self.slave_name = self._raw_pty()
         self._spawn(["--port", self.slave_name, *extra_args])
         # The stub opens the slave itself; keeping our copy open would hide its exit (no EIO).
+        # But close it only once the stub has opened it: a pty with no slave open reads as EIO,
+        # which would look like a dead stub to a bench that is quicker than the stub's start-up
+        # (a sanitizer build takes a while).
+        self._listening.wait(STUB_START_TIMEOUT_S)
         os.close(slave)
         self.link = SerialLink(FdTransport(master, f"pty {self.slave_name} (hil_stub pid "
                                                    f"{self.proc.pid})"))
@@ -180,6 +188,9 @@ class StubProcess:
         assert self.proc is not None and self.proc.stderr is not None
         for line in self.proc.stderr:
             self.stderr_tail.append(line.rstrip())
+            if "listening on" in line:
+                self._listening.set()
+        self._listening.set()   # exited: nobody to wait for
 
     def alive(self) -> bool:
         return self.proc.poll() is None

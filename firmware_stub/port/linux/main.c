@@ -300,7 +300,9 @@ int main(int argc, char **argv)
             int r = t->ops->read(t, on_frame, &app);
             if (transport_flush(t) != 0 && r == 0) {
                 exit_reason = t->error;
-                rc = 1;
+                /* the host hung up while we answered: the end of a run, not a failure */
+                rc = (t->write_errno == EIO || t->write_errno == EPIPE ||
+                      t->write_errno == ECONNRESET) ? 0 : 1;
                 break;
             }
             if (r > 0) {

@@ -48,6 +48,7 @@ int transport_flush(transport_t *t)
                 (void)poll(&p, 1, 100);
                 continue;
             }
+            t->write_errno = errno;
             snprintf(t->error, sizeof t->error, "write to %s failed: %s", t->name, strerror(errno));
             t->tx_len = 0u;
             return -1;

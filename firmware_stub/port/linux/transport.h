@@ -64,6 +64,7 @@ struct transport {
     unsigned long tx_dropped;   /**< frames not sent (channel closed, bus-off, not representable) */
     unsigned long tx_overflows; /**< tx buffer full and the flush failed */
     char error[200];
+    int write_errno;          /* errno of the last failed write (0: none) */
 };
 
 /** Initialise the common part. */
