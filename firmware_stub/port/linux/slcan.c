@@ -281,20 +281,10 @@ static int slcan_read(transport_t *t, transport_rx_fn deliver, void *user)
 {
     slcan_t *s = (slcan_t *)t;
     char rx[4096];
-    ssize_t n = read(t->fd, rx, sizeof rx);
-    ssize_t i;
-    if (n == 0) {
-        return 1;
-    }
-    if (n < 0) {
-        if (errno == EINTR || errno == EAGAIN) {
-            return 0;
-        }
-        if (errno == EIO) {
-            return 1; /* pty: the host closed its end */
-        }
-        snprintf(t->error, sizeof t->error, "read from %s failed: %s", t->name, strerror(errno));
-        return -1;
+    size_t n, i;
+    int rc = transport_read_bytes(t, rx, sizeof rx, &n);
+    if (rc != 0) {
+        return rc;
     }
     for (i = 0; i < n; ++i) {
         char c = rx[i];

@@ -24,6 +24,27 @@ void transport_init(transport_t *t, const transport_ops_t *ops, const char *kind
     t->out_fd = -1;
 }
 
+int transport_read_bytes(transport_t *t, void *buf, size_t size, size_t *n)
+{
+    ssize_t r = read(t->fd, buf, size);
+    *n = 0u;
+    if (r == 0) {
+        return 1;
+    }
+    if (r < 0) {
+        if (errno == EINTR || errno == EAGAIN) {
+            return 0;
+        }
+        if (errno == EIO) {
+            return 1; /* pty: the host closed its end */
+        }
+        snprintf(t->error, sizeof t->error, "read from %s failed: %s", t->name, strerror(errno));
+        return -1;
+    }
+    *n = (size_t)r;
+    return 0;
+}
+
 int transport_flush(transport_t *t)
 {
     size_t off = 0u;

@@ -72,6 +72,10 @@ void transport_init(transport_t *t, const transport_ops_t *ops, const char *kind
 /** Append raw octets to the tx buffer (flushing first when full). 0 ok, -1 lost (counted). */
 int transport_append(transport_t *t, const void *data, size_t n);
 /** Write the tx buffer out (waiting with poll while the peer is slow). 0 ok, -1 failed (t->error). */
+/** read() with the conventions every byte-stream transport shares: returns 0 with *n bytes read
+ *  (*n = 0: nothing yet, EINTR/EAGAIN), 1 if the peer closed (EOF, or EIO on a pty whose host
+ *  end closed), -1 on an error (t->error says which). */
+int transport_read_bytes(transport_t *t, void *buf, size_t size, size_t *n);
 int transport_flush(transport_t *t);
 /** "fd:N" -> 1 and *fd = N (a descriptor inherited from the bench); 0 if spec is not of that
  *  form; -1 if it is but N is not a valid number. */

@@ -43,20 +43,10 @@ static int serial_read(transport_t *t, transport_rx_fn deliver, void *user)
     serial_t *s = (serial_t *)t;
     hil_octet_t rx[4096];
     hil_frame_t frame;
-    ssize_t n = read(t->fd, rx, sizeof rx);
-    ssize_t i;
-    if (n == 0) {
-        return 1;
-    }
-    if (n < 0) {
-        if (errno == EINTR || errno == EAGAIN) {
-            return 0;
-        }
-        if (errno == EIO) {
-            return 1; /* pty: the host closed its end */
-        }
-        snprintf(t->error, sizeof t->error, "read from %s failed: %s", t->name, strerror(errno));
-        return -1;
+    size_t n, i;
+    int rc = transport_read_bytes(t, rx, sizeof rx, &n);
+    if (rc != 0) {
+        return rc;
     }
     for (i = 0; i < n; ++i) {
         if (hil_deframer_push(&s->deframer, rx[i], &frame) == 1) {
