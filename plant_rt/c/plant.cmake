@@ -15,6 +15,7 @@ target_link_libraries(hil_plant PUBLIC m)
 add_executable(test_plant ${HIL_ROOT}/tests/c/test_plant.c)
 target_compile_options(test_plant PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(test_plant PRIVATE hil_plant)
+target_include_directories(test_plant PRIVATE ${HIL_ROOT}/tests/c)
 add_test(NAME plant COMMAND test_plant)
 
 # The non-idealities (inverter non-linearity, saturation, ADC/PRNG, friction/load/dyno), each
@@ -22,4 +23,5 @@ add_test(NAME plant COMMAND test_plant)
 add_executable(test_plant_nonideal ${HIL_ROOT}/tests/c/test_plant_nonideal.c)
 target_compile_options(test_plant_nonideal PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(test_plant_nonideal PRIVATE hil_plant)
+target_include_directories(test_plant_nonideal PRIVATE ${HIL_ROOT}/tests/c)
 add_test(NAME plant_nonideal COMMAND test_plant_nonideal)
