@@ -23,12 +23,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 from typing import Any
 import warnings
 
 import numpy as np
 
+from plant_rt.bench_step import _time
 from plant_rt.gem_compare import gem_env, gem_system
 from plant_rt.plant import Plant, ffi, lib
 from plant_rt.profile import load_profile
@@ -93,12 +93,6 @@ def measure(timers: dict[str, tuple[int, Any]], repeat: int) -> dict[str, float]
             for name, (n, fn) in timers.items():
                 best[name] = max(best[name], n / _time(fn))
     return best
-
-
-def _time(fn) -> float:
-    t0 = time.perf_counter()
-    fn()
-    return time.perf_counter() - t0
 
 
 def main() -> int:

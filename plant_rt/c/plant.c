@@ -296,6 +296,21 @@ static void pole_voltages_at(const plant_t *pl, const step_mode_t *mode, const d
     inverter_pole_voltages_i(&pl->inverter, mode->duty, mode->leg, i_abc, v_pole, f_hi);
 }
 
+/* With one phase open, a conducting leg z fixes the star point: v_nN = v_zN - e_z. Returns
+ * v_nN and the leg used. */
+static double neutral_from_source_leg(const plant_t *pl, const step_mode_t *mode, const double *s,
+                                      const double e[3], int *z_out)
+{
+    int k, z = 0;
+    double vp[3];
+    for (k = 0; k < 3; ++k) {
+        if (mode->leg[k] != INV_LEG_OPEN) z = k;
+    }
+    pole_voltages_at(pl, mode, s, vp, NULL);
+    *z_out = z;
+    return vp[z] - e[z];
+}
+
 /** Inverter loss power [W]: sum_x (f_x V_dc - v_xN) i_x. */
 static double inverter_loss_power(const plant_t *pl, const double v_pole[3], const double f_hi[3],
                                   const double i_abc[3])
@@ -390,15 +405,10 @@ static void resolve_mode(const plant_t *pl, const double duty[3], double *s, ste
                 return;
             } else {
                 /* one source leg z fixes the neutral: v_nN = v_zN - e_z */
-                int z = 0;
+                int z;
                 int worst = -1;
                 double worst_margin = 0.0;
-                double v_n, vp[3];
-                for (k = 0; k < 3; ++k) {
-                    if (mode->leg[k] != INV_LEG_OPEN) z = k;
-                }
-                pole_voltages_at(pl, mode, s, vp, NULL);
-                v_n = vp[z] - e[z];
+                const double v_n = neutral_from_source_leg(pl, mode, s, e, &z);
                 for (k = 0; k < 3; ++k) {
                     if (k != z) {
                         const double m = inverter_open_margin(inv, v_n + e[k]);
@@ -446,13 +456,8 @@ static double mode_margin(const plant_t *pl, const step_mode_t *mode, const doub
             const double m = inv->cfg.v_dc_v + 2.0 * inv->nl.v_diode_drop_v + inv->v_tol_v - (emax - emin);
             if (m < margin) margin = m;
         } else {
-            int z = 0;
-            double v_n, vp[3];
-            for (k = 0; k < 3; ++k) {
-                if (mode->leg[k] != INV_LEG_OPEN) z = k;
-            }
-            pole_voltages_at(pl, mode, s, vp, NULL);
-            v_n = vp[z] - e[z];
+            int z;
+            const double v_n = neutral_from_source_leg(pl, mode, s, e, &z);
             for (k = 0; k < 3; ++k) {
                 if (k != z) {
                     const double m = inverter_open_margin(inv, v_n + e[k]);
