@@ -12,6 +12,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .check import check_recording, print_report
     from .links import LinkError
     from .recording import RecordingError
+    from .recorder import RecorderError
     from .runner import RunAborted, run_scenario
     from .scenario import ScenarioError, load_scenario
 
@@ -20,18 +21,31 @@ def _cmd_run(args: argparse.Namespace) -> int:
     try:
         scn = load_scenario(args.scenario)
         result = run_scenario(scn, link_spec=args.link, out_path=args.out,
-                              progress=not args.no_progress, allow_slow_link=args.allow_slow_link)
-    except (ScenarioError, LinkError, RunAborted) as exc:
+                              progress=not args.no_progress, allow_slow_link=args.allow_slow_link,
+                              force=args.force, realtime=True if args.realtime else None,
+                              cpu=args.cpu)
+    except (ScenarioError, LinkError, RunAborted, RecorderError) as exc:
         err.print(f"[red]error:[/red] {exc}")
         return 2
     except ValueError as exc:  # e.g. ProfileError
         err.print(f"[red]error:[/red] {exc}")
         return 2
-    stats = result.link_stats
-    out.print(f"ran {result.cycles_done}/{result.cycles_planned} cycles in {result.wall_s:.2f} s "
-              f"({result.cycles_done / max(result.wall_s, 1e-9):.0f} cycles/s, "
-              f"cycle p50 {stats.get('cycle_wall_p50_us', 0):.0f} us, "
-              f"p99 {stats.get('cycle_wall_p99_us', 0):.0f} us); recording {result.recording}")
+    tm = result.timing
+    out.print(f"ran {result.cycles_done}/{result.cycles_planned} cycles ({result.mode}) in "
+              f"{result.wall_s:.2f} s ({result.cycles_done / max(result.wall_s, 1e-9):.0f} "
+              f"cycles/s); recording {result.recording}")
+    if result.mode == "realtime" and tm:
+        out.print(f"real time: period start error p50 {tm['jitter_p50_us']:.1f} us, p99 "
+                  f"{tm['jitter_p99_us']:.1f} us, p99.9 {tm['jitter_p999_us']:.1f} us, max "
+                  f"{tm['jitter_max_us']:.1f} us; SENSE->DUTY p50 {tm['cycle_p50_us']:.1f} us, "
+                  f"p99 {tm['cycle_p99_us']:.1f} us; {tm['missed']} missed "
+                  f"(rate {tm['miss_rate']:.2e}), {tm['late']} late")
+        if result.realtime_notes:
+            err.print(f"[yellow]real-time setup:[/yellow] {result.realtime_notes} "
+                      f"(the run went on without it: timing figures are best effort)")
+    elif tm:
+        out.print(f"cycle time p50 {tm['cycle_p50_us']:.1f} us, p99 {tm['cycle_p99_us']:.1f} us, "
+                  f"max {tm['cycle_max_us']:.1f} us")
     if result.error:
         err.print(f"[red]run ended early:[/red] {result.error}")
     if result.cycles_done == 0:
@@ -99,6 +113,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "socketcand interface), 'serial:<port-or-url>[@baud]' or "
                         "'can:<interface>:<channel>[@bitrate][,fd]' for a real drive")
     r.add_argument("--out", type=Path, default=None, help="recording path (.mcap)")
+    r.add_argument("--force", action="store_true", help="replace an existing --out file")
+    r.add_argument("--realtime", action="store_true",
+                   help="pace the plant by the wall clock (as [scenario] mode = \"realtime\")")
+    r.add_argument("--cpu", type=int, default=None,
+                   help="real time: pin the engine thread to this CPU")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--allow-slow-link", action="store_true",
                    help="lockstep only: run even if the link cannot carry the control rate in "

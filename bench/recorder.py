@@ -1,239 +1,350 @@
-"""MCAP recorder: one file per run, JSON channels with JSON schemas (they open in Foxglove).
+"""MCAP recorder: a child process that drains the cycle engine's shared-memory ring into MCAP.
 
-Scalars are separate fields so Foxglove plots them directly. A value that does not exist (no
-telemetry in a cycle, NaN) is written as JSON null; readers turn it back into NaN. Log times are the run's start
-(wall clock, ns) plus the simulated time, so a lockstep run plays back at plant time.
-The file is chunked (zstd) with a small chunk size so that a run cut by a crash is recoverable
-up to the last complete chunk (``mcap recover``); ``close()`` writes the summary and is called on
-every exit path, Ctrl-C included.
+Data path. The bench maps a shared ring (``plant_rt/c/rec_ring.h``) before it forks the
+recorder. The C cycle engine writes every recorded message into it already encoded (protobuf,
+``bench/channels.py``); the recorder only copies records out and hands them to the ``mcap``
+writer (zstd chunks). The engine never blocks on the recorder: in real time it drops and counts
+a row the ring cannot take; in lockstep it waits a bounded time first (engine.h). The bench
+writes the few messages of its own (set-up frames, events, final statistics) into the same ring
+while the engine is not running, so the ring always has one producer.
+
+Control (channels, metadata, attachments, close) goes through a pipe. Metadata and attachments
+are written as they arrive; messages in ring order.
+
+Files are never lost or overwritten: the recording is written to ``.<name>.partial`` beside the
+target and renamed when it is finalised (normal end, Ctrl-C, a killed bench: the recorder sees
+the pipe close and still finalises). An existing target is refused unless ``force``. If the
+recorder itself fails (disk full, an unwritable folder) it says why in one line, the bench ends
+the run, and the partial file keeps every complete chunk (``bench recover``).
 """
 from __future__ import annotations
 
-import json
+import mmap
+import os
+import struct
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
-import orjson
-from mcap.writer import CompressionType, Writer
+from plant_rt._plant_c import ffi, lib
+
+from . import channels as chans
 
 CHUNK_SIZE_BYTES = 256 * 1024
 PROFILE = "hil-bench"
+RING_CAPACITY_BYTES = 64 * 1024 * 1024   #: ~9 s of a 10 kHz G2 run at ~700 octets per cycle
+READ_BATCH_BYTES = 4 * 1024 * 1024
+CLOSE_TIMEOUT_S = 30.0
+_REC_HEADER = struct.Struct("<IHHq")
 
 
-def number_schema(title: str, fields: Iterable[str], *, integers: Iterable[str] = (),
-                  strings: Iterable[str] = (), description: str = "") -> dict[str, Any]:
-    """A flat JSON schema: every field a number (or null: not available) unless listed as
-    integer or string."""
-    props: dict[str, Any] = {}
-    for f in fields:
-        props[f] = {"type": ["number", "null"]}
-    for f in integers:
-        props[f] = {"type": "integer"}
-    for f in strings:
-        props[f] = {"type": "string"}
-    return {"title": title, "description": description, "type": "object",
-            "properties": props, "required": sorted(props)}
+class RecorderError(RuntimeError):
+    """The recorder cannot write the recording (message names the cause and the path)."""
 
 
-@dataclass
-class Channel:
-    """A registered channel; ``write`` takes the simulated time and a JSON-able dict."""
-
-    recorder: "Recorder"
-    channel_id: int
-    topic: str
-    sequence: int = 0
-
-    def write(self, t_s: float, message: dict[str, Any]) -> None:
-        self.recorder._write(self, t_s, message)
+def partial_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.partial")
 
 
-class Recorder:
-    """Writes one MCAP file. Use as a context manager; always finalised on exit."""
-
-    def __init__(self, path: Path, chunk_size: int = CHUNK_SIZE_BYTES):
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = open(self.path, "wb")
-        self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
-        self._writer.start(profile=PROFILE, library="hil-bench recorder")
-        self._schemas: dict[str, int] = {}
-        self.start_ns = time.time_ns()
-        self.closed = False
-        self.messages = 0
-
-    def channel(self, topic: str, schema: dict[str, Any]) -> Channel:
-        title = schema["title"]
-        if title not in self._schemas:
-            self._schemas[title] = self._writer.register_schema(
-                name=title, encoding="jsonschema", data=json.dumps(schema).encode())
-        cid = self._writer.register_channel(topic=topic, message_encoding="json",
-                                            schema_id=self._schemas[title])
-        return Channel(self, cid, topic)
-
-    def _write(self, ch: Channel, t_s: float, message: dict[str, Any]) -> None:
-        t_ns = self.start_ns + int(round(t_s * 1e9))
-        self._writer.add_message(channel_id=ch.channel_id, log_time=t_ns, publish_time=t_ns,
-                                 sequence=ch.sequence, data=orjson.dumps(message))
-        ch.sequence += 1
-        self.messages += 1
-
-    def metadata(self, name: str, data: dict[str, str]) -> None:
-        self._writer.add_metadata(name=name, data={k: str(v) for k, v in data.items()})
-
-    def attachment(self, name: str, media_type: str, data: bytes) -> None:
-        now = time.time_ns()
-        self._writer.add_attachment(create_time=now, log_time=now, name=name,
-                                    media_type=media_type, data=data)
-
-    def close(self) -> None:
-        if self.closed:
-            return
-        self.closed = True
-        try:
-            self._writer.finish()
-        finally:
-            self._file.close()
-
-    def __enter__(self) -> "Recorder":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
+def check_target(path: Path, force: bool) -> None:
+    """Refuse a target that exists (unless force) or cannot be a file, before anything runs."""
+    if path.is_dir():
+        raise RecorderError(f"--out {path}: is a directory; give a file name (e.g. {path}/run.mcap)")
+    if path.exists() and not force:
+        raise RecorderError(f"--out {path}: file exists; refusing to overwrite a recording "
+                            f"(use --force to replace it)")
+    parent = path.parent if str(path.parent) else Path(".")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RecorderError(f"cannot create the recordings folder {parent}: {exc.strerror}") from None
+    if not os.access(parent, os.W_OK):
+        raise RecorderError(f"cannot write recordings into {parent}: permission denied")
 
 
-# -- recording in a separate process ---------------------------------------------------------
-#
-# The lockstep loop spends most of its Python time serialising messages. The writer below moves
-# that work to a child process: the loop appends (channel, time, values) tuples to a batch and
-# ships a batch every BATCH_MESSAGES through a pipe. On two cores the child writes while the loop
-# waits for the controller. If the parent dies, the child sees EOF and still finalises the file.
-
-BATCH_MESSAGES = 512
+# -- the child ------------------------------------------------------------------------------
 
 
-def _serve(conn, parent_end, path: str, chunk_size: int) -> None:
+def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: int,
+           force: bool) -> None:
     import signal as _signal
 
-    # fork copied the parent's end of the pipe into this process: close it, or a dead parent
-    # would never produce EOF here and the file would never be finalised
+    from mcap.writer import CompressionType, Writer
+
+    # fork copied the parent's end of the pipe: close it, or a dead parent would never show as
+    # EOF here and the file would never be finalised
     parent_end.close()
-    _signal.signal(_signal.SIGINT, _signal.SIG_IGN)  # the parent decides when to stop
-    rec = Recorder(Path(path), chunk_size)
-    channels: list[Channel] = []
-    fields: list[tuple[str, ...] | None] = []
+    _signal.signal(_signal.SIGINT, _signal.SIG_IGN)   # the parent decides when to stop
+    target = Path(path)
+    tmp = partial_path(target)
+    ring = ffi.new("rec_ring_t *")
+    if lib.rec_ring_attach(ring, ffi.from_buffer(ring_mem), ring_size) != 0:
+        conn.send(("error", "recorder: the shared ring is not formatted"))
+        return
+    buf = bytearray(READ_BATCH_BYTES)
+    cbuf = ffi.from_buffer(buf)
+    channel_ids: list[int] = []
+    messages = 0
+    error = None
+    f = None
+    writer = None
     try:
+        f = open(tmp, "wb")
+        writer = Writer(f, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        writer.start(profile=PROFILE, library="hil-bench recorder")
+        schema_ids: dict[str, int] = {}
+        seqs: list[int] = []
+        start_ns = time.time_ns()
+
+        def drain() -> int:
+            nonlocal messages
+            total = 0
+            while True:
+                n = lib.rec_ring_read(ring, cbuf, len(buf))
+                if n == 0:
+                    return total
+                view = memoryview(buf)[:n]
+                off = 0
+                add = writer.add_message
+                while off < n:
+                    length, channel, _flags, t_ns = _REC_HEADER.unpack_from(view, off)
+                    data = bytes(view[off + 16:off + 16 + length])
+                    off += 16 + ((length + 7) & ~7)
+                    if channel >= len(channel_ids):
+                        continue   # a channel the bench never registered: cannot happen
+                    t = start_ns + t_ns
+                    add(channel_id=channel_ids[channel], log_time=t, publish_time=t,
+                        sequence=seqs[channel], data=data)
+                    seqs[channel] += 1
+                    messages += 1
+                    total += 1
+
+        conn.send(("ready", str(tmp)))
         while True:
-            try:
-                msg = conn.recv()
-            except EOFError:
-                break  # parent gone: finalise what we have
-            kind = msg[0]
-            if kind == "batch":
-                for cid, t_s, values in msg[1]:
-                    names = fields[cid]
-                    channels[cid].write(t_s, values if names is None else dict(zip(names, values)))
-            elif kind == "channel":
-                _, topic, schema, names = msg
-                channels.append(rec.channel(topic, schema))
-                fields.append(names)
-            elif kind == "metadata":
-                rec.metadata(msg[1], msg[2])
-            elif kind == "attachment":
-                rec.attachment(msg[1], msg[2], msg[3])
-            elif kind == "close":
-                break
+            if conn.poll(0.002):
+                try:
+                    msg = conn.recv()
+                except EOFError:
+                    break   # parent gone: finalise what we have
+                kind = msg[0]
+                if kind == "channel":
+                    _, topic, schema_name = msg
+                    if schema_name not in schema_ids:
+                        schema_ids[schema_name] = writer.register_schema(
+                            name=schema_name, encoding="protobuf",
+                            data=chans.file_descriptor_set())
+                    channel_ids.append(writer.register_channel(
+                        topic=topic, message_encoding=chans.MESSAGE_ENCODING,
+                        schema_id=schema_ids[schema_name]))
+                    seqs.append(0)
+                    conn.send(("channel_ok", len(channel_ids) - 1))
+                elif kind == "metadata":
+                    drain()
+                    writer.add_metadata(name=msg[1], data=msg[2])
+                elif kind == "attachment":
+                    now = time.time_ns()
+                    writer.add_attachment(create_time=now, log_time=now, name=msg[1],
+                                          media_type=msg[2], data=msg[3])
+                elif kind == "drain":
+                    drain()
+                    conn.send(("drained", messages))
+                elif kind == "close":
+                    break
+            drain()
+        drain()
+    except OSError as exc:
+        error = f"recorder: cannot write {target}: {exc.strerror or exc}"
+    except Exception as exc:  # noqa: BLE001 - report, then finalise what we can
+        error = f"recorder: {type(exc).__name__}: {exc} (writing {target})"
     finally:
-        rec.close()
+        finished = False
+        if writer is not None:
+            try:
+                writer.finish()
+                finished = True
+            except Exception as exc:  # noqa: BLE001
+                error = error or f"recorder: cannot finalise {target}: {exc}"
+        if f is not None:
+            try:
+                f.close()
+            except OSError as exc:
+                error = error or f"recorder: cannot close {target}: {exc.strerror}"
+        final = str(tmp)
+        if finished and error is None:
+            try:
+                if target.exists() and not force:
+                    raise OSError(f"{target} appeared while recording; kept as {tmp}")
+                os.replace(tmp, target)
+                final = str(target)
+            except OSError as exc:
+                error = f"recorder: cannot rename {tmp} to {target}: {exc}"
         try:
-            conn.send(("closed", rec.messages))
+            conn.send(("closed", messages, final, error))
         except (BrokenPipeError, OSError):
             pass
         conn.close()
 
 
+# -- the bench side ---------------------------------------------------------------------------
+
+
 @dataclass
 class ProcessChannel:
-    """Channel of a ProcessRecorder. ``write_values`` takes values in the ``fields`` order."""
+    """A registered channel; the bench writes through it only while the engine is not running."""
 
     recorder: "ProcessRecorder"
-    channel_id: int
+    index: int
     topic: str
-    fields: tuple[str, ...] | None
+    kind: str
+
+    def write_values(self, t_s: float, values) -> None:
+        self.recorder.write(self.index, t_s, chans.encode_row(self.kind, values))
 
     def write(self, t_s: float, message: dict[str, Any]) -> None:
-        self.recorder._append(self.channel_id, t_s, message)
-
-    def write_values(self, t_s: float, values: tuple) -> None:
-        self.recorder._append(self.channel_id, t_s, values)
+        self.write_values(t_s, message)
 
 
 class ProcessRecorder:
-    """Same interface as Recorder; the MCAP writing happens in a child process."""
+    """Writes one MCAP file through a recorder process. Context manager; always finalised."""
 
-    def __init__(self, path: Path, chunk_size: int = CHUNK_SIZE_BYTES):
+    def __init__(self, path: Path, *, force: bool = False, ring_capacity: int = RING_CAPACITY_BYTES,
+                 chunk_size: int = CHUNK_SIZE_BYTES):
         import multiprocessing as mp
 
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        check_target(self.path, force)
+        self.ring_size = int(lib.rec_ring_mapping_size(ring_capacity))
+        self.ring_mem = mmap.mmap(-1, self.ring_size)   # MAP_SHARED | MAP_ANONYMOUS: survives fork
+        if lib.rec_ring_format(ffi.from_buffer(self.ring_mem), self.ring_size) != 0:
+            raise RecorderError("cannot format the recording ring")
+        self.ring = ffi.new("rec_ring_t *")
+        lib.rec_ring_attach(self.ring, ffi.from_buffer(self.ring_mem), self.ring_size)
         ctx = mp.get_context("fork")
         self._conn, child = ctx.Pipe()
-        self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path), chunk_size),
+        self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path),
+                                                      self.ring_mem, self.ring_size, chunk_size,
+                                                      force),
                                  name="hil-recorder", daemon=False)
         self._proc.start()
         child.close()
-        self._batch: list = []
-        self._next_id = 0
-        self.messages = 0
+        self.channels: list[ProcessChannel] = []
         self.closed = False
+        self.final_path: Path | None = None
+        self.messages = 0
+        self.error: str | None = None
+        if not self._conn.poll(10.0):
+            raise RecorderError(f"recorder process for {self.path} did not start")
+        first = self._conn.recv()
+        if first[0] != "ready":
+            self._proc.join(5.0)
+            raise RecorderError(self._child_error(first))
 
-    def channel(self, topic: str, schema: dict[str, Any],
-                fields: tuple[str, ...] | None = None) -> ProcessChannel:
-        self._flush()
-        self._conn.send(("channel", topic, schema, fields))
-        ch = ProcessChannel(self, self._next_id, topic, fields)
-        self._next_id += 1
+    @staticmethod
+    def _child_error(msg) -> str:
+        if msg[0] == "closed":
+            return msg[3] or "recorder stopped"
+        return str(msg[1])
+
+    @property
+    def pid(self) -> int:
+        return self._proc.pid
+
+    def alive(self) -> bool:
+        return self._proc.is_alive()
+
+    def death_message(self) -> str:
+        """Why the recorder is gone (its own words if it sent them)."""
+        try:
+            if self._conn.poll(0.5):
+                msg = self._conn.recv()
+                if msg[0] == "closed" and msg[3]:
+                    self.error = msg[3]
+                    return msg[3]
+        except (EOFError, OSError):
+            pass
+        code = self._proc.exitcode
+        how = f"killed by signal {-code}" if code is not None and code < 0 else f"exit code {code}"
+        return f"recorder process (pid {self._proc.pid}) for {self.path} died ({how})"
+
+    def channel(self, topic: str, kind: str | None = None) -> ProcessChannel:
+        kind = kind or chans.kind_of_topic(topic)
+        if kind is None:
+            raise ValueError(f"no channel kind for topic {topic!r}")
+        # synchronous: records of this channel may follow at once, and the recorder must know
+        # the channel before it drains them
+        self._conn.send(("channel", topic, chans.LAYOUTS[kind].schema_name))
+        if not self._conn.poll(10.0):
+            raise RecorderError(f"recorder process for {self.path} does not answer")
+        reply = self._conn.recv()
+        if reply[0] != "channel_ok" or reply[1] != len(self.channels):
+            raise RecorderError(self._child_error(reply))
+        ch = ProcessChannel(self, len(self.channels), topic, kind)
+        self.channels.append(ch)
         return ch
 
-    def _append(self, cid: int, t_s: float, values) -> None:
-        batch = self._batch
-        batch.append((cid, t_s, values))
-        if len(batch) >= BATCH_MESSAGES:
-            self._flush()
-
-    def _flush(self) -> None:
-        if self._batch:
-            self._conn.send(("batch", self._batch))
-            self.messages += len(self._batch)
-            self._batch = []
+    def write(self, index: int, t_s: float, data: bytes) -> None:
+        """One message into the ring (only while no engine is writing)."""
+        t_ns = int(round(t_s * 1e9))
+        deadline = time.monotonic() + 5.0
+        while lib.rec_ring_write(self.ring, index, t_ns, data, len(data)) != 0:
+            if not self.alive() or time.monotonic() > deadline:
+                return   # counted as a drop in the ring header
+            time.sleep(0.001)
 
     def metadata(self, name: str, data: dict[str, str]) -> None:
-        self._flush()
         self._conn.send(("metadata", name, {k: str(v) for k, v in data.items()}))
 
     def attachment(self, name: str, media_type: str, data: bytes) -> None:
-        self._flush()
         self._conn.send(("attachment", name, media_type, data))
 
+    @property
+    def dropped(self) -> int:
+        return int(self.ring.hdr.records_dropped)
+
     def close(self) -> None:
+        """Drain, finalise, rename. Raises RecorderError naming the cause if that failed."""
         if self.closed:
             return
         self.closed = True
+        lib.rec_ring_close(self.ring)
+        reply = None
         try:
-            self._flush()
             self._conn.send(("close",))
-            if self._conn.poll(30.0):
-                self._conn.recv()
+            # the recorder drains what is left: allow for it (the ring holds at most ~64 MB)
+            deadline = time.monotonic() + CLOSE_TIMEOUT_S
+            while reply is None and time.monotonic() < deadline:
+                if self._conn.poll(0.2):
+                    msg = self._conn.recv()
+                    if msg[0] == "closed":
+                        reply = msg
+                elif not self._proc.is_alive():
+                    break
         except (BrokenPipeError, EOFError, OSError):
             pass
         finally:
             self._conn.close()
-            self._proc.join(30.0)
-            if self._proc.exitcode not in (0, None):
-                raise RuntimeError(f"recorder process for {self.path} failed "
-                                   f"(exit code {self._proc.exitcode})")
+        if reply is None:
+            if self._proc.is_alive():
+                self._proc.kill()
+                self._proc.join(5.0)
+                self.error = (f"recorder process (pid {self._proc.pid}) did not finish "
+                              f"{self.path} within {CLOSE_TIMEOUT_S:g} s (stalled); it was "
+                              f"killed; the complete chunks are in {partial_path(self.path)} "
+                              f"(bench recover)")
+            else:
+                self._proc.join(5.0)
+                self.error = (f"recorder process for {self.path} died (exit code "
+                              f"{self._proc.exitcode}); the complete chunks are in "
+                              f"{partial_path(self.path)} (bench recover)")
+            self.final_path = partial_path(self.path)
+            raise RecorderError(self.error)
+        self._proc.join(10.0)
+        _, self.messages, final, error = reply
+        self.final_path = Path(final)
+        if error:
+            self.error = error
+            raise RecorderError(error)
 
     def __enter__(self) -> "ProcessRecorder":
         return self

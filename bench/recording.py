@@ -1,21 +1,40 @@
-"""Read a recording back into numpy arrays, from the file alone.
+"""Read a recording back, from the file alone, in one streaming pass.
 
-The reader streams the records (validating chunk and attachment CRCs), so a recording cut short
-by a crash still yields every complete chunk: it is reported as truncated (with the byte offset
-where reading stopped) instead of being refused.
+``load_recording(path, topics=..., fields=..., windows=...)`` reads the MCAP record by record
+(one chunk in memory at a time) and keeps only what is asked for: the topics, the fields of
+each, and the rows whose ``t_s`` lies in the given time windows. Memory is what is kept, not the
+file's size; time is linear in the file. With no arguments it keeps everything (small files,
+tests).
+
+Decoding. Channels of this bench are protobuf messages (``bench/channels.py``). A channel whose
+fields are all fixed-width has one byte layout for every message; the reader checks each
+message's length and tag octets and decodes a chunk's worth with one numpy call, falling back to
+``google.protobuf`` for any message that does not match. Recordings of earlier versions (JSON
+channels) are read too.
+
+Damage. Every chunk's CRC is checked. A chunk whose data is damaged is counted in
+``unreadable_chunks`` and skipped, and reading goes on with the next record; damage to the
+record framing itself, or a file cut short, stops the reading there: ``truncated`` says where.
+``bench recover`` copies every intact chunk of such a file into a new one.
 """
 from __future__ import annotations
 
 import json
 import math
+from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Iterable
 
 import numpy as np
 from mcap.exceptions import McapError
 from mcap.reader import breakup_chunk
-from mcap.records import Attachment, Channel, Chunk, Message, Metadata, Schema
+from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
+
+from . import channels as chans
+
+RECORD_SIZE_LIMIT = 256 * 1024 * 1024   # a corrupted length field must not allocate gigabytes
 
 
 class RecordingError(ValueError):
@@ -28,10 +47,17 @@ class Recording:
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     attachments: dict[str, bytes] = field(default_factory=dict)
     topics: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
-    schemas: dict[str, dict] = field(default_factory=dict)   # topic -> JSON schema
-    raw_messages: dict[str, list[dict]] = field(default_factory=dict)
+    #: messages per topic in the whole file (every topic, kept or not)
+    counts: dict[str, int] = field(default_factory=dict)
+    #: schema name and encoding per topic
+    schemas: dict[str, tuple[str, str]] = field(default_factory=dict)
     truncated: str | None = None    # why reading stopped early, if it did
+    unreadable_chunks: int = 0      # chunks skipped because their data was damaged
+    damage: list[str] = field(default_factory=list)
     messages: int = 0
+    bytes_read: int = 0
+    file_size: int = 0
+    has_footer: bool = False
 
     def topic(self, name: str) -> dict[str, np.ndarray]:
         if name not in self.topics:
@@ -43,6 +69,10 @@ class Recording:
     def run(self) -> dict[str, str]:
         return self.metadata.get("run", {})
 
+    @property
+    def damaged(self) -> bool:
+        return self.truncated is not None or self.unreadable_chunks > 0
+
     def attachment_text(self, prefix: str) -> tuple[str, str] | None:
         for name, data in self.attachments.items():
             if name.startswith(prefix):
@@ -50,76 +80,199 @@ class Recording:
         return None
 
 
-def _columns(rows: list[dict]) -> dict[str, np.ndarray]:
-    if not rows:
-        return {}
-    out: dict[str, np.ndarray] = {}
-    for key in rows[0]:
-        values = [r.get(key) for r in rows]
-        if all(isinstance(v, (int, float)) and not isinstance(v, bool) or v is None
-               for v in values):
-            out[key] = np.array([math.nan if v is None else v for v in values], dtype=float)
+class _TopicBuffer:
+    """Rows of one topic: decoded a chunk at a time, only the wanted fields and rows."""
+
+    def __init__(self, topic: str, schema_name: str, encoding: str, descriptor: bytes,
+                 fields: Iterable[str] | None, windows):
+        self.topic = topic
+        self.encoding = encoding
+        self.windows = windows
+        self.layout = None
+        self.msg_class = None
+        if encoding == "protobuf":
+            kind = next((k for k, lay in chans.LAYOUTS.items() if lay.schema_name == schema_name),
+                        None)
+            if kind is not None and descriptor == chans.file_descriptor_set():
+                self.layout = chans.LAYOUTS[kind]
+            self.schema_name = schema_name
+            self.descriptor = descriptor
+            names = (self.layout.names if self.layout is not None else
+                     tuple(f.name for f in self._class().DESCRIPTOR.fields))
         else:
-            out[key] = np.array(values, dtype=object)
-    return out
+            names = None   # JSON: from the messages
+        self.fields = tuple(fields) if fields is not None else names
+        self.pending: list[bytes] = []
+        self.parts: dict[str, list[np.ndarray]] = defaultdict(list)
+
+    def _class(self):
+        if self.msg_class is None:
+            self.msg_class = chans.message_class(self.schema_name, self.descriptor)
+        return self.msg_class
+
+    def add(self, data: bytes) -> None:
+        self.pending.append(data)
+
+    def flush(self) -> None:
+        if not self.pending:
+            return
+        data, self.pending = self.pending, []
+        if self.encoding == "protobuf":
+            cols = self._decode_protobuf(data)
+        else:
+            cols = self._decode_json(data)
+        if self.windows is not None and "t_s" in cols:
+            t = cols["t_s"]
+            keep = np.zeros(len(t), dtype=bool)
+            for lo, hi in self.windows:
+                keep |= (t >= lo) & (t <= hi)
+            if not keep.all():
+                cols = {k: v[keep] for k, v in cols.items()}
+        for name in self.fields or cols.keys():
+            if name in cols:
+                self.parts[name].append(cols[name])
+
+    def _decode_protobuf(self, data: list[bytes]) -> dict[str, np.ndarray]:
+        lay = self.layout
+        if lay is not None and lay.fixed:
+            dt = lay.message_dtype
+            if all(len(d) == dt.itemsize for d in data):
+                raw = np.frombuffer(b"".join(data), dtype=np.uint8).reshape(len(data), dt.itemsize)
+                pos, val = lay.tag_mask
+                if (raw[:, pos] == val).all():
+                    rec = raw.view(dt).reshape(len(data))
+                    want = self.fields or lay.names
+                    return {n: rec[n].astype(np.float64 if lay.types[n] == "F64" else np.int64)
+                            for n in want}
+        cls = self._class()
+        names = self.fields or tuple(f.name for f in cls.DESCRIPTOR.fields)
+        msgs = [cls.FromString(d) for d in data]
+        out = {}
+        for n in names:
+            vals = [getattr(m, n) for m in msgs]
+            out[n] = (np.array(vals, dtype=object) if vals and isinstance(vals[0], str)
+                      else np.array(vals))
+        return out
+
+    def _decode_json(self, data: list[bytes]) -> dict[str, np.ndarray]:
+        rows = [json.loads(d) for d in data]
+        out = {}
+        for key in (self.fields or rows[0].keys()):
+            vals = [r.get(key) for r in rows]
+            if all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+                   for v in vals):
+                out[key] = np.array([math.nan if v is None else v for v in vals], dtype=float)
+            else:
+                out[key] = np.array(vals, dtype=object)
+        return out
+
+    def columns(self) -> dict[str, np.ndarray]:
+        out = {}
+        for name, parts in self.parts.items():
+            out[name] = np.concatenate(parts) if len(parts) > 1 else parts[0]
+        return out
 
 
-def load_recording(path: str | Path, keep_raw: bool = False) -> Recording:
-    """Read every message of a recording; validates CRCs; tolerates a truncated tail."""
+def load_recording(path: str | Path, topics: Iterable[str] | None = None,
+                   fields: dict[str, Iterable[str]] | None = None,
+                   windows: Iterable[tuple[float, float]] | None = None) -> Recording:
+    """Read a recording in one streaming pass.
+
+    ``topics``: the topics to decode (None: all; ``"/reference/*"`` selects every reference
+    estimator). ``fields``: per topic, the fields to keep (default: all). ``windows``: keep only
+    rows with t_s inside one of these [t0, t1] intervals (default: all rows). Metadata,
+    attachments and per-topic message counts are always read.
+    """
     path = Path(path)
     rec = Recording(path)
-    channels: dict[int, Channel] = {}
+    wanted = set(topics) if topics is not None else None
+    win = [tuple(map(float, w)) for w in windows] if windows is not None else None
     schemas: dict[int, Schema] = {}
-    rows: dict[str, list[dict]] = {}
+    channels: dict[int, Channel] = {}
+    buffers: dict[int, _TopicBuffer | None] = {}
 
-    def on_message(m: Message) -> None:
-        chan = channels.get(m.channel_id)
-        if chan is None:
-            raise RecordingError(f"{path}: message on unknown channel id {m.channel_id}")
-        try:
-            rows.setdefault(chan.topic, []).append(json.loads(m.data))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise RecordingError(f"{path}: message {m.sequence} on {chan.topic} is not valid "
-                                 f"JSON: {exc}") from None
-        rec.messages += 1
+    def want_topic(topic: str) -> bool:
+        if wanted is None or topic in wanted:
+            return True
+        return topic.startswith(chans.REFERENCE_PREFIX) and "/reference/*" in wanted
 
     def on_record(r) -> None:
-        if isinstance(r, Schema):
-            schemas[r.id] = r
+        if isinstance(r, Message):
+            chan = channels.get(r.channel_id)
+            if chan is None:
+                raise RecordingError(f"{path}: message on unknown channel id {r.channel_id}")
+            rec.counts[chan.topic] = rec.counts.get(chan.topic, 0) + 1
+            rec.messages += 1
+            buf = buffers.get(r.channel_id)
+            if buf is not None:
+                buf.add(r.data)
+        elif isinstance(r, Schema):
+            schemas.setdefault(r.id, r)
         elif isinstance(r, Channel):
+            if r.id in channels:
+                return   # the summary section repeats the channels
             channels[r.id] = r
             sch = schemas.get(r.schema_id)
-            if sch is not None and sch.encoding == "jsonschema":
-                rec.schemas[r.topic] = json.loads(sch.data)
-        elif isinstance(r, Message):
-            on_message(r)
+            enc = r.message_encoding
+            rec.schemas[r.topic] = (sch.name if sch else "", enc)
+            rec.counts.setdefault(r.topic, 0)
+            if want_topic(r.topic) and enc in ("protobuf", "json"):
+                buffers[r.id] = _TopicBuffer(r.topic, sch.name if sch else "", enc,
+                                             bytes(sch.data) if sch else b"",
+                                             (fields or {}).get(r.topic), win)
+            else:
+                buffers[r.id] = None
         elif isinstance(r, Metadata):
             rec.metadata[r.name] = dict(r.metadata)
         elif isinstance(r, Attachment):
             rec.attachments[r.name] = bytes(r.data)
+        elif isinstance(r, Footer):
+            rec.has_footer = True
+
+    def flush_all() -> None:
+        for buf in buffers.values():
+            if buf is not None:
+                buf.flush()
 
     try:
         f = open(path, "rb")
     except OSError as exc:
         raise RecordingError(f"{path}: cannot open: {exc.strerror}") from None
     with f:
-        reader = StreamReader(f, skip_magic=False, validate_crcs=True)
+        rec.file_size = path.stat().st_size
+        reader = StreamReader(f, skip_magic=False, validate_crcs=False, emit_chunks=True,
+                              record_size_limit=RECORD_SIZE_LIMIT)
         try:
             for record in reader.records:
                 if isinstance(record, Chunk):
-                    for inner in breakup_chunk(record, validate_crc=True):
-                        on_record(inner)
+                    try:
+                        inner = breakup_chunk(record, validate_crc=True)
+                    except Exception as exc:  # noqa: BLE001 - damaged chunk: skip it, go on
+                        rec.unreadable_chunks += 1
+                        rec.damage.append(f"chunk ending at byte {f.tell()}: "
+                                          f"{type(exc).__name__}: {exc}")
+                        continue
+                    for r in inner:
+                        on_record(r)
+                    flush_all()
                 else:
                     on_record(record)
+                rec.bytes_read = f.tell()
         except RecordingError:
             raise
         except (McapError, EOFError, ValueError, Exception) as exc:  # noqa: BLE001
-            if rec.messages == 0 and not rec.metadata:
+            if rec.messages == 0 and not rec.metadata and not channels:
                 raise RecordingError(f"{path}: not a readable MCAP recording "
                                      f"({type(exc).__name__}: {exc})") from None
-            rec.truncated = (f"reading stopped at byte {f.tell()} of "
-                             f"{path.stat().st_size}: {type(exc).__name__}: {exc}")
-    rec.topics = {t: _columns(r) for t, r in rows.items()}
-    if keep_raw:
-        rec.raw_messages = rows
+            rec.truncated = (f"reading stopped at byte {rec.bytes_read} of {rec.file_size}: "
+                             f"{type(exc).__name__}: {exc}")
+        flush_all()
+    if not rec.has_footer and rec.truncated is None:
+        rec.truncated = f"no footer: the file ends at byte {rec.file_size} without one"
+    for buf in buffers.values():
+        if buf is not None:
+            rec.topics[buf.topic] = buf.columns()
     return rec
+
+
+__all__ = ["Recording", "RecordingError", "load_recording"]

@@ -1,58 +1,46 @@
-"""Lockstep runner: the plant advances one PWM period per DUTY frame the controller returns.
+"""Run a scenario: set the run up in Python, run every cycle in the C cycle engine, record it.
 
-One cycle k (docs/architecture.md):
-  plant state at t_k -> sensor model -> SENSE_AUX(k), SENSE(k) -> controller ISR ->
-  TELEM(k) [TELEM_EMF(k)] DUTY(k) -> validate duties -> plant.step (the new duties act from
-  t_k + t_delay) -> record.
+Once per run, here: validate, open the link (start the stub), start the recorder, write the
+metadata, handshake and CONFIG (``host_session.py``), schedule the scenario's events, start the
+engine (``plant_rt/engine.py``) and watch it; at the end STOP, the final statistics, the
+result. Once per cycle, in C (``plant_rt/c/engine.h``): events, sensor model and SENSE, link
+I/O, DUTY validation, plant step, reference estimators, recorded rows. Lockstep and real time
+run on the same engine.
 
-Every exit path (normal end, controller fault, dead or silent stub, Ctrl-C) finalises the MCAP
-recording and returns a RunResult that says what happened.
+Every exit path (normal end, controller fault, dead or silent stub, Ctrl-C, a failed recorder)
+finalises the MCAP recording and returns a RunResult that says what happened.
 """
 from __future__ import annotations
 
 import json
 import math
-import operator
 import platform
+import re
 import subprocess
 import sys
 import time
 import traceback
 from dataclasses import dataclass, field
-from datetime import datetime
+from datetime import datetime, timezone
 from pathlib import Path
 
-import numpy as np
-
+from plant_rt import engine as eng
 from plant_rt.plant import Plant
 from plant_rt.profile import load_profile
-from protocol.messages import (DUTY_RAW_OFF, MESSAGES, Command, Estimator, HelloFlag, Param,
-                               SenseAuxFlag, State)
+from protocol.messages import Command, Estimator, Fault, HelloFlag, Mode, Param
 
 from . import channels as ch
-from .host_session import HostSession, fault_from_payload
+from .host_session import HostSession
 from .links import LinkError, OpenedLink, open_link
-from .recorder import ProcessRecorder
+from .links.engine_fd import engine_link_for
+from .recorder import ProcessRecorder, RecorderError, check_target
 from .scenario import RPM_PER_RAD_S, Scenario
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-CYCLE_TIMEOUT_S = 0.5       # a controller silent this long ends the run (well within 1 s)
-POLL_SLICE_S = 0.05         # how often a wait checks that the stub is still alive
+RECORDINGS_DIR = Path("recordings")
 MAX_CONSECUTIVE_BAD_DUTIES = 10
 STATS_EVERY_CYCLES = 1000
-TWO_PI = 2.0 * math.pi
-
-_SENSE = MESSAGES["SENSE"]
-_SENSE_AUX = MESSAGES["SENSE_AUX"]
-_SENSE_DUAL = MESSAGES["SENSE_DUAL"]
-_DUTY = MESSAGES["DUTY"]
-_TELEM = MESSAGES["TELEM"]
-_TELEM_EMF = MESSAGES["TELEM_EMF"]
-_FAULT_CTRL = MESSAGES["FAULT_CTRL"]
-_HEARTBEAT_CTRL = MESSAGES["HEARTBEAT_CTRL"]
-#: DBC length of every frame the loop decodes: a frame of another length is counted, not decoded
-CYCLE_LENGTHS = {m.frame_id: m.length for m in (_DUTY, _TELEM, _TELEM_EMF, _FAULT_CTRL)}
-DUTY_RAW_FULL = 32768   # raw value of duty 1.0 (scale 1/32768)
+WATCH_PERIOD_S = 0.1
 
 
 class RunAborted(RuntimeError):
@@ -68,7 +56,11 @@ class RunResult:
     error: str | None = None
     interrupted: bool = False
     wall_s: float = 0.0
+    mode: str = "lockstep"
+    end: str = ""
     link_stats: dict = field(default_factory=dict)
+    timing: dict = field(default_factory=dict)
+    realtime_notes: str = ""
 
     @property
     def ok(self) -> bool:
@@ -121,52 +113,60 @@ def git_revision() -> str:
         return "unknown"
 
 
+_SAFE_NAME = re.compile(r"[^A-Za-z0-9_.+-]")
+
+
 def default_recording_path(scenario: Scenario) -> Path:
+    """recordings/<name>-<stamp>.mcap; the name cannot leave the recordings folder."""
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    return Path("recordings") / f"{scenario.name}-{stamp}.mcap"
+    name = _SAFE_NAME.sub("_", scenario.name).lstrip(".") or "run"
+    return RECORDINGS_DIR / f"{name}-{stamp}.mcap"
 
 
-def _wrap_pi(x: float) -> float:
-    return (x + math.pi) % TWO_PI - math.pi
+def event_cycles(scenario: Scenario, ts_s: float) -> list[tuple[int, object]]:
+    """Each scenario event with the cycle it applies at: the first k with t_ev <= (k + 1/2) Ts."""
+    out = []
+    k = 0
+    for ev in scenario.events:   # sorted by time
+        k = max(k, int(math.ceil((ev.t_s - 0.5 * ts_s) / ts_s)) - 1, 0)
+        while not ev.t_s <= k * ts_s + 0.5 * ts_s:
+            k += 1
+        out.append((k, ev))
+    return out
 
 
-INV_SQRT3 = 1.0 / math.sqrt(3.0)
+class Runner:
+    """One run of a scenario against the controller on a link (lockstep or real time)."""
 
-
-def _duties_to_alphabeta(duties: tuple[float, float, float],
-                         v_dc_v: float) -> tuple[float, float] | None:
-    """Alpha-beta voltage an averaged inverter realises from duties (None if a leg is off)."""
-    da, db, dc = duties
-    if da < 0.0 or db < 0.0 or dc < 0.0:
-        return None
-    return ((2.0 * da - db - dc) * (v_dc_v / 3.0), (db - dc) * (v_dc_v * INV_SQRT3))
-
-
-def _frames_text(frames: list[tuple[int, bytes]]) -> str:
-    return " ".join(f"{fid:03X}#{payload.hex().upper()}" for fid, payload in frames)
-
-
-class LockstepRunner:
     def __init__(self, scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,
                  progress: bool = True, stub_args: tuple[str, ...] = (),
-                 allow_slow_link: bool = False):
+                 allow_slow_link: bool = False, force: bool = False,
+                 realtime: bool | None = None, record: bool = True, cpu: int | None = None):
         self.scn = scenario
+        self.mode = "realtime" if (realtime if realtime is not None else
+                                   scenario.mode == "realtime") else "lockstep"
         self.allow_slow_link = allow_slow_link
         self.link_spec = link_spec
         self.out_path = Path(out_path) if out_path else default_recording_path(scenario)
+        self.force = force
         self.progress = progress
         self.stub_args = stub_args
+        self.record = record
+        self.cpu = cpu if cpu is not None else scenario.realtime.cpu
         self.profile = load_profile(scenario.profile)
         self.plant = Plant(self.profile, **scenario.plant_overrides)
         self.ts_s = float(self.plant.params.ts_s)
-        self.n_cycles = int(round(scenario.duration_s / self.ts_s))
-        self.counters = {k: 0 for k in ("seq_mismatch", "bad_duties", "telem_missing",
-                                        "unknown_ids", "heartbeats_rx", "length_errors")}
-        self.cycle_wall_ns = np.zeros(self.n_cycles, dtype=np.int64)
+        n = round(scenario.duration_s / self.ts_s)
+        if not 1 <= n <= 2**40:
+            raise RunAborted(f"{scenario.display_path}: scenario.duration_s = "
+                             f"{scenario.duration_s:g} s is {n} periods of {self.ts_s * 1e6:g} us; "
+                             f"need at least one")
+        self.n_cycles = int(n)
         self.references = self._make_references()
+        self._setup_frames: list[tuple[str, int, bytes]] = []
 
-    def _make_references(self) -> list[tuple[str, object]]:
-        """The reference estimators the scenario names, built from the same C library."""
+    def _make_references(self) -> list[tuple[str, Estimator, object]]:
+        """The reference estimators the scenario names, configured by the library's rules."""
         if not self.scn.reference_estimators:
             return []
         from firmware_stub.estimators import REFERENCE_ESTIMATORS
@@ -183,10 +183,10 @@ class LockstepRunner:
                 est = factory(self.profile, self.ts_s, **self.scn.reference_config.get(entry, {}))
             except (ValueError, TypeError) as exc:
                 raise RunAborted(f"{self.scn.display_path}: reference.{entry}: {exc}") from None
-            out.append((entry, est))
+            out.append((entry, Estimator[name], est))
         return out
 
-    # -- controller configuration -----------------------------------------------------------
+    # -- what the controller is told ----------------------------------------------------------
     def controller_params(self) -> dict[Param, float]:
         params = motor_params(self.profile)
         # the stub stands for a DSP whose computation delay is the one the plant emulates
@@ -197,7 +197,9 @@ class LockstepRunner:
         return params
 
     def hello_flags(self) -> int:
-        flags = HelloFlag.ENCODER_VALID
+        flags = HelloFlag(0)
+        if self.scn.send_encoder:
+            flags |= HelloFlag.ENCODER_VALID
         if self.plant.params.dual_sampling:
             flags |= HelloFlag.DUAL_SAMPLING
         if self.scn.telemetry_emf:
@@ -207,75 +209,84 @@ class LockstepRunner:
     # -- the run --------------------------------------------------------------------------
     def run(self) -> RunResult:
         scn = self.scn
-        result = RunResult(scn.name, self.out_path, 0, self.n_cycles)
+        check_target(self.out_path, self.force)      # before any process or device is touched
+        result = RunResult(scn.name, self.out_path, 0, self.n_cycles, mode=self.mode)
         t0 = time.monotonic()
-        opened: OpenedLink | None = None
-        with ProcessRecorder(self.out_path) as rec:
+        opened = open_link(self.link_spec, self.stub_args,
+                           capture_path=self.out_path.with_suffix(".log"))
+        try:
+            self._check_budget(opened)
+            rec = ProcessRecorder(self.out_path, force=self.force)
+        except BaseException:
+            opened.close()
+            raise
+        engine = None
+        engine_link = None
+        try:
             self._open_channels(rec)
+            self._write_metadata(rec, opened)
             try:
-                opened = open_link(self.link_spec, self.stub_args,
-                                   capture_path=self.out_path.with_suffix(".log"))
-                self._check_budget(opened)
-                self._write_metadata(rec, opened)
                 self._start_controller(opened)
-                self._loop(opened, result)
+                engine_link = engine_link_for(opened.link)
+                engine = self._make_engine(rec, opened, engine_link)
+                self._watch(engine, rec, opened, engine_link, result)
             except KeyboardInterrupt:
                 result.interrupted = True
                 result.error = f"interrupted by the user at cycle {result.cycles_done}"
-            except (LinkError, RunAborted) as exc:
+            except (LinkError, RunAborted, RecorderError) as exc:
                 result.error = str(exc)
             except Exception as exc:  # noqa: BLE001 - a bug must still leave a readable recording
                 traceback.print_exc()
                 result.error = (f"internal error at cycle {result.cycles_done}: "
                                 f"{type(exc).__name__}: {exc}")
             finally:
-                t_end = result.cycles_done * self.ts_s
-                if result.error:
-                    self.ch_events.write(t_end, {"t_s": t_end, "kind": "error",
-                                                 "text": result.error, "value": 0.0})
-                if opened is not None:
-                    self._shutdown(opened, result)
-                    result.link_stats = self._write_stats(t_end, opened, result.cycles_done)
-                result.wall_s = time.monotonic() - t0
-                rec.metadata("run_result", {
-                    "cycles_done": result.cycles_done, "cycles_planned": result.cycles_planned,
-                    "error": result.error or "", "interrupted": result.interrupted,
-                    "wall_s": f"{result.wall_s:.3f}"})
+                self._finish(rec, opened, engine, engine_link, result, t0)
+        finally:
+            try:
+                rec.close()
+            except RecorderError as exc:
+                result.error = result.error or str(exc)
+            result.recording = rec.final_path or self.out_path
+            if result.cycles_done == 0 and result.error and rec.final_path:
+                result.error += (f" (no cycle ran; the recording of the attempt, with its "
+                                 f"handshake frames, is {rec.final_path})")
         return result
 
     def _open_channels(self, rec: ProcessRecorder) -> None:
         self.rec = rec
-        self.ch_state = rec.channel(ch.PLANT_STATE, ch.PLANT_STATE_SCHEMA, ch.PLANT_STATE_VALUES)
-        self.ch_sense = rec.channel(ch.PLANT_SENSE, ch.PLANT_SENSE_SCHEMA, ch.PLANT_SENSE_VALUES)
-        self.ch_telem = rec.channel(ch.CONTROLLER_TELEMETRY, ch.TELEMETRY_SCHEMA,
-                                    ch.TELEMETRY_VALUES)
-        self.ch_frames = rec.channel(ch.LINK_FRAMES, ch.FRAMES_SCHEMA, ch.FRAMES_VALUES)
-        self.ch_refs = [rec.channel(ch.REFERENCE_PREFIX + name, ch.REFERENCE_SCHEMA,
-                                    ch.REFERENCE_VALUES) for name, _ in self.references]
-        self.ch_stats = rec.channel(ch.LINK_STATS, ch.LINK_STATS_SCHEMA)
-        self.ch_events = rec.channel(ch.EVENTS, ch.EVENTS_SCHEMA)
-        self._setup_frames: list[tuple[str, int, bytes]] = []
+        self.ch_state = rec.channel(ch.PLANT_STATE)
+        self.ch_sense = rec.channel(ch.PLANT_SENSE)
+        self.ch_telem = rec.channel(ch.CONTROLLER_TELEMETRY)
+        self.ch_frames = rec.channel(ch.LINK_FRAMES)
+        self.ch_stats = rec.channel(ch.LINK_STATS)
+        self.ch_events = rec.channel(ch.EVENTS)
+        self.ch_timing = rec.channel(ch.TIMING)
+        self.ch_refs = [rec.channel(ch.REFERENCE_PREFIX + name, "REFERENCE")
+                        for name, _, _ in self.references]
+
+    def _event(self, t_s: float, kind: str, text: str, value: float = 0.0) -> None:
+        self.ch_events.write_values(t_s, (t_s, kind, text, value))
 
     def _check_budget(self, opened: OpenedLink) -> None:
         rate_hz = 1.0 / self.ts_s
         max_hz = opened.link.max_cycle_rate_hz(self.hello_flags())
-        if rate_hz > max_hz:
-            if self.allow_slow_link:
-                # lockstep does not need the link to keep up: the run is slower than real time
-                self.ch_events.write(0.0, {
-                    "t_s": 0.0, "kind": "link_budget", "value": max_hz,
-                    "text": f"{opened.link.description} fits at most {max_hz:.0f} Hz; lockstep "
-                            f"at {rate_hz:.0f} Hz runs slower than real time"})
-                return
-            raise RunAborted(
-                f"{opened.link.description} cannot carry this scenario: {rate_hz:.0f} Hz control "
-                f"rate needed (Ts = {self.ts_s * 1e6:g} us) but the link fits at most "
-                f"{max_hz:.0f} Hz with these frames; use a faster link or a longer period "
-                f"(or, in lockstep, --allow-slow-link to run slower than real time)")
+        if rate_hz <= max_hz:
+            return
+        if self.mode == "lockstep" and self.allow_slow_link:
+            self._slow_link_note = (f"{opened.link.description} fits at most {max_hz:.0f} Hz; "
+                                    f"lockstep at {rate_hz:.0f} Hz runs slower than real time")
+            return
+        extra = (" (or, in lockstep, --allow-slow-link to run slower than real time)"
+                 if self.mode == "lockstep" else " (a real-time run cannot be slowed down)")
+        raise RunAborted(
+            f"{opened.link.description} cannot carry this scenario: {rate_hz:.0f} Hz control "
+            f"rate needed (Ts = {self.ts_s * 1e6:g} us) but the link fits at most "
+            f"{max_hz:.0f} Hz with these frames; use a faster link or a longer period{extra}")
 
     def _write_metadata(self, rec: ProcessRecorder, opened: OpenedLink) -> None:
         import cffi
         import mcap
+        import numpy as np
 
         scn, prof = self.scn, self.profile
         stub = opened.stub
@@ -284,7 +295,8 @@ class LockstepRunner:
             "scenario_path": scn.display_path,
             "profile": prof.name,
             "profile_path": str(prof.path),
-            "mode": scn.mode,
+            "mode": self.mode,
+            "duty_update": scn.realtime.duty_update if self.mode == "realtime" else "",
             "link": opened.link.description,
             "controller": f"hil_stub {stub.executable}" if stub is not None else self.link_spec,
             "git_revision": git_revision(),
@@ -293,21 +305,26 @@ class LockstepRunner:
             "mcap": getattr(mcap, "__version__", "?"),
             "cffi": cffi.__version__,
             "host": platform.node(),
-            "start_utc": datetime.utcnow().isoformat(timespec="seconds") + "Z",
+            "start_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "ts_s": repr(self.ts_s),
             "cycles_planned": str(self.n_cycles),
             "plant_params": json.dumps(self.plant.params.as_dict()),
             "controller_params": json.dumps({p.name: v for p, v in
                                              self.controller_params().items()}),
             "estimator": scn.estimator.name,
+            "send_encoder": str(scn.send_encoder).lower(),
             "reference_estimators": json.dumps({n: scn.reference_config.get(n, {})
                                                 for n in scn.reference_estimators}),
             "metrics_window_s": json.dumps(list(scn.metrics_window_s)),
             "claims": json.dumps(list(scn.claims)),
+            "link_allow": json.dumps(scn.link.allow),
         })
         rec.attachment(f"scenario/{scn.path.name}", "application/toml", scn.text.encode())
         rec.attachment(f"profile/{Path(prof.path).name}", "application/toml",
                        Path(prof.path).read_bytes())
+        note = getattr(self, "_slow_link_note", None)
+        if note:
+            self._event(0.0, "link_budget", note, 1.0 / self.ts_s)
 
     def _log_setup_frame(self, direction: str, fid: int, payload: bytes) -> None:
         self._setup_frames.append((direction, fid, payload))
@@ -318,278 +335,213 @@ class LockstepRunner:
             opened.link, on_frame=self._log_setup_frame,
             alive=(stub.alive if stub is not None else None),
             death_message=(stub.death_message if stub is not None else None))
-        ack = self.session.handshake(period_s=self.ts_s, estimator=int(self.scn.estimator),
-                                     flags=self.hello_flags())
-        self.ch_events.write(0.0, {"t_s": 0.0, "kind": "handshake",
-                                   "text": f"controller fw 0x{int(ack['fw_version']):04X}, "
-                                           f"estimators mask 0x{int(ack['estimators']):04X}",
-                                   "value": float(ack["fw_version"])})
-        self.session.configure(self.controller_params())
-        self.session.command(Command.SET_SPEED_REF, self.scn.speed_ref_rad_s)
-        self.session.command(Command.RUN)
-        setup = [f"{d}:{fid:03X}#{p.hex().upper()}" for d, fid, p in self._setup_frames]
-        self.ch_frames.write_values(0.0, (0.0, -1, " ".join(
-            s[3:] for s in setup if s.startswith("tx:")), " ".join(
-            s[3:] for s in setup if s.startswith("rx:"))))
+        mode = Mode.REALTIME if self.mode == "realtime" else Mode.LOCKSTEP
+        try:
+            ack = self.session.handshake(period_s=self.ts_s, estimator=int(self.scn.estimator),
+                                         flags=self.hello_flags(), mode=mode)
+            self._event(0.0, "handshake",
+                        f"controller fw 0x{int(ack['fw_version']):04X}, estimators mask "
+                        f"0x{int(ack['estimators']):04X}", float(ack["fw_version"]))
+            self.session.configure(self.controller_params())
+            self.session.command(Command.SET_SPEED_REF, self.scn.speed_ref_rad_s)
+            self.session.command(Command.RUN)
+        finally:
+            tx = " ".join(f"{fid:03X}#{p.hex().upper()}" for d, fid, p in self._setup_frames
+                          if d == "tx")
+            rx = " ".join(f"{fid:03X}#{p.hex().upper()}" for d, fid, p in self._setup_frames
+                          if d == "rx")
+            self.ch_frames.write_values(0.0, (0.0, -1, tx, rx))
         self.session.on_frame = lambda d, i, p: None
 
-    def _apply_event(self, ev, t_s: float, pending_cmds: list) -> None:
-        cmd = self.session.command_frame
-        if ev.speed_ref_rad_s is not None:
-            pending_cmds.append(cmd(Command.SET_SPEED_REF, ev.speed_ref_rad_s))
-        if ev.iq_ref_a is not None:
-            pending_cmds.append(cmd(Command.SET_IQ_REF, ev.iq_ref_a))
-        if ev.id_ref_a is not None:
-            pending_cmds.append(cmd(Command.SET_ID_REF, ev.id_ref_a))
-        if ev.control_mode is not None:
-            pending_cmds.append(cmd(Command.SET_CONTROL_MODE,
-                                    1.0 if ev.control_mode == "current" else 0.0))
-        if ev.load_torque_nm is not None:
-            self.plant.set_load_torque(ev.load_torque_nm)
-        self.ch_events.write(t_s, {"t_s": t_s, "kind": "scenario", "text": ev.describe(),
-                                   "value": ev.speed_ref_rad_s if ev.speed_ref_rad_s is not None
-                                   else (ev.load_torque_nm or 0.0)})
+    def _make_engine(self, rec: ProcessRecorder, opened: OpenedLink, link) -> eng.Engine:
+        scn = self.scn
+        rt = scn.realtime
+        self.plant.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
+        self.plant.set_load_torque(scn.initial_load_torque_nm)
+        options = dict(
+            t_delay_s=float(self.plant.params.t_delay_s),
+            pole_pairs=int(self.profile.pole_pairs),
+            rpm_per_rad_s=RPM_PER_RAD_S,
+            dual_sampling=int(bool(self.plant.params.dual_sampling)),
+            send_encoder=int(scn.send_encoder),
+            estimator_expected=int(scn.estimator),
+            cmd_seq_start=int(getattr(self.session, "cmd_seq", 0)) & 0xFFFF,
+            retry_timeout_s=scn.link.retry_timeout_s,
+            max_retries=scn.link.max_retries,
+            max_consecutive_bad_duties=MAX_CONSECUTIVE_BAD_DUTIES,
+            max_consecutive_misses=rt.max_consecutive_misses,
+            duty_update=rt.duty_update,
+            guard_s=rt.guard_us * 1e-6,
+            spin_s=rt.spin_us * 1e-6,
+            rt_priority=rt.priority,
+            rt_mlock=int(rt.mlock),
+            rt_cpu=-1 if self.cpu is None else int(self.cpu),
+            stats_every_cycles=STATS_EVERY_CYCLES,
+            can_brs=int(bool(getattr(getattr(opened.link, "spec", None), "data_bitrate", None))),
+        )
+        channels = {"ch_state": self.ch_state.index, "ch_sense": self.ch_sense.index,
+                    "ch_telem": self.ch_telem.index, "ch_frames": self.ch_frames.index,
+                    "ch_events": self.ch_events.index, "ch_timing": self.ch_timing.index,
+                    "ch_stats": self.ch_stats.index}
+        e = eng.Engine(self.plant, ts_s=self.ts_s, n_cycles=self.n_cycles, link_fd=link.fd,
+                       link_kind=link.kind,
+                       mode=eng.REALTIME if self.mode == "realtime" else eng.LOCKSTEP,
+                       ring=rec.ring_mem if self.record else None, channels=channels, **options)
+        for (_, kind, est), chan in zip(self.references, self.ch_refs):
+            e.add_reference(int(kind), est, chan.index)
+        self._schedule_events(e)
+        # what the Python link received but did not use: the engine continues from there
+        py_link = opened.link
+        stats = py_link.stats()
+        deframer = getattr(py_link, "deframer", None)
+        e.preload_link_counters(
+            deframer=deframer.counters() if deframer is not None else None,
+            link={k: stats.get(k, 0) for k in ("frames_tx", "frames_rx", "bytes_tx", "bytes_rx")})
+        pending = list(getattr(py_link, "_pending", []))
+        py_link._pending = []
+        partial = bytes(getattr(deframer, "_pending", b"")) if deframer is not None else b""
+        e.hand_over(partial, pending)
+        return e
 
-    def _loop(self, opened: OpenedLink, result: RunResult) -> None:
-        scn, plant, link = self.scn, self.plant, opened.link
-        stub = opened.stub
-        ts = self.ts_s
-        pole_pairs = self.profile.pole_pairs
-        rpm_per_rad_s = RPM_PER_RAD_S
-        counters = self.counters
-        sense_aux_pack, sense_pack = _SENSE_AUX.pack_values, _SENSE.pack_values
-        sense_unpack = _SENSE.unpack_values
-        duty_raw, telem_values, emf_values = _DUTY.unpack_raw, _TELEM.unpack_values, \
-            _TELEM_EMF.unpack_values
-        SENSE_ID, AUX_ID = _SENSE.frame_id, _SENSE_AUX.frame_id
-        DUTY_ID, TELEM_ID, EMF_ID = _DUTY.frame_id, _TELEM.frame_id, _TELEM_EMF.frame_id
-        FAULT_ID, HB_ID = _FAULT_CTRL.frame_id, _HEARTBEAT_CTRL.frame_id
-        w_state, w_sense = self.ch_state.write_values, self.ch_sense.write_values
-        w_telem, w_frames = self.ch_telem.write_values, self.ch_frames.write_values
-        snap_values = operator.attrgetter(*ch.PLANT_SNAPSHOT_FIELDS)
-        refs = self.references
-        ref_writers = [c.write_values for c in self.ch_refs]
-        v_ab_prev: tuple[float, float] | None = None
-        v_ab_older: tuple[float, float] | None = None
-        w_delay = float(self.plant.params.t_delay_s) / ts
-        events = list(scn.events)
-        plant.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
-        plant.set_load_torque(scn.initial_load_torque_nm)
-        snap = plant.snapshot()
-        duties = (0.5, 0.5, 0.5)
-        consecutive_bad = 0
-        last_state = -1
-        aux_flags = int(SenseAuxFlag.THETA_ENC_VALID)
-        dual_flag = int(SenseAuxFlag.DUAL_FOLLOWS)
-        dual = bool(self.plant.params.dual_sampling)
-        dual_pack, DUAL_ID = _SENSE_DUAL.pack_values, _SENSE_DUAL.frame_id
-        theta_enc_max = TWO_PI - 0.5 * _SENSE_AUX.signal("theta_enc").scale
-        nan = math.nan
-        progress = _Progress(self.n_cycles, scn.name) if self.progress else None
-        perf_ns = time.perf_counter_ns
+    def _schedule_events(self, e: eng.Engine) -> None:
+        for k, ev in event_cycles(self.scn, self.ts_s):
+            subs = []
+            if ev.speed_ref_rad_s is not None:
+                subs.append((eng.EV_CMD, int(Command.SET_SPEED_REF), ev.speed_ref_rad_s))
+            if ev.iq_ref_a is not None:
+                subs.append((eng.EV_CMD, int(Command.SET_IQ_REF), ev.iq_ref_a))
+            if ev.id_ref_a is not None:
+                subs.append((eng.EV_CMD, int(Command.SET_ID_REF), ev.id_ref_a))
+            if ev.control_mode is not None:
+                subs.append((eng.EV_CMD, int(Command.SET_CONTROL_MODE),
+                             1.0 if ev.control_mode == "current" else 0.0))
+            if ev.load_torque_nm is not None:
+                subs.append((eng.EV_LOAD, 0, ev.load_torque_nm))
+            if not subs:
+                subs.append((eng.EV_NOTE, 0, 0.0))
+            value = (ev.speed_ref_rad_s if ev.speed_ref_rad_s is not None
+                     else (ev.load_torque_nm or 0.0))
+            for i, (kind, command, v) in enumerate(subs):
+                last = i == len(subs) - 1
+                e.add_event(k, kind, command=command, value=v,
+                            text=ev.describe() if last else None, record_value=value)
+
+    def _watch(self, e: eng.Engine, rec: ProcessRecorder, opened: OpenedLink, link,
+               result: RunResult) -> None:
+        """Start the engine and watch it: progress, Ctrl-C, a recorder that dies."""
+        progress = _Progress(self.n_cycles, self.scn.name) if self.progress else None
+        self.engine = e
+        e.start()
         try:
-            for k in range(self.n_cycles):
-                c0 = perf_ns()
-                t_s = k * ts
-                pending_cmds: list[tuple[int, bytes]] = []
-                while events and events[0].t_s <= t_s + 0.5 * ts:
-                    self._apply_event(events.pop(0), t_s, pending_cmds)
-
-                # what the controller's ADC measured (plant sensor model: 12-bit, gain, offset,
-                # noise when the scenario turns it on), then the wire's 1 mA / 10 mV scaling
-                seq = k & 0xFFFF
-                smp = plant.sample()
-                v_dc = smp.v_dc_v
-                theta = snap.theta_e_rad
-                theta_enc = theta if theta < theta_enc_max else 0.0   # 16-bit encoder wraps
-                if dual and smp.dual_valid:
-                    aux = sense_aux_pack((seq, v_dc, theta_enc, aux_flags | dual_flag))
-                    tx = pending_cmds + [(AUX_ID, aux), (DUAL_ID, dual_pack(
-                        (seq, smp.i2_a_a, smp.i2_b_a, smp.i2_c_a), saturate=True))]
-                else:
-                    aux = sense_aux_pack((seq, v_dc, theta_enc, aux_flags))
-                    tx = pending_cmds + [(AUX_ID, aux)]
-                sense = sense_pack((seq, smp.i_a_a, smp.i_b_a, smp.i_c_a), saturate=True)
-                tx.append((SENSE_ID, sense))
+            while e.running():
                 try:
-                    link.send(tx)
-                except LinkError as exc:
-                    raise RunAborted(f"at cycle {k} (t = {t_s:.4f} s): "
-                                     + self._link_failure(stub, exc)) from None
-
-                # wait for this cycle's DUTY
-                duty = None
-                telem = emf = None
-                rx: list[tuple[int, bytes]] = []
-                deadline = time.monotonic() + CYCLE_TIMEOUT_S
-                while duty is None:
-                    remaining = deadline - time.monotonic()
-                    if remaining <= 0:
-                        if stub is not None and not stub.alive():
-                            raise RunAborted(f"at cycle {k} (t = {t_s:.4f} s): "
-                                             + stub.death_message())
-                        raise RunAborted(f"at cycle {k} (t = {t_s:.4f} s): no DUTY from the "
-                                         f"controller within {CYCLE_TIMEOUT_S:g} s on "
-                                         f"{link.description}")
-                    try:
-                        frames = link.recv(min(remaining, POLL_SLICE_S))
-                    except LinkError as exc:
-                        raise RunAborted(f"at cycle {k} (t = {t_s:.4f} s): "
-                                         + self._link_failure(stub, exc)) from None
-                    if not frames:
-                        if stub is not None and not stub.alive():
-                            raise RunAborted(f"at cycle {k} (t = {t_s:.4f} s): "
-                                             + stub.death_message())
-                        continue
-                    for fid, payload in frames:
-                        rx.append((fid, payload))
-                        if fid in CYCLE_LENGTHS and len(payload) != CYCLE_LENGTHS[fid]:
-                            counters["length_errors"] += 1    # never decoded, never applied
-                            continue
-                        if fid == DUTY_ID:
-                            raw = duty_raw(payload)
-                            if raw[0] != seq:
-                                counters["seq_mismatch"] += 1
-                                continue
-                            duty = raw
-                        elif fid == TELEM_ID:
-                            v = telem_values(payload)
-                            if v[0] == seq:
-                                telem = v
-                        elif fid == EMF_ID:
-                            v = emf_values(payload)
-                            if v[0] == seq:
-                                emf = v
-                        elif fid == FAULT_ID:
-                            w_frames(t_s, (t_s, seq, _frames_text(tx), _frames_text(rx)))
-                            raise fault_from_payload(payload)
-                        elif fid == HB_ID:
-                            counters["heartbeats_rx"] += 1
-                        else:
-                            counters["unknown_ids"] += 1
-
-                # validate the duties: OFF legs allowed, anything else out of range is refused
-                new = []
-                bad = False
-                for r in duty[1:]:
-                    if r == DUTY_RAW_OFF:
-                        new.append(-1.0)
-                    elif 0 <= r <= DUTY_RAW_FULL:
-                        new.append(r / DUTY_RAW_FULL)
-                    else:
-                        bad = True
-                if bad:
-                    counters["bad_duties"] += 1
-                    consecutive_bad += 1
-                    self.ch_events.write(t_s, {"t_s": t_s, "kind": "bad_duty",
-                                               "text": f"DUTY seq {seq} raw {list(duty[1:])} out "
-                                                       f"of range; previous duties held",
-                                               "value": float(seq)})
-                    if consecutive_bad >= MAX_CONSECUTIVE_BAD_DUTIES:
-                        raise RunAborted(f"at cycle {k}: {consecutive_bad} consecutive DUTY "
-                                         f"frames out of range; inverter disabled, run ended")
-                else:
-                    consecutive_bad = 0
-                    duties = (new[0], new[1], new[2])
-
-                # record cycle k (state at t_k, what was sent, what came back)
-                w_state(t_s, (t_s, *snap_values(snap), snap.omega_m_rad_s * rpm_per_rad_s))
-                s_vals = sense_unpack(sense)
-                w_sense(t_s, (t_s, seq, s_vals[1], s_vals[2], s_vals[3], v_dc, theta))
-                if telem is None:
-                    counters["telem_missing"] += 1
-                    th_hat = w_hat = nan
-                    st = est = -1
-                else:
-                    th_hat, w_hat, st, est = telem[1], telem[2], int(telem[3]), int(telem[4])
-                e_a, e_b, iq_ref = (emf[1], emf[2], emf[3]) if emf is not None else (nan, nan, nan)
-                w_telem(t_s, (t_s, seq, th_hat, w_hat, w_hat / pole_pairs * rpm_per_rad_s, st, est,
-                              e_a, e_b, iq_ref, duties[0], duties[1], duties[2],
-                              _wrap_pi(th_hat - theta)))
-                w_frames(t_s, (t_s, seq, _frames_text(tx), _frames_text(rx)))
-                if st != last_state and st >= 0:
-                    try:
-                        name = State(st).name
-                    except ValueError:
-                        name = str(st)
-                    self.ch_events.write(t_s, {"t_s": t_s, "kind": "controller_state",
-                                               "text": name, "value": float(st)})
-                    last_state = st
-
-                # reference estimators: the currents the controller was sent and the voltage
-                # that acted over the last period (the duties of k-2 until t_d, then those of
-                # k-1: the plant's computation delay)
-                if refs:
-                    i_al = (2.0 * s_vals[1] - s_vals[2] - s_vals[3]) * (1.0 / 3.0)
-                    i_be = (s_vals[2] - s_vals[3]) * INV_SQRT3
-                    if v_ab_prev is not None and v_ab_older is not None:
-                        v_al = w_delay * v_ab_older[0] + (1.0 - w_delay) * v_ab_prev[0]
-                        v_be = w_delay * v_ab_older[1] + (1.0 - w_delay) * v_ab_prev[1]
-                        for (_, est), w_ref in zip(refs, ref_writers):
-                            o = est.step(i_al, i_be, v_al, v_be)
-                            w_ref(t_s, (t_s, seq, o[0], o[1], o[1] / pole_pairs * rpm_per_rad_s,
-                                        o[2], o[3], _wrap_pi(o[0] - theta)))
-                    # (legs off: no known voltage, the estimators wait)
-                    v_ab_older = v_ab_prev
-                    v_ab_prev = _duties_to_alphabeta(duties, v_dc)
-
-                plant.step(*duties)
-                snap = plant.snapshot()
-                result.cycles_done = k + 1
-                self.cycle_wall_ns[k] = perf_ns() - c0
-                if (k + 1) % STATS_EVERY_CYCLES == 0:
-                    self._write_stats((k + 1) * ts, opened, k + 1)
-                    if progress is not None:
-                        progress.update(k + 1, snap.omega_m_rad_s * rpm_per_rad_s)
-                if not math.isfinite(snap.omega_m_rad_s):
-                    raise RunAborted(f"at cycle {k}: plant state became non-finite")
+                    e.join(WATCH_PERIOD_S)
+                except KeyboardInterrupt:
+                    e.request_stop()
+                    e.join()
+                    result.interrupted = True
+                    break
+                result.cycles_done = e.cycles_done
+                if progress is not None:
+                    progress.update(result.cycles_done, e.speed_rpm)
+                if not rec.alive():
+                    e.request_stop()
+                    e.join()
+                    raise RecorderError(rec.death_message())
         finally:
             if progress is not None:
-                progress.close(result.cycles_done)
+                progress.close(e.cycles_done)
+        r = e.result()
+        result.cycles_done = r.cycles_done
+        result.end = r.end_name
+        result.realtime_notes = r.rt_notes
+        if result.interrupted:
+            result.error = f"interrupted by the user at cycle {r.cycles_done}"
+        elif r.end == eng.END_CONTROLLER_FAULT:
+            try:
+                name = Fault(r.fault_code).name
+            except ValueError:
+                name = f"unknown code {r.fault_code}"
+            result.error = (f"{r.message}: controller reported fault {name} at seq {r.fault_seq} "
+                            f"(detail {r.fault_detail})")
+        elif r.end != eng.END_DONE:
+            result.error = r.message
+            if r.end == 2:   # the link: say what is behind it
+                if link.error:
+                    result.error = f"{r.message.split(': ', 1)[0]}: {link.error}"
+                elif opened.stub is not None:
+                    why = _stub_failure(opened.stub)
+                    if why:
+                        result.error = f"{r.message.split(': ', 1)[0]}: {why}"
+            elif r.end == 3 and opened.stub is not None and not opened.stub.alive():
+                result.error = f"{r.message} -- {opened.stub.death_message()}"
 
-    @staticmethod
-    def _link_failure(stub, exc: LinkError) -> str:
-        """Explain a failed link: if the stub died, say so (it is the cause), else the error."""
-        if stub is None:
-            return str(exc)
-        deadline = time.monotonic() + 0.5
-        while stub.alive() and time.monotonic() < deadline:
-            time.sleep(0.01)
-        return str(exc) if stub.alive() else stub.death_message()
-
-    def _shutdown(self, opened: OpenedLink, result: RunResult) -> None:
+    def _finish(self, rec: ProcessRecorder, opened: OpenedLink, e: eng.Engine | None, link,
+                result: RunResult, t0: float) -> None:
+        """After the run: final statistics, the error, STOP, the link closed, run_result."""
+        t_end = result.cycles_done * self.ts_s
+        stopped = False
+        if e is not None and hasattr(self, "session"):
+            # STOP through the engine's link, counted with the run's frames
+            stopped = e.send(*self.session.command_frame(Command.STOP, 0.0))
+            if link is not None:
+                link.settle()
+        extra = link.extra_counters() if link is not None else {}
+        if e is not None:
+            e.write_stats(t_end, extra)
+            result.link_stats = e.counters()
+            for k, v in extra.items():
+                key = "can_unknown_ids" if k == "ext_ids" else k
+                result.link_stats[key] = result.link_stats.get(key, 0) + v
+            result.link_stats["rows_dropped"] = rec.dropped
+            result.link_stats["cycles"] = e.cycles_done
+            result.timing = self._timing_summary(e)
+            if result.realtime_notes and self.mode == "realtime":
+                self._event(t_end, "realtime_setup", result.realtime_notes, 0.0)
+        if result.error:
+            self._event(t_end, "error", result.error, 0.0)
+        if link is not None:
+            link.close()
         try:
-            if hasattr(self, "session"):
+            if hasattr(self, "session") and not stopped:
                 self.session.command(Command.STOP)
-        except LinkError:
+        except (LinkError, OSError):
             pass
         code = opened.close()
         if opened.stub is not None and code not in (0, None):
-            t_end = result.cycles_done * self.ts_s
             message = opened.stub.death_message()
-            self.ch_events.write(t_end, {"t_s": t_end, "kind": "stub_exit", "text": message,
-                                         "value": float(code)})
+            self._event(t_end, "stub_exit", message, float(code))
             if result.error is None:   # e.g. a sanitizer report at exit: never a silent pass
                 result.error = f"after the run: {message}"
+        result.wall_s = time.monotonic() - t0
+        rec.metadata("run_result", {
+            "cycles_done": result.cycles_done, "cycles_planned": result.cycles_planned,
+            "error": result.error or "", "interrupted": result.interrupted,
+            "end": result.end, "wall_s": f"{result.wall_s:.3f}",
+            "rows_dropped": rec.dropped,
+            "timing": json.dumps(result.timing),
+            "counters": json.dumps(result.link_stats)})
 
-    def _write_stats(self, t_s: float, opened: OpenedLink, cycles: int) -> dict:
-        stats = {k: 0 for k in ch.LINK_STATS_COUNTERS}
-        stats.update(opened.link.stats())
-        for key, value in self.counters.items():   # the loop's counts add to the link's own
-            stats[key] = stats.get(key, 0) + value
-        stats["cycles"] = cycles
-        walls = self.cycle_wall_ns[:cycles]
-        if cycles:
-            p50, p99 = np.percentile(walls, [50, 99])
-            stats.update(cycle_wall_p50_us=p50 / 1e3, cycle_wall_p99_us=p99 / 1e3,
-                         cycle_wall_max_us=float(walls.max()) / 1e3)
-        else:
-            stats.update(cycle_wall_p50_us=0.0, cycle_wall_p99_us=0.0, cycle_wall_max_us=0.0)
-        msg = {k: (int(v) if k in ch.LINK_STATS_COUNTERS else float(v)) for k, v in stats.items()
-               if k in ch.LINK_STATS_SCHEMA["properties"]}
-        msg["t_s"] = t_s
-        self.ch_stats.write(t_s, msg)
-        return stats
+    def _timing_summary(self, e: eng.Engine) -> dict:
+        out = {"cycle_p50_us": e.percentile("cycle", 0.5), "cycle_p99_us": e.percentile("cycle", 0.99),
+               "cycle_p999_us": e.percentile("cycle", 0.999), "cycle_max_us": e.hist_max("cycle")}
+        if self.mode == "realtime":
+            c = e.counters()
+            out.update(jitter_p50_us=e.percentile("jitter", 0.5),
+                       jitter_p99_us=e.percentile("jitter", 0.99),
+                       jitter_p999_us=e.percentile("jitter", 0.999),
+                       jitter_max_us=e.hist_max("jitter"),
+                       missed=c["missed_duty"], late=c["late_duty"],
+                       miss_rate=c["missed_duty"] / max(e.cycles_done, 1))
+        return out
+
+
+def _stub_failure(stub) -> str | None:
+    """If the stub died, that is the cause of a failed link (give it a moment)."""
+    deadline = time.monotonic() + 0.5
+    while stub.alive() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return None if stub.alive() else stub.death_message()
 
 
 class _Progress:
@@ -619,12 +571,13 @@ class _Progress:
 
 def run_scenario(scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,
                  progress: bool = True, stub_args: tuple[str, ...] = (),
-                 allow_slow_link: bool = False) -> RunResult:
-    """Run a scenario in lockstep against the controller on ``link_spec`` and record it."""
-    if scenario.mode != "lockstep":
-        raise RunAborted(f"{scenario.display_path}: mode {scenario.mode!r} is not implemented")
-    return LockstepRunner(scenario, link_spec, out_path, progress, stub_args,
-                          allow_slow_link).run()
+                 allow_slow_link: bool = False, force: bool = False,
+                 realtime: bool | None = None, cpu: int | None = None,
+                 record: bool = True) -> RunResult:
+    """Run a scenario against the controller on ``link_spec`` and record it (lockstep, or real
+    time when the scenario or ``realtime=True`` asks)."""
+    return Runner(scenario, link_spec, out_path, progress, stub_args, allow_slow_link, force,
+                  realtime, record, cpu).run()
 
 
 if __name__ == "__main__":  # pragma: no cover

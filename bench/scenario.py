@@ -52,6 +52,31 @@ class Event:
         return ", ".join(parts) + (f" ({self.label})" if self.label else "")
 
 
+DUTY_UPDATES = ("on_arrival", "next_period")
+
+
+@dataclass(frozen=True)
+class RealtimeOptions:
+    """``[realtime]``: how a real-time run paces the plant (plant_rt/c/engine.h)."""
+
+    duty_update: str = "on_arrival"        # "on_arrival" (ePWM immediate) | "next_period" (shadow)
+    max_consecutive_misses: int = 10       # then the inverter goes to its safe state
+    cpu: int | None = None                 # pin the engine thread to this CPU
+    priority: int = 80                     # SCHED_FIFO priority asked for (0: do not ask)
+    mlock: bool = True                     # mlockall when allowed
+    spin_us: float = 30.0                  # spin this long before each deadline
+    guard_us: float = 10.0                 # on_arrival: DUTY due by the period end - guard
+
+
+@dataclass(frozen=True)
+class LinkOptions:
+    """``[link]``: lockstep retries and the link errors a run may show and still pass."""
+
+    retry_timeout_s: float = 0.05          # wait this long for DUTY, then re-send SENSE
+    max_retries: int = 3                   # re-sends of one cycle before the run ends
+    allow: dict[str, int] = field(default_factory=dict)   # counter -> allowed count
+
+
 @dataclass(frozen=True)
 class Scenario:
     path: Path
@@ -74,6 +99,9 @@ class Scenario:
     claims: tuple[str, ...]
     telemetry_emf: bool
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
+    realtime: RealtimeOptions = field(default_factory=RealtimeOptions)
+    link: LinkOptions = field(default_factory=LinkOptions)
+    send_encoder: bool = False     # SENSE_AUX carries the true angle (ENCODER runs, or asked)
     text: str = field(repr=False, default="")
 
     @property
@@ -265,8 +293,8 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     profile = s.string("profile")
     duration_s = s.number("duration_s", positive=True)
     mode = s.string("mode", "lockstep")
-    if mode != "lockstep":
-        raise s.fail("mode", f"only 'lockstep' is implemented, got {mode!r}")
+    if mode not in ("lockstep", "realtime"):
+        raise s.fail("mode", f"must be 'lockstep' or 'realtime', got {mode!r}")
     claims = s.strings("claims")
     s.reject_unknown()
 
@@ -281,6 +309,9 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     estimator = _estimator(c, "estimator")
     speed_ref = c.number("speed_ref_rpm", 0.0) / RPM_PER_RAD_S
     telemetry_emf = c.boolean("telemetry_emf", True)
+    # the true angle goes to the controller only when it closes its loop on it, or when the
+    # scenario asks (a drive that logs it): a sensorless run must not be able to use it
+    send_encoder = c.boolean("send_encoder", estimator == Estimator.ENCODER)
     params = _controller_params(c.table_of("params"))
     c.reject_unknown()
 
@@ -312,6 +343,8 @@ def parse_scenario(text: str, path: Path) -> Scenario:
 
     top.used.add("events")
     events = _events(where, raw.get("events", []), duration_s)
+    realtime = _realtime_options(top.table_of("realtime"))
+    link = _link_options(top.table_of("link"))
     top.reject_unknown()
 
     return Scenario(
@@ -321,8 +354,50 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         initial_speed_rad_s=initial_speed, initial_load_torque_nm=initial_load, events=events,
         reference_estimators=reference, reference_config=reference_config,
         metrics_window_s=(w0, w1), claims=claims,
-        telemetry_emf=telemetry_emf, raw=raw, text=text,
+        telemetry_emf=telemetry_emf, raw=raw, text=text, realtime=realtime, link=link,
+        send_encoder=send_encoder,
     )
+
+
+def _integer(fields: _Fields, key: str, default: int, lo: int, hi: int) -> int:
+    fields.used.add(key)
+    v = fields.table.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise fields.fail(key, f"must be an integer in [{lo}, {hi}], got {v!r}")
+    return v
+
+
+def _realtime_options(f: _Fields) -> RealtimeOptions:
+    d = RealtimeOptions()
+    duty_update = f.string("duty_update", d.duty_update)
+    if duty_update not in DUTY_UPDATES:
+        raise f.fail("duty_update", f"must be one of {', '.join(DUTY_UPDATES)}, got {duty_update!r}")
+    cpu = _integer(f, "cpu", -1, 0, 1023) if "cpu" in f.table else None
+    out = RealtimeOptions(
+        duty_update=duty_update,
+        max_consecutive_misses=_integer(f, "max_consecutive_misses", d.max_consecutive_misses,
+                                        1, 1_000_000),
+        cpu=cpu,
+        priority=_integer(f, "priority", d.priority, 0, 99),
+        mlock=f.boolean("mlock", d.mlock),
+        spin_us=f.number("spin_us", d.spin_us, min_value=0.0),
+        guard_us=f.number("guard_us", d.guard_us, min_value=0.0),
+    )
+    f.reject_unknown()
+    return out
+
+
+def _link_options(f: _Fields) -> LinkOptions:
+    d = LinkOptions()
+    retry = f.number("retry_timeout_s", d.retry_timeout_s, positive=True)
+    if retry > 0.45:
+        raise f.fail("retry_timeout_s", f"must be below 0.45 s (a silent controller must end "
+                                        f"the run within a second), got {retry:g}")
+    retries = _integer(f, "max_retries", d.max_retries, 0, 100)
+    allow_f = f.table_of("allow")
+    allow = {k: _integer(allow_f, k, 0, 0, 2**62) for k in allow_f.table}
+    f.reject_unknown()
+    return LinkOptions(retry_timeout_s=retry, max_retries=retries, allow=allow)
 
 
 def speed_ref_at(scn: Scenario, t_s: float) -> float:

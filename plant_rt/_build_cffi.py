@@ -13,7 +13,12 @@ from pathlib import Path
 from cffi import FFI
 
 C_DIR = Path(__file__).resolve().parent / "c"
-SOURCES = ("pmsm_machine.c", "inverter.c", "mechanics.c", "sensor.c", "plant.c")
+SOURCES = ("pmsm_machine.c", "inverter.c", "mechanics.c", "sensor.c", "plant.c",
+           # the cycle engine and the recording ring / schema (engine.h, rec_ring.h, rec_schema.h)
+           "engine.c", "engine_link.c", "engine_refs.c", "rec_ring.c", "rec_schema.c")
+ROOT = C_DIR.parents[1]
+FW_SRC = ROOT / "firmware_stub" / "src"
+PROTOCOL_C = ROOT / "protocol" / "c"
 
 CDEF = """
 #define MECH_LOAD_TABLE_MAX 32
@@ -105,6 +110,7 @@ void plant_set_load_torque(plant_t *pl, double torque_nm);
 void plant_step(plant_t *pl, const double duty_abc[3]);
 void plant_snapshot(const plant_t *pl, plant_snapshot_t *out);
 void plant_step_abc(plant_t *pl, double duty_a, double duty_b, double duty_c);
+void plant_step_split(plant_t *pl, const double duty_abc[3], double t_split_s);
 void plant_run(plant_t *pl, const double *duties_abc, size_t n, plant_snapshot_t *out);
 void plant_energy(const plant_t *pl, plant_energy_t *out);
 void plant_sample(const plant_t *pl, plant_sample_t *out);
@@ -155,15 +161,105 @@ double mechanics_load_profile_at(const mechanics_load_profile_t *lp, double t_s)
 double mechanics_load_profile_mean(const mechanics_load_profile_t *lp, double t_a_s, double t_b_s);
 """
 
+# The cycle engine (plant_rt/c/engine.h) and the recording ring and schema (rec_ring.h,
+# rec_schema.h). Structs are partial (...;): the header fixes the layout, the fields below are
+# the ones Python touches.
+ENGINE_CDEF = """
+typedef struct { uint64_t magic; uint64_t capacity; uint64_t head; uint64_t tail;
+                 uint64_t records_written; uint64_t records_dropped; uint64_t bytes_dropped;
+                 uint32_t producer_closed; ...; } rec_ring_header_t;
+typedef struct { rec_ring_header_t *hdr; ...; } rec_ring_t;
+size_t rec_ring_mapping_size(size_t capacity);
+int rec_ring_format(void *mem, size_t mapping_size);
+int rec_ring_attach(rec_ring_t *r, void *mem, size_t mapping_size);
+int rec_ring_write(rec_ring_t *r, uint16_t channel, int64_t t_ns, const void *payload, size_t len);
+void rec_ring_close(rec_ring_t *r);
+uint64_t rec_ring_pending(const rec_ring_t *r);
+size_t rec_ring_read(rec_ring_t *r, uint8_t *out, size_t cap);
+#define REC_RING_HEADER_SIZE 256
+#define REC_RING_RECORD_HEADER 16
+
+const char *rec_schema_layout(void);
+typedef struct { double t_s; const char *kind; const char *text; double value; } rec_event_t;
+typedef struct { double t_s; int32_t seq; const char *tx; const char *rx; } rec_frames_t;
+size_t rec_encode_event(uint8_t *out, size_t cap, const rec_event_t *m);
+size_t rec_encode_frames(uint8_t *out, size_t cap, const rec_frames_t *m);
+
+typedef struct { double scale, offset, raw_min, raw_max; } engine_signal_t;
+typedef struct {
+    int mode; int duty_update; long n_cycles; double ts_s; double t_delay_s;
+    int pole_pairs; double rpm_per_rad_s; int dual_sampling; int send_encoder;
+    int estimator_expected; uint16_t cmd_seq_start;
+    int link_kind; int link_fd; int can_brs; double retry_timeout_s; int max_retries;
+    int max_consecutive_bad_duties; int max_consecutive_misses; double guard_s;
+    int rt_priority; int rt_cpu; int rt_mlock; double spin_s;
+    double recorder_stall_s; int stats_every_cycles; int record_frames;
+    uint16_t ch_state, ch_sense, ch_telem, ch_frames, ch_events, ch_timing, ch_stats;
+    engine_signal_t sig_i, sig_i2, sig_vdc, sig_theta;
+    double scale_theta_hat, scale_omega_hat, scale_e, scale_iq_ref;
+    uint32_t duty_raw_full, duty_raw_off;
+    uint16_t aux_flag_theta_valid, aux_flag_dual_follows;
+    char state_names[16][24];
+    ...;
+} engine_config_t;
+typedef struct {
+    long cycle; int kind; int command; double value; int record; double record_value;
+    char text[96]; ...;
+} engine_event_t;
+typedef struct {
+    uint64_t seq_mismatch, bad_duties, telem_missing, unknown_ids, heartbeats_rx, length_errors;
+    uint64_t duplicates, stale_frames, retries, late_duty, missed_duty, estimator_mismatch;
+    uint64_t rows_dropped;
+} engine_counters_t;
+typedef struct {
+    uint64_t frames_tx, frames_rx, bytes_tx, bytes_rx;
+    uint64_t error_frames, remote_frames, ext_ids, rx_malformed, send_failures, bus_state_changes;
+} eng_link_counters_t;
+typedef struct { uint32_t frames_ok, crc_errors, cobs_errors, length_errors, overruns,
+                 bytes_discarded; ...; } hil_deframer_t;
+typedef struct { int fd; hil_deframer_t deframer; eng_link_counters_t c; int bus_off;
+                 int closed; char error[160]; ...; } eng_link_t;
+typedef struct { uint64_t n; double max_us; ...; } engine_hist_t;
+typedef struct engine {
+    engine_config_t cfg; eng_link_t link;
+    volatile int stop_requested; volatile long cycles_done; volatile double speed_rpm;
+    int end; char message[768]; engine_counters_t n;
+    int fault_code, fault_seq; long fault_detail; int fault_dlc;
+    int rt_fifo, rt_mlock, rt_pinned; char rt_notes[256];
+    engine_hist_t hist_cycle, hist_jitter;
+    uint16_t cmd_seq;
+    double duties[3];
+    ...;
+} engine_t;
+void engine_default_config(engine_config_t *cfg);
+int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *ring_mem,
+                size_t ring_size);
+int engine_add_reference(engine_t *e, int kind, const void *config, size_t config_size,
+                         uint16_t channel);
+int engine_add_event(engine_t *e, const engine_event_t *ev);
+int engine_run(engine_t *e);
+void engine_request_stop(engine_t *e);
+double engine_hist_percentile(const engine_hist_t *h, double q);
+void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extra);
+int engine_send(engine_t *e, uint16_t id, const uint8_t *data, uint16_t dlc);
+size_t eng_ref_config_size(int kind);
+void eng_link_feed(eng_link_t *l, const uint8_t *data, size_t n);
+void eng_link_push(eng_link_t *l, uint16_t id, const uint8_t *data, uint16_t dlc);
+"""
+
 ffibuilder = FFI()
-ffibuilder.cdef(CDEF)
+ffibuilder.cdef(CDEF + ENGINE_CDEF)
 ffibuilder.set_source(
     "plant_rt._plant_c",
-    '#include "plant.h"\n',
-    sources=[str(C_DIR / name) for name in SOURCES],
-    include_dirs=[str(C_DIR)],
+    '#include "plant.h"\n#include "engine.h"\n',
+    sources=[str(C_DIR / name) for name in SOURCES]
+    # the reference estimators are the firmware's own library; the engine frames with the
+    # protocol's codec
+    + sorted(str(p) for p in FW_SRC.glob("*.c"))
+    + [str(PROTOCOL_C / "hil_msgs.c"), str(PROTOCOL_C / "hil_framing.c")],
+    include_dirs=[str(C_DIR), str(FW_SRC), str(PROTOCOL_C)],
     # ISO C (-std=c99): no FMA contraction, so -O3 and LTO give the same results as -O2
-    extra_compile_args=["-O3", "-std=c99", "-flto"],
+    extra_compile_args=["-O3", "-std=c99", "-flto", "-ffp-contract=off"],
     extra_link_args=["-O3", "-flto"],
     libraries=["m"],
 )

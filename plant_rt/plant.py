@@ -154,6 +154,16 @@ class Plant:
         return self._pl.events
 
     # -- stepping ------------------------------------------------------------------------------
+    @property
+    def c_plant(self) -> Any:
+        """The cffi ``plant_t *`` (for the C cycle engine, plant_rt/engine.py)."""
+        return self._pl
+
+    def step_split(self, duty_a: float, duty_b: float, duty_c: float, t_split_s: float) -> None:
+        """One period with the actuation instant given (plant_step_split, plant.h)."""
+        d = ffi.new("double[3]", [duty_a, duty_b, duty_c])
+        lib.plant_step_split(self._pl, d, t_split_s)
+
     def step(self, duty_a: float, duty_b: float, duty_c: float) -> None:
         """Advance one period with these duties (high-side on-time fraction, [0, 1]; < 0 or NaN
         disables the leg; > 1 acts as 1). They take effect t_delay_s into the period."""

@@ -13,7 +13,6 @@ import sys
 import time
 from pathlib import Path
 
-import jsonschema
 import numpy as np
 import pytest
 from mcap.reader import make_reader
@@ -21,13 +20,14 @@ from mcap.reader import make_reader
 from bench import channels as ch
 from bench.check import check_recording
 from bench.links import LinkError, open_link
+from bench.recorder import partial_path
 from bench.recording import load_recording
-from bench.runner import LockstepRunner, RunAborted, run_scenario
+from bench.runner import Runner, RunAborted, run_scenario
 from bench.scenario import load_scenario, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 ALL_TOPICS = {ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.LINK_FRAMES,
-              ch.LINK_STATS, ch.EVENTS}
+              ch.LINK_STATS, ch.EVENTS, ch.TIMING}
 
 
 @pytest.fixture(scope="module")
@@ -57,23 +57,27 @@ def test_closed_loop_starts_and_holds_500rpm(g2_run):
 
 
 def test_recording_opens_with_crc_validation_and_every_channel_decodes(g2_run):
+    """Every message decodes with google.protobuf from the file's own schema, and re-encodes to
+    the same bytes with bench.channels.encode_row: the C engine's encoder and the Python one
+    agree byte for byte on every channel of a real run."""
     seen: dict[str, int] = {}
     with open(g2_run.recording, "rb") as f:
         reader = make_reader(f, validate_crcs=True)
         summary = reader.get_summary()
         assert summary is not None and summary.statistics.message_count > 0
-        validators = {}
         for schema, channel, message in reader.iter_messages():
-            assert schema.encoding == "jsonschema" and channel.message_encoding == "json"
-            if channel.topic not in validators:
-                validators[channel.topic] = jsonschema.Draft7Validator(json.loads(schema.data))
-            validators[channel.topic].validate(json.loads(message.data))
+            assert schema.encoding == "protobuf" and channel.message_encoding == "protobuf"
+            cls = ch.message_class(schema.name, bytes(schema.data))
+            msg = cls.FromString(message.data)
+            kind = ch.kind_of_topic(channel.topic)
+            values = [getattr(msg, n) for n in ch.LAYOUTS[kind].names]
+            assert ch.encode_row(kind, values) == message.data, channel.topic
             seen[channel.topic] = seen.get(channel.topic, 0) + 1
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
         attachments = [a.name for a in reader.iter_attachments()]
     assert ALL_TOPICS <= set(seen), seen
     cycles = g2_run.cycles_done
-    for topic in (ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY):
+    for topic in (ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.TIMING):
         assert seen[topic] == cycles
     assert seen[ch.LINK_FRAMES] == cycles + 1        # + the set-up frames (handshake, config)
     run = meta["run"]
@@ -127,20 +131,20 @@ def short_scenario(duration: float = 0.3):
 
 
 @pytest.mark.parametrize("inject, expect", [
-    ("silent@500", "no DUTY from the controller"),
+    ("silent@500", "no valid DUTY(seq 500) from the controller after 3 re-send(s)"),
     ("crash@500", "controller stub killed by signal"),
 ])
 def test_dead_or_silent_stub_ends_the_run_within_a_second(tmp_path, inject, expect):
     out = tmp_path / "dead.mcap"
     t0 = time.monotonic()
-    result = LockstepRunner(short_scenario(2.0), out_path=out, progress=False,
+    result = Runner(short_scenario(2.0), out_path=out, progress=False,
                             stub_args=("--inject", inject)).run()
     elapsed = time.monotonic() - t0
     assert result.error is not None and expect in result.error, result.error
     assert "at cycle 500" in result.error
     assert result.cycles_done == 500
     # ends within a second of the controller going away (plus the 500 good cycles)
-    assert elapsed < 4.0   # 500 short cycles + detection (CYCLE_TIMEOUT_S = 0.5 s by construction)
+    assert elapsed < 4.0   # 500 short cycles + detection (4 x 50 ms retry timeout for silence)
     rec = load_recording(out)                         # finalised and readable
     assert rec.truncated is None
     assert len(rec.topic(ch.PLANT_STATE)["t_s"]) == 500
@@ -149,7 +153,7 @@ def test_dead_or_silent_stub_ends_the_run_within_a_second(tmp_path, inject, expe
 
 def test_garbage_between_frames_is_counted_and_survived(tmp_path):
     out = tmp_path / "garbage.mcap"
-    result = LockstepRunner(short_scenario(0.2), out_path=out, progress=False,
+    result = Runner(short_scenario(0.2), out_path=out, progress=False,
                             stub_args=("--inject", "garbage@100")).run()
     assert result.ok, result.error
     stats = result.link_stats
@@ -160,7 +164,7 @@ def test_garbage_between_frames_is_counted_and_survived(tmp_path):
 
 def test_out_of_range_duty_is_refused_and_previous_duty_held(tmp_path):
     out = tmp_path / "badduty.mcap"
-    result = LockstepRunner(short_scenario(0.1), out_path=out, progress=False,
+    result = Runner(short_scenario(0.1), out_path=out, progress=False,
                             stub_args=("--inject", "bad-duty@300")).run()
     assert result.ok, result.error
     assert result.link_stats["bad_duties"] == 1
@@ -173,17 +177,18 @@ def test_out_of_range_duty_is_refused_and_previous_duty_held(tmp_path):
 
 
 def test_link_budget_refuses_a_rate_that_cannot_fit(tmp_path):
+    """Refused before anything starts: no recorder, no recording, the highest rate named."""
     master, slave = os.openpty()
+    out = tmp_path / "budget.mcap"
     try:
-        runner = LockstepRunner(short_scenario(0.1), link_spec=f"serial:{os.ttyname(slave)}@115200",
-                                out_path=tmp_path / "budget.mcap", progress=False)
-        result = runner.run()
+        runner = Runner(short_scenario(0.1), link_spec=f"serial:{os.ttyname(slave)}@115200",
+                        out_path=out, progress=False)
+        with pytest.raises(RunAborted, match="10000 Hz control rate needed .* fits at most 154 Hz"):
+            runner.run()
     finally:
         os.close(master)
         os.close(slave)
-    assert result.error is not None
-    assert "10000 Hz control rate needed" in result.error
-    assert "fits at most" in result.error
+    assert not out.exists() and not partial_path(out).exists()
 
 
 def test_unknown_link_spec_is_refused():
@@ -200,7 +205,8 @@ def test_ctrl_c_finalises_the_recording(tmp_path):
                             stderr=subprocess.PIPE, text=True)
     # wait until cycles flow (the file grows past its header and first chunk)
     deadline = time.monotonic() + 20
-    while time.monotonic() < deadline and (not out.exists() or out.stat().st_size < 300_000):
+    part = partial_path(out)                      # written under a temporary name until final
+    while time.monotonic() < deadline and (not part.exists() or part.stat().st_size < 300_000):
         time.sleep(0.1)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=20)
@@ -240,7 +246,7 @@ def test_stub_runs_clean_under_asan_and_ubsan(tmp_path, monkeypatch):
     monkeypatch.setenv("HIL_STUB", str(ASAN_STUB))
     monkeypatch.setenv("ASAN_OPTIONS", "abort_on_error=1:detect_leaks=1")
     monkeypatch.setenv("UBSAN_OPTIONS", "halt_on_error=1:print_stacktrace=1")
-    runner = LockstepRunner(short_scenario(0.3), out_path=tmp_path / "asan.mcap", progress=False,
+    runner = Runner(short_scenario(0.3), out_path=tmp_path / "asan.mcap", progress=False,
                             stub_args=("--inject", "garbage@1000"))
     result = runner.run()
     assert result.ok, result.error
@@ -267,11 +273,11 @@ def test_reference_estimator_runs_beside_the_controller_on_the_same_samples(g2_r
 def test_unknown_reference_estimator_is_refused_naming_the_field(tmp_path):
     text = SHORT.format(duration=0.1) + '\n[reference]\nestimators = ["NOPE"]\n'
     with pytest.raises(RunAborted, match="reference.estimators: unknown estimator 'NOPE'"):
-        LockstepRunner(parse_scenario(text, Path("r.toml")), out_path=tmp_path / "r.mcap")
+        Runner(parse_scenario(text, Path("r.toml")), out_path=tmp_path / "r.mcap")
     text = SHORT.format(duration=0.1) + ('\n[reference]\nestimators = ["SMO_SIGN"]\n'
                                          '[reference.SMO_SIGN]\nwc_rad_s = 0.0\n')
     with pytest.raises(RunAborted, match="reference.SMO_SIGN: .*invalid configuration"):
-        LockstepRunner(parse_scenario(text, Path("r.toml")), out_path=tmp_path / "r.mcap")
+        Runner(parse_scenario(text, Path("r.toml")), out_path=tmp_path / "r.mcap")
 
 
 def test_recording_survives_the_bench_being_killed(tmp_path):
@@ -284,16 +290,13 @@ def test_recording_survives_the_bench_being_killed(tmp_path):
                              "--no-progress"], cwd=REPO, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 20
-    while time.monotonic() < deadline and (not out.exists() or out.stat().st_size < 300_000):
+    part = partial_path(out)
+    while time.monotonic() < deadline and (not part.exists() or part.stat().st_size < 300_000):
         time.sleep(0.1)
     proc.kill()
     proc.wait(timeout=10)
     deadline = time.monotonic() + 20
-    while time.monotonic() < deadline:      # the recorder child finishes on its own
-        with open(out, "rb") as f:
-            f.seek(-8, 2)
-            if f.read(8) == b"\x89MCAP0\r\n":
-                break
+    while time.monotonic() < deadline and not out.exists():   # the recorder finishes alone
         time.sleep(0.1)
     rec = load_recording(out)
     assert rec.truncated is None

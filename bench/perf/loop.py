@@ -76,7 +76,7 @@ def lockstep(cycles: int, record: bool, link: str | None = None) -> dict:
     """One lockstep run; ``link`` None: the 10 kHz scenario on the pty; else the CAN-rate scenario on
     that link spec."""
     from bench import runner as runner_mod
-    from bench.runner import LockstepRunner
+    from bench.runner import Runner
     from bench.scenario import parse_scenario
 
     if link is None:
@@ -89,7 +89,7 @@ def lockstep(cycles: int, record: bool, link: str | None = None) -> dict:
         if not record:
             runner_mod.ProcessRecorder = _NullRecorder
         try:
-            r = LockstepRunner(scn, link_spec=link or "stub", out_path=Path(tmp) / "perf.mcap",
+            r = Runner(scn, link_spec=link or "stub", out_path=Path(tmp) / "perf.mcap",
                                progress=False)
             t0 = time.perf_counter()
             result = r.run()

@@ -784,13 +784,33 @@ static void sync_parts(plant_t *pl)
     pl->mech.theta_m_rad = pl->theta_m_rad;
 }
 
+/** Cut the period [0, ts) at td into two segments of RK4 steps, each step <= ts/n. */
+static void split_period(int n, double td, double ts, int steps[2], double h[2])
+{
+    const double frac = td / ts;
+    if (!(td > 0.0)) {
+        steps[0] = 0;
+        steps[1] = n;
+    } else if (!(td < ts)) {
+        steps[0] = n;
+        steps[1] = 0;
+    } else {
+        steps[0] = (int)ceil((double)n * frac - 1e-9);
+        steps[1] = (int)ceil((double)n * (1.0 - frac) - 1e-9);
+        if (steps[0] < 1) steps[0] = 1;
+        if (steps[1] < 1) steps[1] = 1;
+    }
+    h[0] = (steps[0] > 0) ? td / (double)steps[0] : 0.0;
+    h[1] = (steps[1] > 0) ? (ts - td) / (double)steps[1] : 0.0;
+}
+
 int plant_init(plant_t *pl, const plant_params_t *p)
 {
     pmsm_machine_config_t mc;
     inverter_config_t ic;
     mechanics_config_t kc;
-    double frac, td;
-    int n, k;
+    double td;
+    int k;
     if (pl == NULL || plant_params_check(p) != NULL) {
         return -1;
     }
@@ -854,22 +874,8 @@ int plant_init(plant_t *pl, const plant_params_t *p)
     /* split the period at the delay instant; every step <= ts/substeps */
     td = p->full_period_delay ? p->ts_s : p->t_delay_s;
     pl->t_delay_eff_s = td;
-    n = p->substeps;
-    frac = td / p->ts_s;
-    if (!(td > 0.0)) {
-        pl->seg_steps[0] = 0;
-        pl->seg_steps[1] = n;
-    } else if (!(td < p->ts_s)) {
-        pl->seg_steps[0] = n;
-        pl->seg_steps[1] = 0;
-    } else {
-        pl->seg_steps[0] = (int)ceil((double)n * frac - 1e-9);
-        pl->seg_steps[1] = (int)ceil((double)n * (1.0 - frac) - 1e-9);
-        if (pl->seg_steps[0] < 1) pl->seg_steps[0] = 1;
-        if (pl->seg_steps[1] < 1) pl->seg_steps[1] = 1;
-    }
-    pl->seg_h_s[0] = (pl->seg_steps[0] > 0) ? td / (double)pl->seg_steps[0] : 0.0;
-    pl->seg_h_s[1] = (pl->seg_steps[1] > 0) ? (p->ts_s - td) / (double)pl->seg_steps[1] : 0.0;
+    pl->t_act_offset_s = td;
+    split_period(p->substeps, td, p->ts_s, pl->seg_steps, pl->seg_h_s);
     plant_reset(pl);
     return 0;
 }
@@ -962,7 +968,29 @@ static void begin_period_mechanics(plant_t *pl)
     }
 }
 
+static void step_segments(plant_t *pl, const double duty_abc[3], const int seg_steps[2],
+                          const double seg_h_s[2]);
+
 void plant_step(plant_t *pl, const double duty_abc[3])
+{
+    pl->t_act_offset_s = pl->t_delay_eff_s;
+    step_segments(pl, duty_abc, pl->seg_steps, pl->seg_h_s);
+}
+
+void plant_step_split(plant_t *pl, const double duty_abc[3], double t_split_s)
+{
+    int steps[2];
+    double h[2];
+    double td = t_split_s;
+    if (!(td > 0.0)) td = 0.0; /* NaN: the new duties act from the start */
+    if (td > pl->params.ts_s) td = pl->params.ts_s;
+    split_period(pl->params.substeps, td, pl->params.ts_s, steps, h);
+    pl->t_act_offset_s = td;
+    step_segments(pl, duty_abc, steps, h);
+}
+
+static void step_segments(plant_t *pl, const double duty_abc[3], const int seg_steps[2],
+                          const double seg_h_s[2])
 {
     double s[S_N];
     double duty_new[3];
@@ -975,7 +1003,7 @@ void plant_step(plant_t *pl, const double duty_abc[3])
     for (i = 0; i < 4; ++i) s[i] = pl->y[i];
     for (seg = 0; seg < 2; ++seg) {
         const double *duty = (seg == 0) ? pl->duty_prev : duty_new;
-        const double h = pl->seg_h_s[seg];
+        const double h = seg_h_s[seg];
         const int any_disabled = inverter_leg_disabled(duty[0]) ||
                                  inverter_leg_disabled(duty[1]) || inverter_leg_disabled(duty[2]);
         step_mode_t pwm;
@@ -985,7 +1013,7 @@ void plant_step(plant_t *pl, const double duty_abc[3])
             pwm.leg[2] = INV_LEG_PWM;
             finish_mode(pl, duty, &pwm);
         }
-        for (k = 0; k < pl->seg_steps[seg]; ++k) {
+        for (k = 0; k < seg_steps[seg]; ++k) {
             if (any_disabled) {
                 substep(pl, duty, h, s);
             } else {
@@ -1092,7 +1120,7 @@ void plant_sample(const plant_t *pl, plant_sample_t *out)
 {
     *out = pl->sample;
     out->t_s = pl->t_s;
-    out->t2_s = pl->t_s - pl->params.ts_s + pl->t_delay_eff_s;
+    out->t2_s = pl->t_s - pl->params.ts_s + pl->t_act_offset_s;
     if (!pl->params.sensors.adc_model) { /* ideal sensors: the exact values at t_k */
         double i_abc[3];
         currents_abc(pl->y, i_abc);

@@ -219,6 +219,7 @@ typedef struct plant {
     unsigned long events;  /* diode events located since reset (diagnostic) */
     /* non-idealities */
     double t_delay_eff_s;  /* t_delay_s, or ts_s with full_period_delay */
+    double t_act_offset_s; /* actuation instant of the last period after its start */
     mechanics_load_profile_t load;
     double torque_load_period_nm; /* set torque + profile mean over the present period */
     double dyno_target_rad_s;
@@ -255,6 +256,14 @@ void plant_snapshot(const plant_t *pl, plant_snapshot_t *out);
 
 /* ---- additions (not needed by a minimal client) ---- */
 
+/**
+ * plant_step with the actuation instant given for this period: the previous duties act over
+ * [t_k, t_k + t_split_s), the new ones over [t_k + t_split_s, t_k + Ts) (t_split_s clamped to
+ * [0, Ts]; NaN = 0). The real-time engine passes the measured DUTY arrival (on-arrival update)
+ * or 0 (shadow load at the period boundary). Same integration rule and error bound as
+ * plant_step; the second (dual) sample is taken at the split.
+ */
+void plant_step_split(plant_t *pl, const double duty_abc[3], double t_split_s);
 /** plant_step with the duties as three arguments (cheaper through an FFI). */
 void plant_step_abc(plant_t *pl, double duty_a, double duty_b, double duty_c);
 /**

@@ -1,0 +1,1330 @@
+/* The cycle engine (engine.h). */
+#define _GNU_SOURCE
+#include "engine.h"
+
+#include <errno.h>
+#include <math.h>
+#include <sched.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/prctl.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "hil_msgs.h"
+
+#define TWO_PI (2.0 * 3.14159265358979323846)
+#define PI_ 3.14159265358979323846
+#define NS_PER_S 1000000000LL
+
+/* ---- small helpers ------------------------------------------------------------------------- */
+
+static void set_message(engine_t *e, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(e->message, sizeof e->message, fmt, ap);
+    va_end(ap);
+}
+
+/** Python's float modulo (the result has the sign of y), as bench/runner.py used it. */
+static double py_mod(double x, double y)
+{
+    double m = fmod(x, y);
+    if (isnan(m) || m < 0.0 || m > 0.0) {
+        if ((y < 0.0) != (m < 0.0)) {
+            m += y;
+        }
+    } else {
+        m = copysign(0.0, y);
+    }
+    return m;
+}
+
+static double wrap_pi(double x)
+{
+    return py_mod(x + PI_, TWO_PI) - PI_;
+}
+
+/**
+ * physical -> raw by docs/protocol.md section 3 (binary64, ties away from zero), exactly as
+ * protocol/messages.py does it. 0 ok; -1 NaN; -2 out of range (only without saturate).
+ */
+static int encode_signal(const engine_signal_t *s, double v, int saturate, long *raw)
+{
+    double q;
+    if (isnan(v)) {
+        return -1;
+    }
+    q = (s->offset < 0.0 || s->offset > 0.0) ? (v - s->offset) / s->scale : v / s->scale;
+    if (q > s->raw_min - 0.5 && q < s->raw_max + 0.5) {
+        long r = (long)q; /* truncates toward zero, like Python's int() */
+        double f = q - (double)r;
+        if (f >= 0.5) {
+            r += 1;
+        } else if (f <= -0.5) {
+            r -= 1;
+        }
+        *raw = r;
+        return 0;
+    }
+    if (!saturate) {
+        return -2;
+    }
+    *raw = (long)((q < s->raw_min) ? s->raw_min : s->raw_max);
+    return 0;
+}
+
+static void hist_add(engine_hist_t *h, double us)
+{
+    long b;
+    if (!(us >= 0.0)) {
+        us = 0.0;
+    }
+    if (us < 1000.0) {
+        b = (long)(us * 10.0);
+    } else if (us < 100000.0) {
+        b = ENGINE_HIST_FINE + (long)((us - 1000.0) / 10.0);
+    } else {
+        b = ENGINE_HIST_BINS - 1;
+    }
+    if (b >= ENGINE_HIST_BINS) {
+        b = ENGINE_HIST_BINS - 1;
+    }
+    h->bins[b]++;
+    h->n++;
+    if (us > h->max_us) {
+        h->max_us = us;
+    }
+}
+
+double engine_hist_percentile(const engine_hist_t *h, double q)
+{
+    uint64_t target, acc = 0u;
+    long b;
+    if (h->n == 0u) {
+        return 0.0;
+    }
+    target = (uint64_t)ceil(q * (double)h->n);
+    if (target < 1u) {
+        target = 1u;
+    }
+    for (b = 0; b < ENGINE_HIST_BINS; ++b) {
+        acc += h->bins[b];
+        if (acc >= target) {
+            double upper;
+            if (b < ENGINE_HIST_FINE) {
+                upper = (double)(b + 1) * 0.1;
+            } else if (b < ENGINE_HIST_BINS - 1) {
+                upper = 1000.0 + (double)(b - ENGINE_HIST_FINE + 1) * 10.0;
+            } else {
+                upper = h->max_us;
+            }
+            return upper < h->max_us ? upper : h->max_us;
+        }
+    }
+    return h->max_us;
+}
+
+static void text_reset(char *buf, size_t *len)
+{
+    buf[0] = '\0';
+    *len = 0u;
+}
+
+/** Append " ID#DATA" (candump style, hex upper case) to a frames text. */
+static void text_frame(char *buf, size_t *len, uint16_t id, const uint8_t *data, uint16_t dlc)
+{
+    static const char hex[] = "0123456789ABCDEF";
+    size_t need = 1u + 4u + 2u * dlc + 1u;
+    size_t n = *len;
+    uint16_t i;
+    if (n + need + 4u >= ENGINE_FRAMES_TEXT) {
+        if (n + 4u < ENGINE_FRAMES_TEXT && (n < 3u || strcmp(buf + n - 3u, "...") != 0)) {
+            memcpy(buf + n, n ? " ..." : "...", n ? 5u : 4u);
+            *len = n + (n ? 4u : 3u);
+        }
+        return;
+    }
+    if (n > 0u) {
+        buf[n++] = ' ';
+    }
+    buf[n++] = hex[(id >> 8) & 0xFu];
+    buf[n++] = hex[(id >> 4) & 0xFu];
+    buf[n++] = hex[id & 0xFu];
+    buf[n++] = '#';
+    for (i = 0u; i < dlc; ++i) {
+        buf[n++] = hex[(data[i] >> 4) & 0xFu];
+        buf[n++] = hex[data[i] & 0xFu];
+    }
+    buf[n] = '\0';
+    *len = n;
+}
+
+static int64_t t_to_ns(double t_s)
+{
+    return (int64_t)llround(t_s * 1e9);
+}
+
+/* ---- recording -------------------------------------------------------------------------------- */
+
+/** Room for a record: in lockstep wait (bounded) for the recorder; in real time never wait. */
+static uint8_t *ring_begin(engine_t *e, size_t max)
+{
+    uint8_t *p;
+    int64_t give_up = 0;
+    if (!e->have_ring) {
+        return NULL;
+    }
+    p = rec_ring_begin(&e->ring, max);
+    if (p != NULL || e->cfg.mode == ENGINE_REALTIME) {
+        if (p == NULL) {
+            rec_ring_count_drop(&e->ring, max);
+            e->n.rows_dropped++;
+        }
+        return p;
+    }
+    while (p == NULL) {
+        struct timespec ts = {0, 100000L};
+        int64_t now = eng_now_ns();
+        if (give_up == 0) {
+            give_up = now + (int64_t)(e->cfg.recorder_stall_s * 1e9);
+        } else if (now > give_up) {
+            rec_ring_count_drop(&e->ring, max);
+            e->n.rows_dropped++;
+            return NULL;
+        }
+        nanosleep(&ts, NULL);
+        p = rec_ring_begin(&e->ring, max);
+    }
+    return p;
+}
+
+#define RECORD(e, channel, t_s, max, encoder, row)                                             \
+    do {                                                                                       \
+        uint8_t *p_ = ring_begin((e), (max));                                                  \
+        if (p_ != NULL) {                                                                      \
+            size_t n_ = encoder(p_, (max), (row));                                             \
+            if (n_ > 0u) {                                                                     \
+                rec_ring_commit(&(e)->ring, (channel), t_to_ns(t_s), n_);                      \
+            }                                                                                  \
+        }                                                                                      \
+    } while (0)
+
+static void record_event(engine_t *e, double t_s, const char *kind, const char *text,
+                         double value)
+{
+    rec_event_t ev;
+    ev.t_s = t_s;
+    ev.kind = kind;
+    ev.text = text;
+    ev.value = value;
+    RECORD(e, e->cfg.ch_events, t_s, 64u + strlen(kind) + strlen(text), rec_encode_event, &ev);
+}
+
+void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extra)
+{
+    rec_link_stats_t s;
+    const eng_link_counters_t *c = &e->link.c;
+    const hil_deframer_t *d = &e->link.deframer;
+    memset(&s, 0, sizeof s);
+    s.t_s = t_s;
+    s.cycles = (uint64_t)e->cycles_done;
+    s.frames_tx = c->frames_tx;
+    s.frames_rx = c->frames_rx;
+    s.bytes_tx = c->bytes_tx;
+    s.bytes_rx = c->bytes_rx;
+    s.frames_ok = (e->link.kind == ENG_LINK_SERIAL) ? d->frames_ok : c->frames_rx;
+    s.crc_errors = d->crc_errors;
+    s.cobs_errors = d->cobs_errors;
+    s.length_errors = d->length_errors + e->n.length_errors;
+    s.overruns = d->overruns;
+    s.bytes_discarded = d->bytes_discarded;
+    s.seq_mismatch = e->n.seq_mismatch;
+    s.bad_duties = e->n.bad_duties;
+    s.telem_missing = e->n.telem_missing;
+    s.unknown_ids = e->n.unknown_ids;
+    s.heartbeats_rx = e->n.heartbeats_rx;
+    s.duplicates = e->n.duplicates;
+    s.stale_frames = e->n.stale_frames;
+    s.retries = e->n.retries;
+    s.late_duty = e->n.late_duty;
+    s.missed_duty = e->n.missed_duty;
+    s.estimator_mismatch = e->n.estimator_mismatch;
+    s.rows_dropped = e->have_ring ? e->ring.hdr->records_dropped : 0u;
+    s.error_frames = c->error_frames;
+    s.remote_frames = c->remote_frames;
+    s.can_unknown_ids = c->ext_ids;
+    s.rx_malformed = c->rx_malformed;
+    s.send_failures = c->send_failures;
+    s.bus_state_changes = c->bus_state_changes;
+    if (extra != NULL) { /* a bridged interface's own counters (python-can side) */
+        s.error_frames += extra->error_frames;
+        s.remote_frames += extra->remote_frames;
+        s.can_unknown_ids += extra->ext_ids;
+        s.rx_malformed += extra->rx_malformed;
+        s.send_failures += extra->send_failures;
+        s.bus_state_changes += extra->bus_state_changes;
+    }
+    s.cycle_wall_p50_us = engine_hist_percentile(&e->hist_cycle, 0.5);
+    s.cycle_wall_p99_us = engine_hist_percentile(&e->hist_cycle, 0.99);
+    s.cycle_wall_max_us = e->hist_cycle.max_us;
+    s.jitter_p50_us = engine_hist_percentile(&e->hist_jitter, 0.5);
+    s.jitter_p99_us = engine_hist_percentile(&e->hist_jitter, 0.99);
+    s.jitter_p999_us = engine_hist_percentile(&e->hist_jitter, 0.999);
+    s.jitter_max_us = e->hist_jitter.max_us;
+    RECORD(e, e->cfg.ch_stats, t_s, REC_MAX_FIXED_SIZE, rec_encode_link_stats, &s);
+}
+
+/* ---- set-up -------------------------------------------------------------------------------- */
+
+void engine_default_config(engine_config_t *cfg)
+{
+    memset(cfg, 0, sizeof *cfg);
+    cfg->mode = ENGINE_LOCKSTEP;
+    cfg->duty_update = ENGINE_DUTY_ON_ARRIVAL;
+    cfg->pole_pairs = 1;
+    cfg->rpm_per_rad_s = 60.0 / TWO_PI;
+    cfg->estimator_expected = -1;
+    cfg->retry_timeout_s = 0.05;
+    cfg->max_retries = 3;
+    cfg->max_consecutive_bad_duties = 10;
+    cfg->max_consecutive_misses = 10;
+    cfg->guard_s = 10e-6;
+    cfg->rt_cpu = -1;
+    cfg->spin_s = 30e-6;
+    cfg->recorder_stall_s = 2.0;
+    cfg->stats_every_cycles = 1000;
+    cfg->record_frames = 1;
+    cfg->link_fd = -1;
+}
+
+int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *ring_mem,
+                size_t ring_size)
+{
+    memset(e, 0, sizeof *e);
+    e->cfg = *cfg;
+    e->plant = plant;
+    e->last_state = -1;
+    e->end = ENGINE_END_CONFIG;
+    if (plant == NULL || !(cfg->ts_s > 0.0) || cfg->n_cycles < 0 || cfg->link_fd < 0 ||
+        !(cfg->sig_i.scale > 0.0) || !(cfg->sig_vdc.scale > 0.0) || cfg->duty_raw_full == 0u) {
+        set_message(e, "engine: incomplete configuration (plant, ts_s, link fd, DBC constants)");
+        return -1;
+    }
+    if (cfg->mode != ENGINE_LOCKSTEP && cfg->mode != ENGINE_REALTIME) {
+        set_message(e, "engine: unknown mode %d", cfg->mode);
+        return -1;
+    }
+    if (ring_mem != NULL) {
+        if (rec_ring_attach(&e->ring, ring_mem, ring_size) != 0) {
+            set_message(e, "engine: the recording ring is not formatted");
+            return -1;
+        }
+        e->have_ring = 1;
+    }
+    eng_link_init(&e->link, cfg->link_fd, cfg->link_kind);
+    e->link.fd_brs = cfg->can_brs;
+    e->duties[0] = e->duties[1] = e->duties[2] = 0.5;
+    e->cmd_seq = cfg->cmd_seq_start;
+    e->end = ENGINE_END_DONE;
+    return 0;
+}
+
+int engine_add_reference(engine_t *e, int kind, const void *config, size_t config_size,
+                         uint16_t channel)
+{
+    int rc;
+    if (e->n_refs >= ENGINE_MAX_REFS) {
+        set_message(e, "engine: more than %d reference estimators", ENGINE_MAX_REFS);
+        return -1;
+    }
+    rc = eng_ref_init(&e->refs[e->n_refs], kind, config, config_size);
+    if (rc != 0) {
+        set_message(e, "engine: reference estimator kind %d: %s", kind,
+                    rc == -1 ? "unknown kind or wrong configuration size" :
+                               "the estimator refused its configuration");
+        return -1;
+    }
+    e->ref_channel[e->n_refs] = channel;
+    e->n_refs++;
+    return 0;
+}
+
+int engine_add_event(engine_t *e, const engine_event_t *ev)
+{
+    if (e->n_events >= ENGINE_MAX_EVENTS ||
+        (e->n_events > 0 && ev->cycle < e->events[e->n_events - 1].cycle)) {
+        set_message(e, "engine: too many events or events out of order");
+        return -1;
+    }
+    e->events[e->n_events] = *ev;
+    e->events[e->n_events].text[ENGINE_EVENT_TEXT - 1] = '\0';
+    e->n_events++;
+    return 0;
+}
+
+void engine_request_stop(engine_t *e)
+{
+    __atomic_store_n(&e->stop_requested, 1, __ATOMIC_RELEASE);
+}
+
+static int stop_asked(engine_t *e)
+{
+    return __atomic_load_n(&e->stop_requested, __ATOMIC_ACQUIRE);
+}
+
+/* ---- one cycle's pieces ---------------------------------------------------------------------- */
+
+typedef struct {
+    long k;
+    uint16_t seq;
+    double t_s;
+    plant_sample_t smp;
+    plant_snapshot_t snap;
+    double s_i[3];         /* currents as the wire carries them (decoded) */
+    double theta_enc;      /* NaN if not sent */
+    /* what came back */
+    int have_duty, have_telem, have_emf;
+    uint32_t duty_raw[3];
+    int64_t duty_t_ns;
+    double th_hat, w_hat, e_a, e_b, iq_ref;
+    int st, est;
+    int retries;
+    /* what went wrong while waiting (for the message when nothing valid comes) */
+    uint64_t crc0, cobs0, len0, over0, seq_bad, len_bad, stale;
+    /* the frames of the SENSE group, for re-sending */
+    uint8_t aux[8], dual[8], sense[8];
+    int have_dual;
+} cycle_t;
+
+static void queue_frame(engine_t *e, uint16_t id, const uint8_t *data)
+{
+    (void)eng_link_queue(&e->link, id, data, 8u);
+    if (e->cfg.record_frames) {
+        text_frame(e->tx_text, &e->tx_len, id, data, 8u);
+    }
+}
+
+static void queue_sense_group(engine_t *e, const cycle_t *c)
+{
+    queue_frame(e, (uint16_t)HIL_SENSE_AUX_FRAME_ID, c->aux);
+    if (c->have_dual) {
+        queue_frame(e, (uint16_t)HIL_SENSE_DUAL_FRAME_ID, c->dual);
+    }
+    queue_frame(e, (uint16_t)HIL_SENSE_FRAME_ID, c->sense);
+}
+
+/** Events due at cycle k: CMD frames queued, plant inputs set, /events rows. */
+static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
+{
+    while (*next_event < e->n_events && e->events[*next_event].cycle <= c->k) {
+        const engine_event_t *ev = &e->events[(*next_event)++];
+        switch (ev->kind) {
+        case ENGINE_EV_CMD: {
+            hil_cmd_t m;
+            uint8_t buf[8];
+            m.command = (uint16_t)ev->command;
+            m.seq = e->cmd_seq++;
+            m.value = (float)ev->value;
+            if (hil_cmd_pack(buf, &m, sizeof buf) > 0) {
+                queue_frame(e, (uint16_t)HIL_CMD_FRAME_ID, buf);
+            }
+            break;
+        }
+        case ENGINE_EV_LOAD:
+            plant_set_load_torque(e->plant, ev->value);
+            break;
+        case ENGINE_EV_DYNO_SPEED:
+            plant_set_dyno_speed(e->plant, ev->value);
+            break;
+        default:
+            break;
+        }
+        if (ev->record) {
+            record_event(e, c->t_s, "scenario", ev->text, ev->record_value);
+        }
+    }
+}
+
+/** Sample the plant (it is at t_k), encode the SENSE group. 0, or -1 (ENGINE_END_PLANT set). */
+static int build_sense(engine_t *e, cycle_t *c)
+{
+    const engine_config_t *cfg = &e->cfg;
+    hil_sense_aux_t aux;
+    hil_sense_t sense;
+    long raw[3], r;
+    double theta, theta_max;
+    int k;
+    plant_sample(e->plant, &c->smp);
+    plant_snapshot(e->plant, &c->snap);
+    theta = c->snap.theta_e_rad;
+    /* SENSE_AUX: bus voltage and (only when asked) the encoder angle, which wraps at 2 pi */
+    aux.seq = c->seq;
+    if (encode_signal(&cfg->sig_vdc, c->smp.v_dc_v, 0, &r) != 0) {
+        e->end = ENGINE_END_PLANT;
+        set_message(e, "at cycle %ld (t = %.4f s): bus voltage %g V cannot be sent (SENSE_AUX.v_dc "
+                    "range [%g, %g] V)", c->k, c->t_s, c->smp.v_dc_v,
+                    cfg->sig_vdc.raw_min * cfg->sig_vdc.scale, cfg->sig_vdc.raw_max * cfg->sig_vdc.scale);
+        return -1;
+    }
+    aux.v_dc = (uint16_t)r;
+    aux.flags = 0u;
+    aux.theta_enc = 0u;
+    c->theta_enc = (double)NAN;
+    if (cfg->send_encoder) {
+        theta_max = TWO_PI - 0.5 * cfg->sig_theta.scale;
+        c->theta_enc = (theta < theta_max) ? theta : 0.0;
+        if (encode_signal(&cfg->sig_theta, c->theta_enc, 0, &r) != 0) {
+            e->end = ENGINE_END_PLANT;
+            set_message(e, "at cycle %ld: plant angle %g rad is not finite", c->k, theta);
+            return -1;
+        }
+        aux.theta_enc = (uint16_t)r;
+        aux.flags = cfg->aux_flag_theta_valid;
+    }
+    c->have_dual = cfg->dual_sampling && c->smp.dual_valid;
+    if (c->have_dual) {
+        hil_sense_dual_t d;
+        const double i2[3] = {c->smp.i2_a_a, c->smp.i2_b_a, c->smp.i2_c_a};
+        aux.flags = (uint16_t)(aux.flags | cfg->aux_flag_dual_follows);
+        for (k = 0; k < 3; ++k) {
+            if (encode_signal(&cfg->sig_i2, i2[k], 1, &raw[k]) != 0) {
+                e->end = ENGINE_END_PLANT;
+                set_message(e, "at cycle %ld (t = %.4f s): second current sample is not finite",
+                            c->k, c->t_s);
+                return -1;
+            }
+        }
+        d.seq = c->seq;
+        d.i_a2 = (int16_t)raw[0];
+        d.i_b2 = (int16_t)raw[1];
+        d.i_c2 = (int16_t)raw[2];
+        (void)hil_sense_dual_pack(c->dual, &d, sizeof c->dual);
+    }
+    (void)hil_sense_aux_pack(c->aux, &aux, sizeof c->aux);
+    {
+        const double i1[3] = {c->smp.i_a_a, c->smp.i_b_a, c->smp.i_c_a};
+        for (k = 0; k < 3; ++k) {
+            if (encode_signal(&cfg->sig_i, i1[k], 1, &raw[k]) != 0) {
+                e->end = ENGINE_END_PLANT;
+                set_message(e, "at cycle %ld (t = %.4f s): phase current sample is not finite "
+                            "(plant state diverged)", c->k, c->t_s);
+                return -1;
+            }
+            c->s_i[k] = (double)raw[k] * cfg->sig_i.scale;
+        }
+    }
+    sense.seq = c->seq;
+    sense.i_a = (int16_t)raw[0];
+    sense.i_b = (int16_t)raw[1];
+    sense.i_c = (int16_t)raw[2];
+    (void)hil_sense_pack(c->sense, &sense, sizeof c->sense);
+    return 0;
+}
+
+/** A cycle frame of the wrong length: counted, never decoded, said once per id. */
+static void length_error(engine_t *e, cycle_t *c, const eng_frame_t *f, const char *name,
+                         unsigned expected)
+{
+    unsigned bit = (unsigned)(f->id & 0x3u);
+    e->n.length_errors++;
+    c->len_bad++;
+    if (!(e->length_error_said & (1u << bit))) {
+        char text[160];
+        e->length_error_said |= 1u << bit;
+        snprintf(text, sizeof text, "%s (0x%03X) with %u octets, the DBC says %u: not decoded "
+                 "(further ones only counted in length_errors)", name, (unsigned)f->id,
+                 (unsigned)f->dlc, expected);
+        record_event(e, c->t_s, "length_error", text, (double)f->id);
+    }
+}
+
+/**
+ * Handle one received frame while cycle c waits (lockstep and real time alike).
+ * Returns 1 if it completed the cycle (the first valid DUTY(k)), 0 otherwise, -1 if it ends
+ * the run (FAULT_CTRL; e->end set).
+ */
+static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle_open)
+{
+    const uint16_t prev_seq = (uint16_t)(c->seq - 1u);
+    if (e->cfg.record_frames) {
+        text_frame(e->rx_text, &e->rx_len, f->id, f->data, f->dlc);
+    }
+    switch (f->id) {
+    case HIL_DUTY_FRAME_ID: {
+        hil_duty_t d;
+        if (f->dlc != HIL_DUTY_LENGTH || hil_duty_unpack(&d, f->data, f->dlc) != 0) {
+            length_error(e, c, f, "DUTY", HIL_DUTY_LENGTH);
+            return 0;
+        }
+        if (d.seq == c->seq && cycle_open && !c->have_duty) {
+            c->have_duty = 1;
+            c->duty_raw[0] = d.d_a;
+            c->duty_raw[1] = d.d_b;
+            c->duty_raw[2] = d.d_c;
+            c->duty_t_ns = f->t_ns;
+            return 1;
+        }
+        if ((d.seq == c->seq && c->have_duty) || (d.seq == prev_seq && e->prev_had_duty)) {
+            e->n.duplicates++; /* a second answer to a completed cycle (e.g. a cached re-send) */
+        } else if (d.seq == c->seq || d.seq == prev_seq) {
+            e->n.late_duty++;  /* real time: the answer to a period that ended without it */
+        } else {
+            e->n.seq_mismatch++;
+            c->seq_bad++;
+        }
+        return 0;
+    }
+    case HIL_TELEM_FRAME_ID: {
+        hil_telem_t t;
+        if (f->dlc != HIL_TELEM_LENGTH || hil_telem_unpack(&t, f->data, f->dlc) != 0) {
+            length_error(e, c, f, "TELEM", HIL_TELEM_LENGTH);
+            return 0;
+        }
+        if (t.seq == c->seq && !c->have_telem) {
+            c->have_telem = 1;
+            c->th_hat = (double)t.theta_hat * e->cfg.scale_theta_hat;
+            c->w_hat = (double)t.omega_hat * e->cfg.scale_omega_hat;
+            c->st = (int)t.state;
+            c->est = (int)t.estimator;
+        } else if (t.seq == c->seq) {
+            e->n.duplicates++;
+        } else {
+            e->n.stale_frames++;
+            c->stale++;
+        }
+        return 0;
+    }
+    case HIL_TELEM_EMF_FRAME_ID: {
+        hil_telem_emf_t m;
+        if (f->dlc != HIL_TELEM_EMF_LENGTH || hil_telem_emf_unpack(&m, f->data, f->dlc) != 0) {
+            length_error(e, c, f, "TELEM_EMF", HIL_TELEM_EMF_LENGTH);
+            return 0;
+        }
+        if (m.seq == c->seq && !c->have_emf) {
+            c->have_emf = 1;
+            c->e_a = (double)m.e_alpha * e->cfg.scale_e;
+            c->e_b = (double)m.e_beta * e->cfg.scale_e;
+            c->iq_ref = (double)m.i_q_ref * e->cfg.scale_iq_ref;
+        } else if (m.seq == c->seq) {
+            e->n.duplicates++;
+        } else {
+            e->n.stale_frames++;
+            c->stale++;
+        }
+        return 0;
+    }
+    case HIL_FAULT_CTRL_FRAME_ID: {
+        hil_fault_ctrl_t m;
+        e->fault_dlc = (int)f->dlc;
+        if (f->dlc != HIL_FAULT_CTRL_LENGTH || hil_fault_ctrl_unpack(&m, f->data, f->dlc) != 0) {
+            e->n.length_errors++;
+            e->end = ENGINE_END_PROTOCOL;
+            set_message(e, "at cycle %ld (t = %.4f s): FAULT_CTRL with %u octets (expected %u): "
+                        "the controller reports a fault but its code, seq and detail are "
+                        "unreadable", c->k, c->t_s, (unsigned)f->dlc, (unsigned)HIL_FAULT_CTRL_LENGTH);
+            return -1;
+        }
+        e->fault_code = (int)m.code;
+        e->fault_seq = (int)m.seq;
+        e->fault_detail = (long)m.detail;
+        e->end = ENGINE_END_CONTROLLER_FAULT;
+        set_message(e, "at cycle %ld (t = %.4f s): controller fault", c->k, c->t_s);
+        return -1;
+    }
+    case HIL_HEARTBEAT_CTRL_FRAME_ID:
+        e->n.heartbeats_rx++;
+        return 0;
+    default:
+        e->n.unknown_ids++;
+        return 0;
+    }
+}
+
+static void append(char *buf, size_t cap, int *n, const char *fmt, ...)
+{
+    va_list ap;
+    if (*n >= (int)cap - 1) {
+        return;
+    }
+    if (*n > 0) {
+        *n += snprintf(buf + *n, cap - (size_t)*n, "; ");
+    }
+    va_start(ap, fmt);
+    *n += vsnprintf(buf + *n, cap - (size_t)*n, fmt, ap);
+    va_end(ap);
+    if (*n > (int)cap - 1) {
+        *n = (int)cap - 1;
+    }
+}
+
+/** Lockstep: why no valid DUTY came, from what arrived during the cycle. */
+static void describe_no_duty(engine_t *e, const cycle_t *c)
+{
+    const hil_deframer_t *d = &e->link.deframer;
+    char what[384];
+    int n = 0;
+    what[0] = '\0';
+    if (d->crc_errors > c->crc0) {
+        append(what, sizeof what, &n, "%lu frame(s) with a bad CRC",
+               (unsigned long)(d->crc_errors - c->crc0));
+    }
+    if (d->cobs_errors > c->cobs0) {
+        append(what, sizeof what, &n, "%lu undecodable COBS chunk(s)",
+               (unsigned long)(d->cobs_errors - c->cobs0));
+    }
+    if (d->length_errors + c->len_bad > c->len0) {
+        append(what, sizeof what, &n, "%lu frame(s) of the wrong length",
+               (unsigned long)(d->length_errors + c->len_bad - c->len0));
+    }
+    if (d->overruns > c->over0) {
+        append(what, sizeof what, &n, "%lu overrun(s) (line noise)",
+               (unsigned long)(d->overruns - c->over0));
+    }
+    if (c->seq_bad > 0u) {
+        append(what, sizeof what, &n, "%lu DUTY frame(s) with a wrong sequence number",
+               (unsigned long)c->seq_bad);
+    }
+    if (c->stale > 0u) {
+        append(what, sizeof what, &n, "%lu TELEM frame(s) of another cycle",
+               (unsigned long)c->stale);
+    }
+    e->end = ENGINE_END_NO_DUTY;
+    set_message(e, "at cycle %ld (t = %.4f s): no valid DUTY(seq %u) from the controller after "
+                "%d re-send(s) of SENSE, %.3g s each: %s", c->k, c->t_s, (unsigned)c->seq,
+                c->retries, e->cfg.retry_timeout_s,
+                n ? what : "nothing at all arrived (the controller is silent)");
+}
+
+/** Validate DUTY(k): 1 applied, 0 held (bad duty, counted), -1 too many bad in a row. */
+static int take_duties(engine_t *e, const cycle_t *c)
+{
+    double d[3];
+    int k, bad = 0;
+    for (k = 0; k < 3; ++k) {
+        const uint32_t r = c->duty_raw[k];
+        if (r == e->cfg.duty_raw_off) {
+            d[k] = -1.0;
+        } else if (r <= e->cfg.duty_raw_full) {
+            d[k] = (double)r / (double)e->cfg.duty_raw_full;
+        } else {
+            bad = 1;
+            d[k] = 0.0;
+        }
+    }
+    if (bad) {
+        char text[128];
+        e->n.bad_duties++;
+        e->consecutive_bad++;
+        snprintf(text, sizeof text, "DUTY seq %u raw [%u, %u, %u] out of range; previous duties held",
+                 (unsigned)c->seq, (unsigned)c->duty_raw[0], (unsigned)c->duty_raw[1],
+                 (unsigned)c->duty_raw[2]);
+        record_event(e, c->t_s, "bad_duty", text, (double)c->seq);
+        if (e->consecutive_bad >= e->cfg.max_consecutive_bad_duties) {
+            e->end = ENGINE_END_BAD_DUTIES;
+            set_message(e, "at cycle %ld: %d consecutive DUTY frames out of range; inverter "
+                        "disabled, run ended", c->k, e->consecutive_bad);
+            return -1;
+        }
+        return 0;
+    }
+    e->consecutive_bad = 0;
+    e->duties[0] = d[0];
+    e->duties[1] = d[1];
+    e->duties[2] = d[2];
+    return 1;
+}
+
+/** Rows of cycle k: state at t_k, what was sent, what came back, frames, state changes. */
+static void record_cycle(engine_t *e, cycle_t *c)
+{
+    const engine_config_t *cfg = &e->cfg;
+    const plant_snapshot_t *s = &c->snap;
+    const double theta = s->theta_e_rad;
+    if (!e->have_ring) {
+        return;
+    }
+    {
+        rec_plant_state_t r;
+        r.t_s = c->t_s;
+        r.i_a_a = s->i_a_a; r.i_b_a = s->i_b_a; r.i_c_a = s->i_c_a;
+        r.i_alpha_a = s->i_alpha_a; r.i_beta_a = s->i_beta_a;
+        r.i_d_a = s->i_d_a; r.i_q_a = s->i_q_a;
+        r.omega_m_rad_s = s->omega_m_rad_s; r.omega_e_rad_s = s->omega_e_rad_s;
+        r.theta_e_rad = s->theta_e_rad; r.theta_m_rad = s->theta_m_rad;
+        r.torque_e_nm = s->torque_e_nm; r.torque_load_nm = s->torque_load_nm;
+        r.e_alpha_v = s->e_alpha_v; r.e_beta_v = s->e_beta_v; r.v_dc_v = s->v_dc_v;
+        r.v_a_v = s->v_a_v; r.v_b_v = s->v_b_v; r.v_c_v = s->v_c_v;
+        r.v_alpha_v = s->v_alpha_v; r.v_beta_v = s->v_beta_v; r.v_d_v = s->v_d_v; r.v_q_v = s->v_q_v;
+        r.speed_rpm = s->omega_m_rad_s * cfg->rpm_per_rad_s;
+        RECORD(e, cfg->ch_state, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_plant_state, &r);
+    }
+    {
+        rec_sense_t r;
+        r.t_s = c->t_s;
+        r.seq = c->seq;
+        r.i_a_a = c->s_i[0]; r.i_b_a = c->s_i[1]; r.i_c_a = c->s_i[2];
+        r.v_dc_v = c->smp.v_dc_v;
+        r.theta_enc_rad = c->theta_enc;
+        RECORD(e, cfg->ch_sense, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_sense, &r);
+    }
+    {
+        rec_telemetry_t r;
+        r.t_s = c->t_s;
+        r.seq = c->seq;
+        if (c->have_telem) {
+            r.theta_hat_rad = c->th_hat;
+            r.omega_hat_rad_s = c->w_hat;
+            r.state = c->st;
+            r.estimator = c->est;
+        } else {
+            r.theta_hat_rad = r.omega_hat_rad_s = (double)NAN;
+            r.state = r.estimator = -1;
+        }
+        r.speed_hat_rpm = r.omega_hat_rad_s / (double)cfg->pole_pairs * cfg->rpm_per_rad_s;
+        r.e_alpha_v = c->have_emf ? c->e_a : (double)NAN;
+        r.e_beta_v = c->have_emf ? c->e_b : (double)NAN;
+        r.i_q_ref_a = c->have_emf ? c->iq_ref : (double)NAN;
+        r.duty_a = e->duties[0]; r.duty_b = e->duties[1]; r.duty_c = e->duties[2];
+        r.pee_rad = wrap_pi(r.theta_hat_rad - theta);
+        RECORD(e, cfg->ch_telem, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_telemetry, &r);
+    }
+    if (cfg->record_frames) {
+        rec_frames_t r;
+        r.t_s = c->t_s;
+        r.seq = (int32_t)c->seq;
+        r.tx = e->tx_text;
+        r.rx = e->rx_text;
+        RECORD(e, cfg->ch_frames, c->t_s, 64u + e->tx_len + e->rx_len, rec_encode_frames, &r);
+    }
+    if (c->have_telem && c->st != e->last_state && c->st >= 0) {
+        const char *name = (c->st < ENGINE_STATE_NAMES && cfg->state_names[c->st][0] != '\0')
+                               ? cfg->state_names[c->st] : "?";
+        record_event(e, c->t_s, "controller_state", name, (double)c->st);
+        e->last_state = c->st;
+    }
+}
+
+typedef struct {
+    int have_prev, have_older;
+    double prev[2], older[2];  /* alpha-beta voltage of the last two duty sets */
+    double w_split;            /* fraction of the last period the older duties acted */
+} ref_voltage_t;
+
+/** Alpha-beta voltage an averaged inverter realises from duties (0 if a leg is off). */
+static int duties_to_ab(const double d[3], double v_dc, double out[2])
+{
+    if (d[0] < 0.0 || d[1] < 0.0 || d[2] < 0.0) {
+        return 0;
+    }
+    out[0] = (2.0 * d[0] - d[1] - d[2]) * (v_dc / 3.0);
+    out[1] = (d[1] - d[2]) * (v_dc * (1.0 / sqrt(3.0)));
+    return 1;
+}
+
+/**
+ * Reference estimators of cycle k: the currents the controller was sent and the voltage that
+ * acted over the last period (the older duties for the first w_split of it, then the newer).
+ * Then remember the duties that act next (applied = the set in effect after this cycle).
+ */
+static void step_references(engine_t *e, const cycle_t *c, ref_voltage_t *v, int shift)
+{
+    const engine_config_t *cfg = &e->cfg;
+    const double inv_sqrt3 = 1.0 / sqrt(3.0);
+    int i;
+    if (e->n_refs == 0) {
+        return;
+    }
+    if (v->have_prev && v->have_older) {
+        const double i_al = (2.0 * c->s_i[0] - c->s_i[1] - c->s_i[2]) * (1.0 / 3.0);
+        const double i_be = (c->s_i[1] - c->s_i[2]) * inv_sqrt3;
+        const double w = v->w_split;
+        const double v_al = w * v->older[0] + (1.0 - w) * v->prev[0];
+        const double v_be = w * v->older[1] + (1.0 - w) * v->prev[1];
+        fw_vec2_t iv, vv;
+        iv.x = (float)i_al;
+        iv.y = (float)i_be;
+        vv.x = (float)v_al;
+        vv.y = (float)v_be;
+        for (i = 0; i < e->n_refs; ++i) {
+            const est_output_t *o = eng_ref_step(&e->refs[i], iv, vv);
+            rec_reference_t r;
+            r.t_s = c->t_s;
+            r.seq = c->seq;
+            r.theta_hat_rad = (double)o->theta_e_rad;
+            r.omega_hat_rad_s = (double)o->omega_e_rad_s;
+            r.speed_hat_rpm = r.omega_hat_rad_s / (double)cfg->pole_pairs * cfg->rpm_per_rad_s;
+            r.e_alpha_v = (double)o->e_alpha_v;
+            r.e_beta_v = (double)o->e_beta_v;
+            r.pee_rad = wrap_pi(r.theta_hat_rad - c->snap.theta_e_rad);
+            RECORD(e, e->ref_channel[i], c->t_s, REC_MAX_FIXED_SIZE, rec_encode_reference, &r);
+        }
+    }
+    if (shift) {
+        v->have_older = v->have_prev;
+        v->older[0] = v->prev[0];
+        v->older[1] = v->prev[1];
+        v->have_prev = duties_to_ab(e->duties, c->smp.v_dc_v, v->prev);
+    }
+}
+
+static void begin_cycle(engine_t *e, cycle_t *c, long k)
+{
+    const hil_deframer_t *d = &e->link.deframer;
+    memset(c, 0, sizeof *c);
+    c->k = k;
+    c->seq = (uint16_t)(k & 0xFFFF);
+    c->t_s = (double)k * e->cfg.ts_s;
+    c->st = c->est = -1;
+    c->crc0 = d->crc_errors;
+    c->cobs0 = d->cobs_errors;
+    c->len0 = d->length_errors;
+    c->over0 = d->overruns;
+    text_reset(e->tx_text, &e->tx_len);
+    text_reset(e->rx_text, &e->rx_len);
+}
+
+static void after_telemetry(engine_t *e, const cycle_t *c)
+{
+    if (!c->have_telem) {
+        e->n.telem_missing++;
+    } else if (e->cfg.estimator_expected >= 0 && c->est != e->cfg.estimator_expected) {
+        e->n.estimator_mismatch++;
+    }
+}
+
+static int plant_finite(engine_t *e, const cycle_t *c)
+{
+    const double w = e->plant->y[2];
+    if (!isfinite(w) || !isfinite(e->plant->y[0]) || !isfinite(e->plant->y[1])) {
+        e->end = ENGINE_END_PLANT;
+        set_message(e, "at cycle %ld: plant state became non-finite", c->k);
+        return 0;
+    }
+    return 1;
+}
+
+static void link_failed(engine_t *e, const cycle_t *c)
+{
+    e->end = ENGINE_END_LINK;
+    set_message(e, "at cycle %ld (t = %.4f s): %s", c->k, c->t_s,
+                e->link.error[0] ? e->link.error : "link failed");
+}
+
+/* ---- lockstep ---------------------------------------------------------------------------------- */
+
+static int run_lockstep(engine_t *e)
+{
+    const engine_config_t *cfg = &e->cfg;
+    const int64_t retry_ns = (int64_t)(cfg->retry_timeout_s * 1e9);
+    ref_voltage_t rv;
+    int next_event = 0;
+    long k;
+    memset(&rv, 0, sizeof rv);
+    rv.w_split = cfg->t_delay_s / cfg->ts_s;
+    for (k = 0; k < cfg->n_cycles; ++k) {
+        cycle_t c;
+        int64_t c0 = eng_now_ns(), sent_ns, deadline;
+        int done = 0;
+        if (stop_asked(e)) {
+            e->end = ENGINE_END_STOPPED;
+            set_message(e, "stopped at cycle %ld", k);
+            return e->end;
+        }
+        begin_cycle(e, &c, k);
+        apply_events(e, &next_event, &c);
+        if (build_sense(e, &c) != 0) {
+            return e->end;
+        }
+        queue_sense_group(e, &c);
+        if (eng_link_flush(&e->link, c0 + NS_PER_S) != 0) {
+            link_failed(e, &c);
+            return e->end;
+        }
+        sent_ns = eng_now_ns();
+        deadline = sent_ns + retry_ns;
+        while (!done) {
+            eng_frame_t f;
+            int r;
+            while (!done && eng_link_pop(&e->link, &f)) {
+                r = handle_frame(e, &c, &f, 1);
+                if (r < 0) {
+                    return e->end;
+                }
+                done = r;
+            }
+            if (done) {
+                break;
+            }
+            r = eng_link_poll(&e->link, deadline);
+            if (r < 0) {
+                link_failed(e, &c);
+                return e->end;
+            }
+            if (r > 0) {
+                continue;
+            }
+            if (stop_asked(e)) {
+                e->end = ENGINE_END_STOPPED;
+                set_message(e, "stopped at cycle %ld while waiting for DUTY", k);
+                return e->end;
+            }
+            if (c.retries >= cfg->max_retries) {
+                describe_no_duty(e, &c);
+                return e->end;
+            }
+            c.retries++;
+            e->n.retries++;
+            queue_sense_group(e, &c);
+            if (eng_link_flush(&e->link, eng_now_ns() + NS_PER_S) != 0) {
+                link_failed(e, &c);
+                return e->end;
+            }
+            deadline = eng_now_ns() + retry_ns;
+        }
+        if (take_duties(e, &c) < 0) {
+            return e->end;
+        }
+        after_telemetry(e, &c);
+        record_cycle(e, &c);
+        step_references(e, &c, &rv, 1);
+        plant_step(e->plant, e->duties);
+        e->prev_had_duty = 1;
+        {
+            const int64_t c1 = eng_now_ns();
+            rec_timing_t t;
+            hist_add(&e->hist_cycle, (double)(c1 - c0) * 1e-3);
+            if (e->have_ring) {
+                t.t_s = c.t_s;
+                t.seq = c.seq;
+                t.start_err_us = (double)NAN;
+                t.rtt_us = (double)(c.duty_t_ns - sent_ns) * 1e-3;
+                t.arrival_us = (double)NAN;
+                t.cycle_us = (double)(c1 - c0) * 1e-3;
+                t.missed = 0u;
+                t.retries = (uint32_t)c.retries;
+                t.late_total = e->n.late_duty;
+                t.missed_total = e->n.missed_duty;
+                RECORD(e, cfg->ch_timing, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
+            }
+        }
+        __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
+        e->speed_rpm = e->plant->y[2] * cfg->rpm_per_rad_s;
+        if (cfg->stats_every_cycles > 0 && (k + 1) % cfg->stats_every_cycles == 0) {
+            engine_write_stats(e, (double)(k + 1) * cfg->ts_s, NULL);
+        }
+        if (!plant_finite(e, &c)) {
+            return e->end;
+        }
+    }
+    return ENGINE_END_DONE;
+}
+
+/* ---- real time --------------------------------------------------------------------------------- */
+
+static void rt_note(engine_t *e, const char *what, int err)
+{
+    size_t n = strlen(e->rt_notes);
+    if (n + 8u < sizeof e->rt_notes) {
+        snprintf(e->rt_notes + n, sizeof e->rt_notes - n, "%s%s: %s", n ? "; " : "", what,
+                 strerror(err));
+    }
+}
+
+static void rt_setup(engine_t *e)
+{
+    const engine_config_t *cfg = &e->cfg;
+    (void)prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL); /* wake at the deadline, not 50 us later */
+    if (cfg->rt_mlock) {
+        if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
+            e->rt_mlock = 1;
+        } else {
+            rt_note(e, "mlockall", errno);
+        }
+    }
+    if (cfg->rt_priority > 0) {
+        struct sched_param sp;
+        memset(&sp, 0, sizeof sp);
+        sp.sched_priority = cfg->rt_priority;
+        if (sched_setscheduler(0, SCHED_FIFO, &sp) == 0) {
+            e->rt_fifo = 1;
+        } else {
+            rt_note(e, "SCHED_FIFO", errno);
+        }
+    }
+    if (cfg->rt_cpu >= 0) {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        CPU_SET((size_t)cfg->rt_cpu, &set);
+        if (sched_setaffinity(0, sizeof set, &set) == 0) {
+            e->rt_pinned = 1;
+        } else {
+            rt_note(e, "CPU pinning", errno);
+        }
+    }
+}
+
+static void rt_teardown(engine_t *e)
+{
+    if (e->rt_fifo) {
+        struct sched_param sp;
+        memset(&sp, 0, sizeof sp);
+        (void)sched_setscheduler(0, SCHED_OTHER, &sp);
+    }
+    if (e->rt_mlock) {
+        (void)munlockall();
+    }
+}
+
+/** Sleep to deadline - spin, then spin to the deadline. Returns the time it is now. */
+static int64_t wait_until(int64_t deadline_ns, int64_t spin_ns)
+{
+    int64_t now = eng_now_ns();
+    if (deadline_ns - now > spin_ns) {
+        struct timespec ts;
+        const int64_t wake = deadline_ns - spin_ns;
+        ts.tv_sec = (time_t)(wake / NS_PER_S);
+        ts.tv_nsec = (long)(wake % NS_PER_S);
+        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR) {
+        }
+    }
+    do {
+        now = eng_now_ns();
+    } while (now < deadline_ns);
+    return now;
+}
+
+/** Handle the frames that are queued now; cycle_open: DUTY(k) may still complete cycle k. */
+static int drain_frames(engine_t *e, cycle_t *c, int cycle_open, int *completed)
+{
+    eng_frame_t f;
+    while (eng_link_pop(&e->link, &f)) {
+        const int r = handle_frame(e, c, &f, cycle_open && !*completed);
+        if (r < 0) {
+            return -1;
+        }
+        if (r == 1) {
+            *completed = 1;
+        }
+    }
+    return 0;
+}
+
+static int run_realtime(engine_t *e)
+{
+    const engine_config_t *cfg = &e->cfg;
+    const int64_t ts_ns = (int64_t)llround(cfg->ts_s * 1e9);
+    const int64_t spin_ns = (int64_t)(cfg->spin_s * 1e9);
+    const int64_t guard_ns = (cfg->duty_update == ENGINE_DUTY_ON_ARRIVAL)
+                                 ? (int64_t)(cfg->guard_s * 1e9) : 0;
+    const int64_t clock_jump_ns = 100LL * ts_ns + 100000000LL;
+    ref_voltage_t rv;
+    int next_event = 0;
+    long k;
+    double latched[3];
+    memset(&rv, 0, sizeof rv);
+    rv.w_split = 0.0;
+    latched[0] = latched[1] = latched[2] = 0.5;
+    e->t0_ns = eng_now_ns() + 2000000LL; /* first period 2 ms from now */
+    for (k = 0; k < cfg->n_cycles; ++k) {
+        cycle_t c;
+        const int64_t t_k = e->t0_ns + k * ts_ns;
+        const int64_t t_next = t_k + ts_ns;
+        int64_t start, sent_ns;
+        int completed = 0;
+        double split_s;
+        if (stop_asked(e)) {
+            e->end = ENGINE_END_STOPPED;
+            set_message(e, "stopped at cycle %ld", k);
+            return e->end;
+        }
+        begin_cycle(e, &c, k);
+        start = wait_until(t_k, spin_ns);
+        if (start - t_k > clock_jump_ns) {
+            e->end = ENGINE_END_CONFIG;
+            set_message(e, "at cycle %ld: the clock jumped or the engine was suspended: period "
+                        "start %.3f ms late (more than 100 periods); a real-time run cannot "
+                        "continue", k, (double)(start - t_k) * 1e-6);
+            return e->end;
+        }
+        apply_events(e, &next_event, &c);
+        if (build_sense(e, &c) != 0) {
+            return e->end;
+        }
+        queue_sense_group(e, &c);
+        if (eng_link_flush(&e->link, t_next) != 0) {
+            link_failed(e, &c);
+            return e->end;
+        }
+        sent_ns = eng_now_ns();
+        hist_add(&e->hist_jitter, (double)(sent_ns - t_k) * 1e-3);
+        /* the duties acting in period k: in NEXT_PERIOD those DUTY(k-1) set, known now */
+        if (cfg->duty_update == ENGINE_DUTY_NEXT_PERIOD) {
+            e->duties[0] = latched[0];
+            e->duties[1] = latched[1];
+            e->duties[2] = latched[2];
+        }
+        /* wait for DUTY(k) until its deadline */
+        while (!completed) {
+            int r;
+            if (drain_frames(e, &c, 1, &completed) != 0) {
+                return e->end;
+            }
+            if (completed) {
+                break;
+            }
+            r = eng_link_poll(&e->link, t_next - guard_ns);
+            if (r < 0) {
+                link_failed(e, &c);
+                return e->end;
+            }
+            if (r == 0) {
+                break; /* deadline */
+            }
+        }
+        if (completed) {
+            int applied;
+            e->consecutive_miss = 0;
+            if (cfg->duty_update == ENGINE_DUTY_NEXT_PERIOD) {
+                const double held[3] = {e->duties[0], e->duties[1], e->duties[2]};
+                applied = take_duties(e, &c);
+                if (applied < 0) {
+                    return e->end;
+                }
+                latched[0] = e->duties[0];
+                latched[1] = e->duties[1];
+                latched[2] = e->duties[2];
+                e->duties[0] = held[0];
+                e->duties[1] = held[1];
+                e->duties[2] = held[2];
+                split_s = 0.0;
+            } else {
+                applied = take_duties(e, &c);
+                if (applied < 0) {
+                    return e->end;
+                }
+                split_s = (double)(c.duty_t_ns - t_k) * 1e-9;
+                if (split_s < 0.0) {
+                    split_s = 0.0;
+                }
+                if (split_s > cfg->ts_s) {
+                    split_s = cfg->ts_s;
+                }
+            }
+            hist_add(&e->hist_cycle, (double)(c.duty_t_ns - sent_ns) * 1e-3);
+        } else {
+            e->n.missed_duty++;
+            e->consecutive_miss++;
+            split_s = 0.0;
+            if (e->consecutive_miss >= cfg->max_consecutive_misses) {
+                /* watchdog: all gates off, tell the controller, end the run */
+                hil_fault_plant_t m;
+                uint8_t buf[8];
+                e->duties[0] = e->duties[1] = e->duties[2] = -1.0;
+                m.code = (uint16_t)HIL_FAULT_WATCHDOG;
+                m.seq = c.seq;
+                m.detail = e->consecutive_miss;
+                if (hil_fault_plant_pack(buf, &m, sizeof buf) > 0) {
+                    queue_frame(e, (uint16_t)HIL_FAULT_PLANT_FRAME_ID, buf);
+                    (void)eng_link_flush(&e->link, eng_now_ns() + 100000000LL);
+                }
+                after_telemetry(e, &c);
+                record_cycle(e, &c);
+                plant_step_split(e->plant, e->duties, 0.0);
+                record_event(e, c.t_s, "watchdog",
+                             "inverter safe state (all legs off), FAULT_PLANT WATCHDOG sent",
+                             (double)e->consecutive_miss);
+                e->end = ENGINE_END_WATCHDOG;
+                set_message(e, "at cycle %ld (t = %.4f s): %d consecutive periods without a "
+                            "DUTY in time: inverter disabled (all legs off), FAULT_PLANT "
+                            "WATCHDOG sent, run ended", k, c.t_s, e->consecutive_miss);
+                __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
+                return e->end;
+            }
+        }
+        after_telemetry(e, &c);
+        record_cycle(e, &c);
+        step_references(e, &c, &rv, 0); /* voltage of period k-1, split at rv.w_split */
+        plant_step_split(e->plant, e->duties, split_s);
+        e->prev_had_duty = completed;
+        /* the references of cycle k+1 see the voltage of period k: older -> newer at split */
+        rv.w_split = split_s / cfg->ts_s;
+        rv.have_older = rv.have_prev;
+        rv.older[0] = rv.prev[0];
+        rv.older[1] = rv.prev[1];
+        rv.have_prev = duties_to_ab(e->duties, c.smp.v_dc_v, rv.prev);
+        if (!plant_finite(e, &c)) {
+            return e->end;
+        }
+        {
+            rec_timing_t t;
+            if (e->have_ring) {
+                t.t_s = c.t_s;
+                t.seq = c.seq;
+                t.start_err_us = (double)(sent_ns - t_k) * 1e-3;
+                t.rtt_us = completed ? (double)(c.duty_t_ns - sent_ns) * 1e-3 : (double)NAN;
+                t.arrival_us = completed ? (double)(c.duty_t_ns - t_k) * 1e-3 : (double)NAN;
+                t.cycle_us = (double)(eng_now_ns() - t_k) * 1e-3;
+                t.missed = completed ? 0u : 1u;
+                t.retries = 0u;
+                t.late_total = e->n.late_duty;
+                t.missed_total = e->n.missed_duty;
+                RECORD(e, cfg->ch_timing, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
+            }
+        }
+        __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
+        e->speed_rpm = e->plant->y[2] * cfg->rpm_per_rad_s;
+        if (cfg->stats_every_cycles > 0 && (k + 1) % cfg->stats_every_cycles == 0) {
+            engine_write_stats(e, (double)(k + 1) * cfg->ts_s, NULL);
+        }
+        /* until the next period: late frames, heartbeats, faults */
+        for (;;) {
+            int dummy = 1, r;
+            if (drain_frames(e, &c, 0, &dummy) != 0) {
+                return e->end;
+            }
+            if (eng_now_ns() >= t_next - spin_ns) {
+                break;
+            }
+            r = eng_link_poll(&e->link, t_next - spin_ns);
+            if (r < 0) {
+                link_failed(e, &c);
+                return e->end;
+            }
+            if (r == 0) {
+                break;
+            }
+        }
+    }
+    return ENGINE_END_DONE;
+}
+
+int engine_send(engine_t *e, uint16_t id, const uint8_t *data, uint16_t dlc)
+{
+    if (eng_link_queue(&e->link, id, data, dlc) != 0) {
+        return -1;
+    }
+    return eng_link_flush(&e->link, eng_now_ns() + 200000000LL);
+}
+
+int engine_run(engine_t *e)
+{
+    if (e->end != ENGINE_END_DONE) {
+        return e->end; /* init failed */
+    }
+    e->message[0] = '\0';
+    if (e->cfg.mode == ENGINE_REALTIME) {
+        rt_setup(e);
+        e->end = run_realtime(e);
+        rt_teardown(e);
+    } else {
+        e->end = run_lockstep(e);
+    }
+    if (e->end == ENGINE_END_DONE) {
+        set_message(e, "ran %ld/%ld cycles", (long)e->cycles_done, e->cfg.n_cycles);
+    }
+    return e->end;
+}

@@ -1,0 +1,225 @@
+/**
+ * @file engine.h
+ * @brief The cycle engine: everything the bench does once per control cycle, in C.
+ *
+ * Per cycle k: the scenario events due at k (CMD frames, load torque), the sensor model and
+ * the SENSE_AUX / SENSE_DUAL / SENSE frames, link I/O on one file descriptor (engine_link.h),
+ * DUTY decoding and validation, the plant step, the reference estimators (engine_refs.h) on
+ * the same inputs the controller saw, and the recorded rows (rec_schema.h) written into the
+ * shared-memory ring (rec_ring.h) that the recorder process drains. Python sets a run up
+ * (scenario, handshake, CONFIG), calls engine_run() from a thread of its own and reads the
+ * result; nothing on the per-cycle path allocates, calls Python, or makes a system call other
+ * than the link's I/O and the clock (and, in lockstep only, a short sleep while the recorder
+ * frees room in the ring).
+ *
+ * Two timing modes (docs/architecture.md "Timing of one period"):
+ *
+ * LOCKSTEP: the plant advances one period per valid DUTY. The duties of DUTY(k) act from
+ *   t_k + t_delay (the plant's emulated computation delay). No valid DUTY(k) within
+ *   retry_timeout_s: the SENSE frames of cycle k are sent again with the same seq (the
+ *   controller answers a repeated seq from its cache), at most max_retries times; then the run
+ *   ends naming what arrived instead (nothing, bad CRC, wrong seq, wrong length).
+ *
+ * REALTIME: the plant advances on CLOCK_MONOTONIC, one period per ts_s from an absolute
+ *   deadline (clock_nanosleep to deadline - spin_s, then a spin). SENSE(k) leaves at the start
+ *   of period k. Duty update models, as PWM modules load their compare registers:
+ *     ON_ARRIVAL   DUTY(k) acts from the instant it arrived (the real computation delay): the
+ *                  plant integrates the old duties up to the arrival and the new ones after.
+ *     NEXT_PERIOD  DUTY(k) acts from the next period boundary t_{k+1} (shadow load).
+ *   A DUTY(k) that has not arrived by t_{k+1} - guard_s (on arrival) or t_{k+1} (next period)
+ *   is a deadline miss: counted, the last duties held; if it arrives later it is counted late
+ *   and discarded. After max_consecutive_misses misses in a row the inverter goes to its safe
+ *   state (all legs off: the diodes conduct), FAULT_PLANT (WATCHDOG) is sent and the run ends.
+ *
+ * Frame rules, both modes (docs/protocol.md section 6): frames are handled in arrival order, one
+ * at a time, so the outcome never depends on how reads were batched. The first valid DUTY(k)
+ * completes cycle k; frames behind it wait for the next cycle. A DUTY for an already completed
+ * cycle is a duplicate; for any other seq a seq mismatch. TELEM/TELEM_EMF of another seq are
+ * stale. A frame of a cycle message with the wrong length is never decoded (length error).
+ * TELEM.estimator other than the requested estimator is counted every cycle. FAULT_CTRL ends
+ * the run. An out-of-range DUTY is never applied (bad duty: previous duties held); after
+ * max_consecutive_bad_duties in a row the run ends.
+ */
+#ifndef ENGINE_H
+#define ENGINE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "engine_link.h"
+#include "engine_refs.h"
+#include "plant.h"
+#include "rec_ring.h"
+#include "rec_schema.h"
+
+#define ENGINE_MAX_REFS 8
+#define ENGINE_MAX_EVENTS 256
+#define ENGINE_EVENT_TEXT 96
+#define ENGINE_STATE_NAMES 16
+#define ENGINE_MESSAGE 768
+#define ENGINE_FRAMES_TEXT 2048
+/* histogram of wall times: 0.1 us bins below 1 ms, 10 us bins up to 100 ms, then overflow */
+#define ENGINE_HIST_FINE 10000
+#define ENGINE_HIST_COARSE 9900
+#define ENGINE_HIST_BINS (ENGINE_HIST_FINE + ENGINE_HIST_COARSE + 1)
+
+typedef enum { ENGINE_LOCKSTEP = 0, ENGINE_REALTIME = 1 } engine_mode_t;
+typedef enum { ENGINE_DUTY_ON_ARRIVAL = 0, ENGINE_DUTY_NEXT_PERIOD = 1 } engine_duty_update_t;
+
+/** Why engine_run returned. */
+typedef enum {
+    ENGINE_END_DONE = 0,             /* every planned cycle ran */
+    ENGINE_END_STOPPED = 1,          /* engine_request_stop (Ctrl-C, the bench's watchdog) */
+    ENGINE_END_LINK = 2,             /* the link failed: peer gone, write blocked, bus-off */
+    ENGINE_END_NO_DUTY = 3,          /* lockstep: no valid DUTY after every retry */
+    ENGINE_END_CONTROLLER_FAULT = 4, /* FAULT_CTRL received (fault_* fields) */
+    ENGINE_END_BAD_DUTIES = 5,       /* too many out-of-range DUTY in a row */
+    ENGINE_END_WATCHDOG = 6,         /* real time: too many deadline misses in a row */
+    ENGINE_END_PLANT = 7,            /* the plant state or a sample became non-finite */
+    ENGINE_END_CONFIG = 8,           /* the engine was not set up correctly */
+    ENGINE_END_PROTOCOL = 9          /* a frame the host cannot interpret (short FAULT_CTRL) */
+} engine_end_t;
+
+typedef enum {
+    ENGINE_EV_CMD = 0,        /* send CMD (command, value) with the SENSE frames of the cycle */
+    ENGINE_EV_LOAD = 1,       /* plant load torque [N m] from this cycle on */
+    ENGINE_EV_DYNO_SPEED = 2, /* dynamometer set speed [rad/s mechanical] */
+    ENGINE_EV_NOTE = 3        /* only the /events row */
+} engine_event_kind_t;
+
+typedef struct {
+    long cycle;       /* applied at the start of this cycle */
+    int kind;         /* engine_event_kind_t */
+    int command;      /* CMD command (Command table) */
+    double value;     /* CMD value / torque / speed */
+    int record;       /* 1: write an /events row (kind "scenario") with text, record_value */
+    double record_value;
+    char text[ENGINE_EVENT_TEXT];
+} engine_event_t;
+
+/** Linear wire scaling of one signal (from the DBC): raw = round((phys - offset) / scale). */
+typedef struct {
+    double scale, offset, raw_min, raw_max;
+} engine_signal_t;
+
+typedef struct {
+    /* timing */
+    int mode;                  /* engine_mode_t */
+    int duty_update;           /* engine_duty_update_t (real time) */
+    long n_cycles;
+    double ts_s;
+    double t_delay_s;          /* plant's emulated delay (lockstep) */
+    /* the controller */
+    int pole_pairs;
+    double rpm_per_rad_s;
+    int dual_sampling;         /* send SENSE_DUAL */
+    int send_encoder;          /* theta_enc and THETA_ENC_VALID in SENSE_AUX */
+    int estimator_expected;    /* TELEM.estimator the scenario asked for */
+    uint16_t cmd_seq_start;    /* CMD.seq continues from the handshake's */
+    /* the link */
+    int link_kind;             /* eng_link_kind_t */
+    int link_fd;
+    int can_brs;
+    double retry_timeout_s;    /* lockstep: wait this long for DUTY before re-sending SENSE */
+    int max_retries;           /* lockstep: re-sends of one cycle's SENSE */
+    int max_consecutive_bad_duties;
+    int max_consecutive_misses;
+    double guard_s;            /* real time, on arrival: DUTY must arrive by t_{k+1} - guard */
+    /* real time process setup */
+    int rt_priority;           /* SCHED_FIFO priority (0: do not ask) */
+    int rt_cpu;                /* pin the engine thread to this CPU (-1: do not) */
+    int rt_mlock;              /* mlockall(MCL_CURRENT | MCL_FUTURE) */
+    double spin_s;             /* spin this long before each deadline */
+    /* recording */
+    double recorder_stall_s;   /* lockstep: wait at most this long for ring space */
+    int stats_every_cycles;
+    int record_frames;         /* /link/frames rows */
+    uint16_t ch_state, ch_sense, ch_telem, ch_frames, ch_events, ch_timing, ch_stats;
+    /* wire constants from the DBC (protocol/hil.dbc) */
+    engine_signal_t sig_i;     /* SENSE.i_a/b/c */
+    engine_signal_t sig_i2;    /* SENSE_DUAL.i_a2/b2/c2 */
+    engine_signal_t sig_vdc;   /* SENSE_AUX.v_dc */
+    engine_signal_t sig_theta; /* SENSE_AUX.theta_enc */
+    double scale_theta_hat, scale_omega_hat, scale_e, scale_iq_ref;
+    uint32_t duty_raw_full, duty_raw_off;
+    uint16_t aux_flag_theta_valid, aux_flag_dual_follows;
+    char state_names[ENGINE_STATE_NAMES][24];
+} engine_config_t;
+
+typedef struct {
+    uint64_t seq_mismatch, bad_duties, telem_missing, unknown_ids, heartbeats_rx, length_errors;
+    uint64_t duplicates, stale_frames, retries, late_duty, missed_duty, estimator_mismatch;
+    uint64_t rows_dropped;
+} engine_counters_t;
+
+typedef struct {
+    uint32_t bins[ENGINE_HIST_BINS];
+    uint64_t n;
+    double max_us;
+} engine_hist_t;
+
+typedef struct engine {
+    engine_config_t cfg;
+    plant_t *plant;
+    rec_ring_t ring;
+    int have_ring;
+    eng_link_t link;
+    eng_ref_t refs[ENGINE_MAX_REFS];
+    uint16_t ref_channel[ENGINE_MAX_REFS];
+    int n_refs;
+    engine_event_t events[ENGINE_MAX_EVENTS];
+    int n_events;
+    /* live (read by the bench while it runs) */
+    volatile int stop_requested;
+    volatile long cycles_done;
+    volatile double speed_rpm;
+    /* result */
+    int end;                    /* engine_end_t */
+    char message[ENGINE_MESSAGE];
+    engine_counters_t n;
+    int fault_code, fault_seq;
+    long fault_detail;
+    int fault_dlc;
+    int rt_fifo, rt_mlock, rt_pinned;  /* what the real-time setup obtained (1) or not (0) */
+    char rt_notes[256];                /* why not, once */
+    engine_hist_t hist_cycle;          /* lockstep: whole cycle; real time: SENSE -> DUTY */
+    engine_hist_t hist_jitter;         /* real time: period start error */
+    /* private */
+    uint16_t cmd_seq;
+    int64_t t0_ns;
+    double duties[3];
+    int consecutive_bad, consecutive_miss;
+    int prev_had_duty;
+    unsigned length_error_said; /* ids (low 2 bits) whose wrong length was said */
+    int last_state;
+    char tx_text[ENGINE_FRAMES_TEXT];
+    char rx_text[ENGINE_FRAMES_TEXT];
+    size_t tx_len, rx_len;
+} engine_t;
+
+/** Defaults for everything but the link, the plant and the DBC constants. */
+void engine_default_config(engine_config_t *cfg);
+/**
+ * Set up an engine over a plant (stepped in place: set its initial state first) and, if
+ * ring_mem is not NULL, a formatted recording ring. Returns 0, or -1 with e->message.
+ */
+int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *ring_mem,
+                 size_t ring_size);
+/** Add a reference estimator (engine_refs.h) recorded on ring channel `channel`. 0 or -1. */
+int engine_add_reference(engine_t *e, int kind, const void *config, size_t config_size,
+                         uint16_t channel);
+/** Add a scheduled event; events must be added in cycle order. 0 or -1 (full, out of order). */
+int engine_add_event(engine_t *e, const engine_event_t *ev);
+/** Run every cycle (or until something ends the run). Returns engine_end_t. */
+int engine_run(engine_t *e);
+/** Ask a running engine to stop at the end of the present cycle (any thread). */
+void engine_request_stop(engine_t *e);
+/** Percentile q in [0, 1] of a histogram [us] (0 if empty). */
+double engine_hist_percentile(const engine_hist_t *h, double q);
+/** Send one frame on the engine's link now (for the bench after engine_run: CMD STOP), counted
+ *  with the run's frames. 0, or -1 if the link failed. */
+int engine_send(engine_t *e, uint16_t id, const uint8_t *data, uint16_t dlc);
+/** Write a /link/stats row now (for the bench after engine_run). */
+void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extra);
+
+#endif

@@ -1,0 +1,245 @@
+"""Python side of the C cycle engine (plant_rt/c/engine.h): set a run up, start it, read it.
+
+    eng = Engine(plant, ts_s=1e-4, n_cycles=15000, link_fd=fd, ...)
+    eng.add_reference(Estimator.SMO_SIGN, est)       # a firmware_stub estimator wrapper
+    eng.add_event(cycle, kind, ...)
+    eng.start()                                       # a thread; the GIL is released in C
+    while eng.running(): ... eng.cycles_done ...
+    eng.join(); eng.end, eng.message, eng.counters()
+
+Everything per cycle happens in C; this module only fills the configuration (with the wire
+constants read from the DBC, so the engine encodes exactly what protocol/messages.py encodes)
+and reads the results.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+from plant_rt._plant_c import ffi, lib
+from protocol.messages import (DUTY_RAW_OFF, MESSAGES, SenseAuxFlag, State)
+
+LOCKSTEP, REALTIME = 0, 1
+DUTY_UPDATE = {"on_arrival": 0, "next_period": 1}
+LINK_KIND = {"serial": 0, "can": 1, "canfd": 2}
+EV_CMD, EV_LOAD, EV_DYNO_SPEED, EV_NOTE = 0, 1, 2, 3
+
+END_NAMES = {0: "DONE", 1: "STOPPED", 2: "LINK", 3: "NO_DUTY", 4: "CONTROLLER_FAULT",
+             5: "BAD_DUTIES", 6: "WATCHDOG", 7: "PLANT", 8: "CONFIG", 9: "PROTOCOL"}
+END_DONE, END_STOPPED, END_CONTROLLER_FAULT, END_WATCHDOG = 0, 1, 4, 6
+
+COUNTERS = ("seq_mismatch", "bad_duties", "telem_missing", "unknown_ids", "heartbeats_rx",
+            "length_errors", "duplicates", "stale_frames", "retries", "late_duty", "missed_duty",
+            "estimator_mismatch", "rows_dropped")
+
+
+def _signal(cfg_sig, msg: str, name: str) -> None:
+    s = MESSAGES[msg].signal(name)
+    cfg_sig.scale = float(s.scale)
+    cfg_sig.offset = float(s.offset)
+    cfg_sig.raw_min = float(s.raw_min)
+    cfg_sig.raw_max = float(s.raw_max)
+
+
+def _fill_wire_constants(cfg) -> None:
+    """Scaling and ranges of the signals the engine encodes/decodes, from the DBC."""
+    _signal(cfg.sig_i, "SENSE", "i_a")
+    _signal(cfg.sig_i2, "SENSE_DUAL", "i_a2")
+    _signal(cfg.sig_vdc, "SENSE_AUX", "v_dc")
+    _signal(cfg.sig_theta, "SENSE_AUX", "theta_enc")
+    for attr, (msg, sig) in {"scale_theta_hat": ("TELEM", "theta_hat"),
+                             "scale_omega_hat": ("TELEM", "omega_hat"),
+                             "scale_e": ("TELEM_EMF", "e_alpha"),
+                             "scale_iq_ref": ("TELEM_EMF", "i_q_ref")}.items():
+        setattr(cfg, attr, float(MESSAGES[msg].signal(sig).scale))
+    for a, b in (("SENSE", "i_b"), ("SENSE", "i_c")):
+        assert MESSAGES[a].signal(b).scale == MESSAGES["SENSE"].signal("i_a").scale
+    duty = MESSAGES["DUTY"].signal("d_a")
+    cfg.duty_raw_full = int(round(1.0 / duty.scale))
+    cfg.duty_raw_off = int(DUTY_RAW_OFF)
+    cfg.aux_flag_theta_valid = int(SenseAuxFlag.THETA_ENC_VALID)
+    cfg.aux_flag_dual_follows = int(SenseAuxFlag.DUAL_FOLLOWS)
+    for st in State:
+        if 0 <= st.value < 16:
+            cfg.state_names[st.value] = st.name.encode()[:23]
+
+
+@dataclass
+class EngineResult:
+    end: int
+    end_name: str
+    message: str
+    cycles_done: int
+    counters: dict[str, int]
+    fault_code: int
+    fault_seq: int
+    fault_detail: int
+    rt_fifo: bool
+    rt_mlock: bool
+    rt_pinned: bool
+    rt_notes: str
+
+
+class Engine:
+    """One run of the C cycle engine over a plant and a link file descriptor."""
+
+    def __init__(self, plant, *, ts_s: float, n_cycles: int, link_fd: int, link_kind: str = "serial",
+                 mode: int = LOCKSTEP, ring=None, channels: dict[str, int] | None = None,
+                 **options):
+        cfg = ffi.new("engine_config_t *")
+        lib.engine_default_config(cfg)
+        _fill_wire_constants(cfg)
+        cfg.mode = mode
+        cfg.ts_s = ts_s
+        cfg.n_cycles = n_cycles
+        cfg.link_fd = link_fd
+        cfg.link_kind = LINK_KIND[link_kind]
+        for key, value in options.items():
+            if key == "duty_update":
+                value = DUTY_UPDATE[value]
+            if not hasattr(cfg, key):
+                raise TypeError(f"engine: unknown option {key!r}")
+            setattr(cfg, key, value)
+        for name, index in (channels or {}).items():
+            setattr(cfg, name, index)
+        self._cfg = cfg
+        self._plant = plant
+        self._e = ffi.new("engine_t *")
+        self._ring = ring
+        ring_mem = ffi.NULL
+        ring_size = 0
+        if ring is not None:
+            ring_mem = ffi.from_buffer(ring)
+            ring_size = len(ring)
+        self._ring_mem = ring_mem
+        if lib.engine_init(self._e, cfg, plant.c_plant, ring_mem, ring_size) != 0:
+            raise ValueError(ffi.string(self._e.message).decode())
+        self._thread: threading.Thread | None = None
+        self._keep: list = []
+
+    @property
+    def c(self):
+        """The live engine_t (counters while it runs)."""
+        return self._e
+
+    def add_reference(self, kind: int, estimator, channel: int) -> None:
+        """A firmware_stub estimator wrapper's configuration, run by the engine on its own state."""
+        from firmware_stub._binding import ffi as fw_ffi
+
+        cfg = estimator._cfg
+        data = bytes(fw_ffi.buffer(cfg))
+        if lib.eng_ref_config_size(kind) != len(data):
+            raise ValueError(f"reference estimator kind {kind}: configuration size {len(data)} "
+                             f"does not match the engine's ({lib.eng_ref_config_size(kind)})")
+        if lib.engine_add_reference(self._e, kind, data, len(data), channel) != 0:
+            raise ValueError(ffi.string(self._e.message).decode())
+
+    def add_event(self, cycle: int, kind: int, *, command: int = 0, value: float = 0.0,
+                  text: str | None = None, record_value: float = 0.0) -> None:
+        """An event at a cycle; with ``text`` it also writes an /events row (record_value)."""
+        ev = ffi.new("engine_event_t *")
+        ev.cycle = cycle
+        ev.kind = kind
+        ev.command = command
+        ev.value = value
+        ev.record = 1 if text is not None else 0
+        ev.record_value = record_value
+        ev.text = (text or "").encode()[:95]
+        if lib.engine_add_event(self._e, ev) != 0:
+            raise ValueError(ffi.string(self._e.message).decode())
+
+    def preload_link_counters(self, deframer: dict[str, int] | None = None,
+                              link: dict[str, int] | None = None) -> None:
+        """Counters of the set-up phase (handshake, CONFIG), so the engine's are cumulative."""
+        for k, v in (deframer or {}).items():
+            setattr(self._e.link.deframer, k, int(v))
+        for k, v in (link or {}).items():
+            if hasattr(self._e.link.c, k):
+                setattr(self._e.link.c, k, int(v))
+
+    def hand_over(self, partial_bytes: bytes = b"", frames=()) -> None:
+        """What the Python link had received but not used when the engine takes over: the
+        partial frame its deframer held (serial) and frames it had decoded."""
+        link = ffi.addressof(self._e, "link")
+        for fid, payload in frames:
+            lib.eng_link_push(link, fid, bytes(payload), len(payload))
+        if partial_bytes:
+            lib.eng_link_feed(link, partial_bytes, len(partial_bytes))
+
+    # -- running ---------------------------------------------------------------------------
+    def run(self) -> int:
+        """Run in this thread (blocks; the GIL is released while C runs)."""
+        return lib.engine_run(self._e)
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self.run, name="hil-engine", daemon=True)
+        self._thread.start()
+
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def join(self, timeout: float | None = None) -> bool:
+        if self._thread is not None:
+            self._thread.join(timeout)
+            return not self._thread.is_alive()
+        return True
+
+    def request_stop(self) -> None:
+        lib.engine_request_stop(self._e)
+
+    @property
+    def cycles_done(self) -> int:
+        return int(self._e.cycles_done)
+
+    @property
+    def speed_rpm(self) -> float:
+        return float(self._e.speed_rpm)
+
+    def send(self, frame_id: int, payload: bytes) -> bool:
+        """One frame on the engine's link after the run (counted with the run's frames)."""
+        return lib.engine_send(self._e, frame_id, payload, len(payload)) == 0
+
+    def write_stats(self, t_s: float, extra: dict[str, int] | None = None) -> None:
+        ex = ffi.NULL
+        if extra:
+            ex = ffi.new("eng_link_counters_t *")
+            for k, v in extra.items():
+                if hasattr(ex, k):
+                    setattr(ex, k, int(v))
+        lib.engine_write_stats(self._e, t_s, ex)
+
+    def counters(self) -> dict[str, int]:
+        e = self._e
+        out = {k: int(getattr(e.n, k)) for k in COUNTERS}
+        d = e.link.deframer
+        for k in ("frames_ok", "crc_errors", "cobs_errors", "overruns", "bytes_discarded"):
+            out[k] = int(getattr(d, k))
+        out["length_errors"] += int(d.length_errors)
+        for k in ("frames_tx", "frames_rx", "bytes_tx", "bytes_rx", "error_frames",
+                  "remote_frames", "rx_malformed", "send_failures", "bus_state_changes"):
+            out[k] = int(getattr(e.link.c, k))
+        out["can_unknown_ids"] = int(e.link.c.ext_ids)
+        return out
+
+    def percentile(self, which: str, q: float) -> float:
+        h = self._e.hist_cycle if which == "cycle" else self._e.hist_jitter
+        return float(lib.engine_hist_percentile(ffi.addressof(h), q))
+
+    def hist_max(self, which: str) -> float:
+        h = self._e.hist_cycle if which == "cycle" else self._e.hist_jitter
+        return float(h.max_us)
+
+    def result(self) -> EngineResult:
+        e = self._e
+        return EngineResult(
+            end=int(e.end), end_name=END_NAMES.get(int(e.end), str(int(e.end))),
+            message=ffi.string(e.message).decode(errors="replace"),
+            cycles_done=int(e.cycles_done), counters=self.counters(),
+            fault_code=int(e.fault_code), fault_seq=int(e.fault_seq),
+            fault_detail=int(e.fault_detail), rt_fifo=bool(e.rt_fifo),
+            rt_mlock=bool(e.rt_mlock), rt_pinned=bool(e.rt_pinned),
+            rt_notes=ffi.string(e.rt_notes).decode(errors="replace"))
+
+    @property
+    def cmd_seq(self) -> int:
+        return int(self._e.cmd_seq)
