@@ -24,7 +24,15 @@ cmake:
 native: $(STAMP)
 	$(VPY) tools/build_native.py
 
-build: $(STAMP) cmake native
+# Foxglove's own MCAP and protobuf libraries (Node.js), for the test that parses every recorded
+# channel by Foxglove's rules (tests/test_foxglove.py; pinned in package-lock.json).
+FOXGLOVE_STAMP := tools/foxglove_check/node_modules/.installed
+$(FOXGLOVE_STAMP): tools/foxglove_check/package-lock.json
+	@if command -v npm >/dev/null 2>&1; then \
+	  cd tools/foxglove_check && npm ci --no-audit --no-fund --loglevel=error && touch node_modules/.installed; \
+	else echo "npm not found: tests/test_foxglove.py will skip (install Node.js to run it)"; fi
+
+build: $(STAMP) cmake native $(FOXGLOVE_STAMP)
 
 test-c: cmake
 	ctest --test-dir $(BUILD) --output-on-failure

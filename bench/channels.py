@@ -37,13 +37,15 @@ PACKAGE = "hil"
 MESSAGE_ENCODING = "protobuf"
 
 # wire types and protobuf field types of the layout's type names
-_WIRE = {"F64": 1, "U64": 1, "U32": 5, "I32": 5, "STR": 2}
-_SIZE = {"F64": 8, "U64": 8, "U32": 4, "I32": 4}
-_NUMPY = {"F64": "<f8", "U64": "<u8", "U32": "<u4", "I32": "<i4"}
-_STRUCT = {"F64": "d", "U64": "Q", "U32": "I", "I32": "i"}
-_PB_TYPE = {"F64": 1, "U64": 6, "U32": 7, "I32": 15, "STR": 9}   # FieldDescriptorProto.Type
+_WIRE = {"F64": 1, "CNT": 1, "U32": 5, "I32": 5, "STR": 2}
+_SIZE = {"F64": 8, "CNT": 8, "U32": 4, "I32": 4}
+_NUMPY = {"F64": "<f8", "CNT": "<f8", "U32": "<u4", "I32": "<i4"}
+_STRUCT = {"F64": "d", "CNT": "d", "U32": "I", "I32": "i"}
+# FieldDescriptorProto.Type; CNT (a count) travels as a double: every viewer plots it
+_PB_TYPE = {"F64": 1, "CNT": 1, "U32": 7, "I32": 15, "STR": 9}
 #: value a missing field reads as
-MISSING = {"F64": math.nan, "U64": 0, "U32": 0, "I32": -1, "STR": ""}
+MISSING = {"F64": math.nan, "CNT": 0, "U32": 0, "I32": -1, "STR": ""}
+_FLOAT_TYPES = ("F64", "CNT")
 
 
 def _varint(v: int) -> bytes:
@@ -151,7 +153,7 @@ TELEMETRY_VALUES = LAYOUTS["TELEMETRY"].names
 REFERENCE_VALUES = LAYOUTS["REFERENCE"].names
 FRAMES_VALUES = LAYOUTS["FRAMES"].names
 TIMING_VALUES = LAYOUTS["TIMING"].names
-LINK_STATS_COUNTERS = tuple(n for t, n in LAYOUTS["LINK_STATS"].fields if t == "U64")
+LINK_STATS_COUNTERS = tuple(n for t, n in LAYOUTS["LINK_STATS"].fields if t == "CNT")
 
 
 def kind_of_topic(topic: str) -> str | None:
@@ -184,7 +186,7 @@ def encode_row(kind: str, values) -> bytes:
         args = []
         for (t, _), tag, v in zip(lay.fields, tags, values):
             args.append(tag)
-            args.append(float(v) if t == "F64" else int(v))
+            args.append(float(v) if t in _FLOAT_TYPES else int(v))
         return st.pack(*args)
     out = bytearray()
     for (t, _), tag, v in zip(lay.fields, lay.tags, values):
@@ -193,7 +195,7 @@ def encode_row(kind: str, values) -> bytes:
             data = str(v).encode()
             out += _varint(len(data)) + data
         else:
-            out += struct.pack("<" + _STRUCT[t], float(v) if t == "F64" else int(v))
+            out += struct.pack("<" + _STRUCT[t], float(v) if t in _FLOAT_TYPES else int(v))
     return bytes(out)
 
 

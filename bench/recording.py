@@ -143,7 +143,7 @@ class _TopicBuffer:
                     rec = raw.view(dt).reshape(len(data))
                     want = self.fields or lay.names
                     return {n: rec[n].astype(np.float64 if lay.types[n] == "F64" else np.int64)
-                            for n in want}
+                            for n in want}   # CNT (counts sent as doubles) back to integers
         cls = self._class()
         names = self.fields or tuple(f.name for f in cls.DESCRIPTOR.fields)
         msgs = [cls.FromString(d) for d in data]

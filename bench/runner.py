@@ -141,7 +141,8 @@ class Runner:
     def __init__(self, scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,
                  progress: bool = True, stub_args: tuple[str, ...] = (),
                  allow_slow_link: bool = False, force: bool = False,
-                 realtime: bool | None = None, record: bool = True, cpu: int | None = None):
+                 realtime: bool | None = None, record: bool = True, cpu: int | None = None,
+                 ring_bytes: int | None = None):
         self.scn = scenario
         self.mode = "realtime" if (realtime if realtime is not None else
                                    scenario.mode == "realtime") else "lockstep"
@@ -150,8 +151,15 @@ class Runner:
         self.out_path = Path(out_path) if out_path else default_recording_path(scenario)
         self.force = force
         self.progress = progress
-        self.stub_args = stub_args
+        self.stub_args = tuple(stub_args)
+        if self.mode == "realtime" and (link_spec == "stub" or link_spec.startswith("stub-")):
+            rt = scenario.realtime
+            isr = rt.stub_isr + (f":{rt.stub_phase_us:g}" if rt.stub_phase_us is not None else "")
+            self.stub_args += ("--isr", isr, "--rt-priority", str(rt.stub_priority))
+            if rt.stub_cpu is not None:
+                self.stub_args += ("--cpu", str(rt.stub_cpu))
         self.record = record
+        self.ring_bytes = ring_bytes
         self.cpu = cpu if cpu is not None else scenario.realtime.cpu
         self.profile = load_profile(scenario.profile)
         self.plant = Plant(self.profile, **scenario.plant_overrides)
@@ -216,7 +224,8 @@ class Runner:
                            capture_path=self.out_path.with_suffix(".log"))
         try:
             self._check_budget(opened)
-            rec = ProcessRecorder(self.out_path, force=self.force)
+            rec = ProcessRecorder(self.out_path, force=self.force,
+                                  **({"ring_capacity": self.ring_bytes} if self.ring_bytes else {}))
         except BaseException:
             opened.close()
             raise
@@ -532,6 +541,7 @@ class Runner:
                        jitter_p999_us=e.percentile("jitter", 0.999),
                        jitter_max_us=e.hist_max("jitter"),
                        missed=c["missed_duty"], late=c["late_duty"],
+                       overruns=c["rt_overruns"],
                        miss_rate=c["missed_duty"] / max(e.cycles_done, 1))
         return out
 

@@ -66,6 +66,11 @@ class RealtimeOptions:
     mlock: bool = True                     # mlockall when allowed
     spin_us: float = 30.0                  # spin this long before each deadline
     guard_us: float = 10.0                 # on_arrival: DUTY due by the period end - guard
+    # the C stub as the controller (--link stub): what fires its ISR, its priority and CPU
+    stub_isr: str = "sense"                # "sense" (on SENSE arrival) | "timer" (free-running)
+    stub_phase_us: float | None = None     # timer: first tick after the first SENSE
+    stub_priority: int = 70                # SCHED_FIFO priority asked for the stub (0: none)
+    stub_cpu: int | None = None
 
 
 @dataclass(frozen=True)
@@ -382,7 +387,14 @@ def _realtime_options(f: _Fields) -> RealtimeOptions:
         mlock=f.boolean("mlock", d.mlock),
         spin_us=f.number("spin_us", d.spin_us, min_value=0.0),
         guard_us=f.number("guard_us", d.guard_us, min_value=0.0),
+        stub_isr=f.string("stub_isr", d.stub_isr),
+        stub_phase_us=(f.number("stub_phase_us", min_value=0.0) if "stub_phase_us" in f.table
+                       else None),
+        stub_priority=_integer(f, "stub_priority", d.stub_priority, 0, 99),
+        stub_cpu=_integer(f, "stub_cpu", -1, 0, 1023) if "stub_cpu" in f.table else None,
     )
+    if out.stub_isr not in ("sense", "timer"):
+        raise f.fail("stub_isr", f"must be 'sense' or 'timer', got {out.stub_isr!r}")
     f.reject_unknown()
     return out
 

@@ -209,7 +209,7 @@ typedef struct {
 typedef struct {
     uint64_t seq_mismatch, bad_duties, telem_missing, unknown_ids, heartbeats_rx, length_errors;
     uint64_t duplicates, stale_frames, retries, late_duty, missed_duty, estimator_mismatch;
-    uint64_t rows_dropped;
+    uint64_t rows_dropped, rt_overruns;
 } engine_counters_t;
 typedef struct {
     uint64_t frames_tx, frames_rx, bytes_tx, bytes_rx;

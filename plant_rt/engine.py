@@ -30,7 +30,7 @@ END_DONE, END_STOPPED, END_CONTROLLER_FAULT, END_WATCHDOG = 0, 1, 4, 6
 
 COUNTERS = ("seq_mismatch", "bad_duties", "telem_missing", "unknown_ids", "heartbeats_rx",
             "length_errors", "duplicates", "stale_frames", "retries", "late_duty", "missed_duty",
-            "estimator_mismatch", "rows_dropped")
+            "estimator_mismatch", "rows_dropped", "rt_overruns")
 
 
 def _signal(cfg_sig, msg: str, name: str) -> None:

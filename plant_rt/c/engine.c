@@ -179,12 +179,15 @@ static uint8_t *ring_begin(engine_t *e, size_t max)
         return NULL;
     }
     p = rec_ring_begin(&e->ring, max);
-    if (p != NULL || e->cfg.mode == ENGINE_REALTIME) {
-        if (p == NULL) {
-            rec_ring_count_drop(&e->ring, max);
-            e->n.rows_dropped++;
-        }
+    if (p != NULL) {
+        e->recorder_stalled = 0;
         return p;
+    }
+    if (e->cfg.mode == ENGINE_REALTIME || e->recorder_stalled) {
+        /* real time never waits; nor does lockstep for a recorder that made no room once */
+        rec_ring_count_drop(&e->ring, max);
+        e->n.rows_dropped++;
+        return NULL;
     }
     while (p == NULL) {
         struct timespec ts = {0, 100000L};
@@ -192,6 +195,7 @@ static uint8_t *ring_begin(engine_t *e, size_t max)
         if (give_up == 0) {
             give_up = now + (int64_t)(e->cfg.recorder_stall_s * 1e9);
         } else if (now > give_up) {
+            e->recorder_stalled = 1;
             rec_ring_count_drop(&e->ring, max);
             e->n.rows_dropped++;
             return NULL;
@@ -253,6 +257,7 @@ void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extr
     s.late_duty = e->n.late_duty;
     s.missed_duty = e->n.missed_duty;
     s.estimator_mismatch = e->n.estimator_mismatch;
+    s.rt_overruns = e->n.rt_overruns;
     s.rows_dropped = e->have_ring ? e->ring.hdr->records_dropped : 0u;
     s.error_frames = c->error_frames;
     s.remote_frames = c->remote_frames;
@@ -1149,6 +1154,34 @@ static int run_realtime(engine_t *e)
                         "start %.3f ms late (more than 100 periods); a real-time run cannot "
                         "continue", k, (double)(start - t_k) * 1e-6);
             return e->end;
+        }
+        if (start - t_k >= ts_ns) {
+            /* The bench itself fell a whole period or more behind (descheduled): those periods
+             * are gone. The plant still lives through them, with the held duties and no
+             * exchange with the controller, and the engine rejoins the clock at the next
+             * deadline. Counted as overruns: the bench's timing failure, not the controller's. */
+            long skip = (long)((start - t_k) / ts_ns);
+            long i;
+            char text[160];
+            if (k + skip > cfg->n_cycles) {
+                skip = cfg->n_cycles - k;
+            }
+            for (i = 0; i < skip; ++i) {
+                plant_step_split(e->plant, e->duties, 0.0);
+            }
+            e->n.rt_overruns += (uint64_t)skip;
+            rv.have_prev = rv.have_older = 0;
+            e->prev_had_duty = 0;
+            snprintf(text, sizeof text, "the bench fell %.0f us behind the clock: %ld period(s) "
+                     "integrated with the held duties, no SENSE sent", (double)(start - t_k) * 1e-3,
+                     skip);
+            record_event(e, c.t_s, "overrun", text, (double)skip);
+            k += skip - 1;
+            __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
+            if (!plant_finite(e, &c)) {
+                return e->end;
+            }
+            continue;
         }
         apply_events(e, &next_event, &c);
         if (build_sense(e, &c) != 0) {

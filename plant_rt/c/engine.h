@@ -10,7 +10,8 @@
  * (scenario, handshake, CONFIG), calls engine_run() from a thread of its own and reads the
  * result; nothing on the per-cycle path allocates, calls Python, or makes a system call other
  * than the link's I/O and the clock (and, in lockstep only, a short sleep while the recorder
- * frees room in the ring).
+ * frees room in the ring: at most recorder_stall_s once; a recorder that made no room in that
+ * time is not waited for again until it does, and every row it cannot take is counted).
  *
  * Two timing modes (docs/architecture.md "Timing of one period"):
  *
@@ -28,7 +29,9 @@
  *     NEXT_PERIOD  DUTY(k) acts from the next period boundary t_{k+1} (shadow load).
  *   A DUTY(k) that has not arrived by t_{k+1} - guard_s (on arrival) or t_{k+1} (next period)
  *   is a deadline miss: counted, the last duties held; if it arrives later it is counted late
- *   and discarded. After max_consecutive_misses misses in a row the inverter goes to its safe
+ *   and discarded. If the bench itself falls a whole period or more behind the clock (it was
+ *   descheduled), the lost periods are integrated with the held duties without an exchange and
+ *   counted as overruns (rt_overruns): the bench's timing failure, not the controller's. After max_consecutive_misses misses in a row the inverter goes to its safe
  *   state (all legs off: the diodes conduct), FAULT_PLANT (WATCHDOG) is sent and the run ends.
  *
  * Frame rules, both modes (docs/protocol.md section 6): frames are handled in arrival order, one
@@ -150,6 +153,7 @@ typedef struct {
     uint64_t seq_mismatch, bad_duties, telem_missing, unknown_ids, heartbeats_rx, length_errors;
     uint64_t duplicates, stale_frames, retries, late_duty, missed_duty, estimator_mismatch;
     uint64_t rows_dropped;
+    uint64_t rt_overruns;   /* real time: periods the bench itself lost (it fell behind) */
 } engine_counters_t;
 
 typedef struct {
@@ -190,6 +194,7 @@ typedef struct engine {
     double duties[3];
     int consecutive_bad, consecutive_miss;
     int prev_had_duty;
+    int recorder_stalled;       /* lockstep: the recorder made no room within recorder_stall_s */
     unsigned length_error_said; /* ids (low 2 bits) whose wrong length was said */
     int last_state;
     char tx_text[ENGINE_FRAMES_TEXT];

@@ -39,9 +39,9 @@ static uint8_t *put_F64(uint8_t *p, const uint8_t *end, unsigned field, double v
     return put_le(put_varint(p, end, ((uint64_t)field << 3) | 1u), end, bits, 8u);
 }
 
-static uint8_t *put_U64(uint8_t *p, const uint8_t *end, unsigned field, uint64_t v)
+static uint8_t *put_CNT(uint8_t *p, const uint8_t *end, unsigned field, uint64_t v)
 {
-    return put_le(put_varint(p, end, ((uint64_t)field << 3) | 1u), end, v, 8u);
+    return put_F64(p, end, field, (double)v);
 }
 
 static uint8_t *put_U32(uint8_t *p, const uint8_t *end, unsigned field, uint32_t v)

@@ -14,7 +14,8 @@
  *   F64  double   wire type 1 (8 octets, little-endian)   NaN = not available
  *   U32  fixed32  wire type 5 (4 octets)
  *   I32  sfixed32 wire type 5 (4 octets)                  -1 = not available where stated
- *   U64  fixed64  wire type 1 (8 octets)
+ *   CNT  double   wire type 1: a count (uint64_t in C), sent as a double so that every viewer
+ *                 plots it as a number (exact below 2^53)
  *   STR  string   wire type 2 (varint length + UTF-8 octets)
  * A channel of fixed-width fields only has one byte layout for every message, which is what
  * lets a reader decode a whole chunk of them with one numpy call (bench/recording.py).
@@ -77,21 +78,22 @@
 #define REC_TIMING(X, P)                                                                       \
     X(P, F64, t_s) X(P, U32, seq) X(P, F64, start_err_us) X(P, F64, rtt_us)                    \
     X(P, F64, arrival_us) X(P, F64, cycle_us) X(P, U32, missed)                                \
-    X(P, U32, retries) X(P, U64, late_total) X(P, U64, missed_total)
+    X(P, U32, retries) X(P, CNT, late_total) X(P, CNT, missed_total)
 
 /** /link/stats, hil.LinkStats: cumulative counters of the link, the cycle engine and the
  *  recorder, and wall-clock percentiles of the cycle time (lockstep) / period-start error
  *  (real time) so far. */
 #define REC_LINK_STATS(X, P)                                                                   \
-    X(P, F64, t_s) X(P, U64, cycles) X(P, U64, frames_tx) X(P, U64, frames_rx)                 \
-    X(P, U64, bytes_tx) X(P, U64, bytes_rx) X(P, U64, frames_ok) X(P, U64, crc_errors)         \
-    X(P, U64, cobs_errors) X(P, U64, length_errors) X(P, U64, overruns)                        \
-    X(P, U64, bytes_discarded) X(P, U64, seq_mismatch) X(P, U64, bad_duties)                   \
-    X(P, U64, telem_missing) X(P, U64, unknown_ids) X(P, U64, heartbeats_rx)                   \
-    X(P, U64, duplicates) X(P, U64, stale_frames) X(P, U64, retries) X(P, U64, late_duty)      \
-    X(P, U64, missed_duty) X(P, U64, estimator_mismatch) X(P, U64, rows_dropped)               \
-    X(P, U64, can_unknown_ids) X(P, U64, error_frames) X(P, U64, bus_state_changes)            \
-    X(P, U64, send_failures) X(P, U64, remote_frames) X(P, U64, rx_malformed)                  \
+    X(P, F64, t_s) X(P, CNT, cycles) X(P, CNT, frames_tx) X(P, CNT, frames_rx)                 \
+    X(P, CNT, bytes_tx) X(P, CNT, bytes_rx) X(P, CNT, frames_ok) X(P, CNT, crc_errors)         \
+    X(P, CNT, cobs_errors) X(P, CNT, length_errors) X(P, CNT, overruns)                        \
+    X(P, CNT, bytes_discarded) X(P, CNT, seq_mismatch) X(P, CNT, bad_duties)                   \
+    X(P, CNT, telem_missing) X(P, CNT, unknown_ids) X(P, CNT, heartbeats_rx)                   \
+    X(P, CNT, duplicates) X(P, CNT, stale_frames) X(P, CNT, retries) X(P, CNT, late_duty)      \
+    X(P, CNT, missed_duty) X(P, CNT, estimator_mismatch) X(P, CNT, rows_dropped)               \
+    X(P, CNT, rt_overruns)                                                                     \
+    X(P, CNT, can_unknown_ids) X(P, CNT, error_frames) X(P, CNT, bus_state_changes)            \
+    X(P, CNT, send_failures) X(P, CNT, remote_frames) X(P, CNT, rx_malformed)                  \
     X(P, F64, cycle_wall_p50_us) X(P, F64, cycle_wall_p99_us) X(P, F64, cycle_wall_max_us)     \
     X(P, F64, jitter_p50_us) X(P, F64, jitter_p99_us) X(P, F64, jitter_p999_us)                \
     X(P, F64, jitter_max_us)
@@ -112,7 +114,7 @@
 #define REC_CTYPE_F64 double
 #define REC_CTYPE_U32 uint32_t
 #define REC_CTYPE_I32 int32_t
-#define REC_CTYPE_U64 uint64_t
+#define REC_CTYPE_CNT uint64_t
 #define REC_CTYPE_STR const char *
 
 #define REC_STRUCT_FIELD_(P, T, name) REC_CTYPE_##T name;

@@ -12,6 +12,19 @@
  *                                            socketcand server (python-can "socketcand"), bus hil0
  *   hil_stub --socketcan IFACE               raw SocketCAN socket (can0, vcan0)
  *            [--idle-timeout-s S] [--quiet] [--echo] [--inject KIND@CYCLE]
+ *            [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N]
+ *
+ * --isr chooses what fires the control ISR, as on a DSP drive (docs/protocol.md 6.4):
+ *   sense (default)  the arrival of SENSE (the bench's frame is the ADC-complete interrupt);
+ *                    the lockstep mode, and real time with a drive that runs off the link
+ *   timer            the stub's own PWM timer (timerfd, CLOCK_MONOTONIC) every HELLO period_us,
+ *                    free-running like a drive's ePWM interrupt: each tick runs the ISR on the
+ *                    latest SENSE received; a tick with no new SENSE since the last one runs
+ *                    nothing (the PWM keeps its duties) and is counted (isr_stale). The first
+ *                    tick is PHASE_US (default 20 % of the period) after the first SENSE; then
+ *                    the timer never re-synchronises (a crystal of its own).
+ * --rt-priority N / --cpu N: SCHED_FIFO priority and CPU of the stub (real-time runs); said once
+ * on stderr if not permitted, and the stub carries on.
  *
  * "fd:N" is a descriptor the bench opened and passed on (a pty master, a listening TCP socket).
  *
@@ -24,6 +37,8 @@
  *   bad-duty     one DUTY with an out-of-range raw duty (40000 > 32768), once
  *   unknown-id   a frame with an id outside the DBC (0x7E5) before every TELEM
  *   wrong-dlc    one TELEM with 6 octets instead of 8, once
+ *   slow         every answer 1.5 control periods late (a controller that overruns its ISR:
+ *                in real time its DUTY frames arrive after their period)
  *   bus-off      the controller goes bus-off: reported the way the link can (socketcand
  *                "< error 040 ... >", a SocketCAN error frame, SLCAN status flags) and silent after
  * --echo sends every received frame straight back instead of running the controller (a loopback
@@ -32,13 +47,15 @@
  * Exits 0 when the host closes the link (EOF/HUP), on SIGINT/SIGTERM, or after the idle timeout;
  * prints link and session counters to stderr.
  */
-#define _DEFAULT_SOURCE
+#define _GNU_SOURCE
 #include <errno.h>
 #include <poll.h>
+#include <sched.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/timerfd.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -58,12 +75,23 @@ typedef enum {
     INJECT_BAD_DUTY,
     INJECT_UNKNOWN_ID,
     INJECT_WRONG_DLC,
-    INJECT_BUS_OFF
+    INJECT_BUS_OFF,
+    INJECT_SLOW
 } inject_t;
+
+typedef struct {
+    int timer;             /* 1: ISR on the stub's own timer, 0: on SENSE arrival */
+    double phase_us;       /* first tick after the first SENSE (< 0: 20 % of the period) */
+    int fd;                /* timerfd (-1 until the first SENSE) */
+    int have_sense;        /* a SENSE arrived since the last tick */
+    hil_frame_t sense;     /* the latest SENSE */
+    unsigned long ticks, stale;
+} isr_timer_t;
 
 typedef struct {
     transport_t *link;
     hil_session_t session;
+    isr_timer_t isr;
     inject_t inject;
     unsigned long inject_cycle;
     int active;    /* the injection applies to the frame being handled */
@@ -119,6 +147,39 @@ static void port_send(void *ctx, uint16_t id, const hil_octet_t *data, uint16_t 
     a->link->ops->queue(a->link, id, data, dlc);
 }
 
+/** Arm the ISR timer: first tick phase after now (the first SENSE), then every period. */
+static void isr_timer_start(app_t *a)
+{
+    struct itimerspec its;
+    struct timespec now;
+    const double period_s = (double)a->session.ctrl.cfg.ts_s;
+    double phase_s = a->isr.phase_us >= 0.0 ? a->isr.phase_us * 1e-6 : 0.2 * period_s;
+    long long first_ns, period_ns = (long long)(period_s * 1e9 + 0.5);
+    if (period_ns <= 0) {
+        return;
+    }
+    a->isr.fd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+    if (a->isr.fd < 0) {
+        fprintf(stderr, "hil_stub: timerfd_create failed (%s): ISR stays on SENSE arrival\n",
+                strerror(errno));
+        a->isr.timer = 0;
+        return;
+    }
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    first_ns = (long long)now.tv_sec * 1000000000LL + now.tv_nsec + (long long)(phase_s * 1e9);
+    its.it_value.tv_sec = (time_t)(first_ns / 1000000000LL);
+    its.it_value.tv_nsec = (long)(first_ns % 1000000000LL);
+    its.it_interval.tv_sec = (time_t)(period_ns / 1000000000LL);
+    its.it_interval.tv_nsec = (long)(period_ns % 1000000000LL);
+    if (timerfd_settime(a->isr.fd, TFD_TIMER_ABSTIME, &its, NULL) != 0) {
+        fprintf(stderr, "hil_stub: timerfd_settime failed (%s): ISR stays on SENSE arrival\n",
+                strerror(errno));
+        close(a->isr.fd);
+        a->isr.fd = -1;
+        a->isr.timer = 0;
+    }
+}
+
 static void on_frame(void *user, const hil_frame_t *frame)
 {
     app_t *a = (app_t *)user;
@@ -144,6 +205,13 @@ static void on_frame(void *user, const hil_frame_t *frame)
     if (a->active && a->inject == INJECT_SILENT) {
         return;
     }
+    if (a->active && a->inject == INJECT_SLOW && frame->id == HIL_SENSE_FRAME_ID) {
+        const double delay_s = 1.5 * (double)a->session.ctrl.cfg.ts_s;
+        struct timespec ts;
+        ts.tv_sec = (time_t)delay_s;
+        ts.tv_nsec = (long)((delay_s - (double)ts.tv_sec) * 1e9);
+        nanosleep(&ts, NULL);
+    }
     if (a->active && a->inject == INJECT_GARBAGE) {
         if (a->link->ops->noise != NULL) {
             a->link->ops->noise(a->link);
@@ -151,7 +219,40 @@ static void on_frame(void *user, const hil_frame_t *frame)
             queue_unknown_id(a);
         }
     }
+    if (a->isr.timer && frame->id == HIL_SENSE_FRAME_ID && a->session.hello_done) {
+        /* free-running ISR: SENSE is the latest "ADC" reading; the timer runs the ISR */
+        a->isr.sense = *frame;
+        a->isr.have_sense = 1;
+        if (a->isr.fd < 0) {
+            isr_timer_start(a);
+        }
+        a->active = 0;
+        return;
+    }
     hil_session_on_frame(&a->session, frame);
+    a->active = 0;
+}
+
+/** One tick of the free-running ISR: run it on the latest SENSE, or count a stale tick. */
+static void isr_tick(app_t *a)
+{
+    uint64_t expirations = 0u;
+    if (read(a->isr.fd, &expirations, sizeof expirations) != (ssize_t)sizeof expirations) {
+        return;
+    }
+    a->isr.ticks += expirations;
+    if (!a->isr.have_sense) {
+        a->isr.stale += expirations;
+        return;
+    }
+    a->isr.stale += expirations - 1u; /* ticks the stub slept through */
+    a->isr.have_sense = 0;
+    a->active = a->inject != INJECT_NONE && a->session.stats.cycles >= a->inject_cycle;
+    if (a->active && (a->inject == INJECT_SILENT)) {
+        a->active = 0;
+        return;
+    }
+    hil_session_on_frame(&a->session, &a->isr.sense);
     a->active = 0;
 }
 
@@ -161,7 +262,8 @@ static void usage(void)
             "usage: hil_stub (--port PATH [--baud N] | --slcan PATH|fd:N [--baud N] | "
             "--socketcand [HOST:]PORT|fd:N [--bus NAME] | --socketcan IFACE)\n"
             "                [--idle-timeout-s S] [--quiet] [--echo]\n"
-            "                [--inject silent|crash|garbage|bad-duty|unknown-id|wrong-dlc|bus-off@CYCLE]\n");
+            "                [--inject silent|crash|garbage|bad-duty|unknown-id|wrong-dlc|bus-off|slow@CYCLE]\n"
+            "                [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N]\n");
 }
 
 static int parse_inject(const char *arg, inject_t *kind, unsigned long *cycle)
@@ -172,7 +274,7 @@ static int parse_inject(const char *arg, inject_t *kind, unsigned long *cycle)
     } kinds[] = {{"silent", INJECT_SILENT},       {"crash", INJECT_CRASH},
                  {"garbage", INJECT_GARBAGE},     {"bad-duty", INJECT_BAD_DUTY},
                  {"unknown-id", INJECT_UNKNOWN_ID}, {"wrong-dlc", INJECT_WRONG_DLC},
-                 {"bus-off", INJECT_BUS_OFF}};
+                 {"bus-off", INJECT_BUS_OFF},     {"slow", INJECT_SLOW}};
     const char *at = strchr(arg, '@');
     char *end = NULL;
     size_t n, i;
@@ -209,8 +311,11 @@ int main(int argc, char **argv)
     int was_open = 0;
     const char *exit_reason = "host closed the link";
     transport_t *t;
+    int rt_priority = 0, rt_cpu = -1;
 
     app.inject = INJECT_NONE;
+    app.isr.fd = -1;
+    app.isr.phase_us = -1.0;
     for (i = 1; i < argc; ++i) {
         if (strcmp(argv[i], "--port") == 0 && i + 1 < argc) {
             port_path = argv[++i];
@@ -232,6 +337,28 @@ int main(int argc, char **argv)
             idle_timeout_s = strtod(argv[++i], NULL);
         } else if (strcmp(argv[i], "--quiet") == 0) {
             quiet = 1;
+        } else if (strcmp(argv[i], "--isr") == 0 && i + 1 < argc) {
+            const char *v = argv[++i];
+            if (strcmp(v, "sense") == 0) {
+                app.isr.timer = 0;
+            } else if (strncmp(v, "timer", 5) == 0 && (v[5] == '\0' || v[5] == ':')) {
+                app.isr.timer = 1;
+                if (v[5] == ':') {
+                    char *end = NULL;
+                    app.isr.phase_us = strtod(v + 6, &end);
+                    if (end == v + 6 || *end != '\0' || !(app.isr.phase_us >= 0.0)) {
+                        fprintf(stderr, "hil_stub: bad --isr '%s'\n", v);
+                        return 2;
+                    }
+                }
+            } else {
+                fprintf(stderr, "hil_stub: bad --isr '%s' (sense or timer[:PHASE_US])\n", v);
+                return 2;
+            }
+        } else if (strcmp(argv[i], "--rt-priority") == 0 && i + 1 < argc) {
+            rt_priority = (int)strtol(argv[++i], NULL, 10);
+        } else if (strcmp(argv[i], "--cpu") == 0 && i + 1 < argc) {
+            rt_cpu = (int)strtol(argv[++i], NULL, 10);
         } else if (strcmp(argv[i], "--echo") == 0) {
             app.echo = 1;
         } else if (strcmp(argv[i], "--inject") == 0 && i + 1 < argc) {
@@ -255,6 +382,24 @@ int main(int argc, char **argv)
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     signal(SIGPIPE, SIG_IGN);
+    if (rt_cpu >= 0) {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        CPU_SET((size_t)rt_cpu, &set);
+        if (sched_setaffinity(0, sizeof set, &set) != 0) {
+            fprintf(stderr, "hil_stub: cannot pin to CPU %d (%s); running unpinned\n", rt_cpu,
+                    strerror(errno));
+        }
+    }
+    if (rt_priority > 0) {
+        struct sched_param sp;
+        memset(&sp, 0, sizeof sp);
+        sp.sched_priority = rt_priority;
+        if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0) {
+            fprintf(stderr, "hil_stub: SCHED_FIFO %d not permitted (%s); running as a normal "
+                    "process\n", rt_priority, strerror(errno));
+        }
+    }
 
     err[0] = '\0';
     if (port_path != NULL) {
@@ -280,14 +425,32 @@ int main(int argc, char **argv)
     }
 
     while (!g_stop) {
+        struct pollfd pf[2];
         struct pollfd p;
         int pr;
+        nfds_t nfds = 1u;
         long long now;
-        p.fd = t->fd;
-        p.events = POLLIN;
-        p.revents = 0;
-        pr = poll(&p, 1, HEARTBEAT_PERIOD_MS);
+        pf[0].fd = t->fd;
+        pf[0].events = POLLIN;
+        pf[0].revents = 0;
+        if (app.isr.fd >= 0) {
+            pf[1].fd = app.isr.fd;
+            pf[1].events = POLLIN;
+            pf[1].revents = 0;
+            nfds = 2u;
+        }
+        pr = poll(pf, nfds, HEARTBEAT_PERIOD_MS);
+        p = pf[0];
         now = now_ms();
+        if (pr > 0 && nfds == 2u && (pf[1].revents & POLLIN)) {
+            isr_tick(&app);
+            if (transport_flush(t) != 0) {
+                exit_reason = t->error;
+                rc = (t->write_errno == EIO || t->write_errno == EPIPE ||
+                      t->write_errno == ECONNRESET) ? 0 : 1;
+                break;
+            }
+        }
         if (pr < 0) {
             if (errno == EINTR) {
                 continue;
@@ -344,14 +507,18 @@ int main(int argc, char **argv)
     if (!quiet) {
         fprintf(stderr,
                 "hil_stub: exit (%s): cycles=%lu unknown_ids=%lu length_errors=%lu seq_errors=%lu "
-                "config_rejected=%lu tx_overflows=%lu echoed=%lu; %s: ",
+                "config_rejected=%lu tx_overflows=%lu echoed=%lu isr_ticks=%lu isr_stale=%lu; %s: ",
                 exit_reason, (unsigned long)app.session.stats.cycles,
                 (unsigned long)app.session.stats.unknown_ids,
                 (unsigned long)app.session.stats.length_errors,
                 (unsigned long)app.session.stats.seq_errors,
-                (unsigned long)app.session.stats.config_rejected, t->tx_overflows, app.echoed, t->kind);
+                (unsigned long)app.session.stats.config_rejected, t->tx_overflows, app.echoed,
+                app.isr.ticks, app.isr.stale, t->kind);
         t->ops->print_stats(t, stderr);
         fputc('\n', stderr);
+    }
+    if (app.isr.fd >= 0) {
+        close(app.isr.fd);
     }
     t->ops->close(t);
     return rc;
