@@ -35,7 +35,8 @@ CHUNK_SIZE_BYTES = 256 * 1024
 PROFILE = "hil-bench"
 RING_CAPACITY_BYTES = 64 * 1024 * 1024   #: ~9 s of a 10 kHz G2 run at ~700 octets per cycle
 READ_BATCH_BYTES = 4 * 1024 * 1024
-CLOSE_TIMEOUT_S = 30.0
+STALL_TIMEOUT_S = 5.0     #: a recorder that drains nothing for this long while closing is stalled
+FINISH_TIMEOUT_S = 60.0   #: ... and with the ring empty, to write the file's summary
 _REC_HEADER = struct.Struct("<IHHq")
 
 
@@ -273,8 +274,8 @@ class ProcessRecorder:
             raise ValueError(f"no channel kind for topic {topic!r}")
         # synchronous: records of this channel may follow at once, and the recorder must know
         # the channel before it drains them
-        self._conn.send(("channel", topic, chans.LAYOUTS[kind].schema_name))
-        if not self._conn.poll(10.0):
+        if not self._send(("channel", topic, chans.LAYOUTS[kind].schema_name)) \
+                or not self._conn.poll(10.0):
             raise RecorderError(f"recorder process for {self.path} does not answer")
         reply = self._conn.recv()
         if reply[0] != "channel_ok" or reply[1] != len(self.channels):
@@ -292,11 +293,20 @@ class ProcessRecorder:
                 return   # counted as a drop in the ring header
             time.sleep(0.001)
 
+    def _send(self, msg) -> bool:
+        """A control message; False if the recorder is gone (its death is reported by the
+        bench's watch and by close(), which name the cause)."""
+        try:
+            self._conn.send(msg)
+            return True
+        except (BrokenPipeError, OSError):
+            return False
+
     def metadata(self, name: str, data: dict[str, str]) -> None:
-        self._conn.send(("metadata", name, {k: str(v) for k, v in data.items()}))
+        self._send(("metadata", name, {k: str(v) for k, v in data.items()}))
 
     def attachment(self, name: str, media_type: str, data: bytes) -> None:
-        self._conn.send(("attachment", name, media_type, data))
+        self._send(("attachment", name, media_type, data))
 
     @property
     def dropped(self) -> int:
@@ -311,15 +321,21 @@ class ProcessRecorder:
         reply = None
         try:
             self._conn.send(("close",))
-            # the recorder drains what is left: allow for it (the ring holds at most ~64 MB)
-            deadline = time.monotonic() + CLOSE_TIMEOUT_S
-            while reply is None and time.monotonic() < deadline:
+            # the recorder drains what is left; it is stalled only if it makes no progress
+            pending = lib.rec_ring_pending(self.ring)
+            last_progress = time.monotonic()
+            while reply is None and time.monotonic() - last_progress < (
+                    STALL_TIMEOUT_S if pending > 0 else FINISH_TIMEOUT_S):
                 if self._conn.poll(0.2):
                     msg = self._conn.recv()
                     if msg[0] == "closed":
                         reply = msg
                 elif not self._proc.is_alive():
                     break
+                now_pending = lib.rec_ring_pending(self.ring)
+                if now_pending < pending:
+                    pending = now_pending
+                    last_progress = time.monotonic()
         except (BrokenPipeError, EOFError, OSError):
             pass
         finally:
@@ -328,9 +344,9 @@ class ProcessRecorder:
             if self._proc.is_alive():
                 self._proc.kill()
                 self._proc.join(5.0)
-                self.error = (f"recorder process (pid {self._proc.pid}) did not finish "
-                              f"{self.path} within {CLOSE_TIMEOUT_S:g} s (stalled); it was "
-                              f"killed; the complete chunks are in {partial_path(self.path)} "
+                self.error = (f"recorder process (pid {self._proc.pid}) stalled: nothing "
+                              f"written for {STALL_TIMEOUT_S:g} s while finishing {self.path}; it "
+                              f"was killed; the complete chunks are in {partial_path(self.path)} "
                               f"(bench recover)")
             else:
                 self._proc.join(5.0)

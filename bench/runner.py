@@ -56,6 +56,7 @@ class RunResult:
     error: str | None = None
     interrupted: bool = False
     wall_s: float = 0.0
+    engine_s: float = 0.0          # wall time of the engine alone (first to last cycle)
     mode: str = "lockstep"
     end: str = ""
     link_stats: dict = field(default_factory=dict)
@@ -113,13 +114,13 @@ def git_revision() -> str:
         return "unknown"
 
 
-_SAFE_NAME = re.compile(r"[^A-Za-z0-9_.+-]")
+_UNSAFE_RUN = re.compile(r"[^A-Za-z0-9_+-]+")
 
 
 def default_recording_path(scenario: Scenario) -> Path:
     """recordings/<name>-<stamp>.mcap; the name cannot leave the recordings folder."""
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    name = _SAFE_NAME.sub("_", scenario.name).lstrip(".") or "run"
+    name = _UNSAFE_RUN.sub("_", scenario.name).strip("_") or "run"
     return RECORDINGS_DIR / f"{name}-{stamp}.mcap"
 
 
@@ -220,8 +221,8 @@ class Runner:
         check_target(self.out_path, self.force)      # before any process or device is touched
         result = RunResult(scn.name, self.out_path, 0, self.n_cycles, mode=self.mode)
         t0 = time.monotonic()
-        opened = open_link(self.link_spec, self.stub_args,
-                           capture_path=self.out_path.with_suffix(".log"))
+        opened = self.opened = open_link(self.link_spec, self.stub_args,
+                                         capture_path=self.out_path.with_suffix(".log"))
         try:
             self._check_budget(opened)
             rec = ProcessRecorder(self.out_path, force=self.force,
@@ -440,6 +441,7 @@ class Runner:
         """Start the engine and watch it: progress, Ctrl-C, a recorder that dies."""
         progress = _Progress(self.n_cycles, self.scn.name) if self.progress else None
         self.engine = e
+        t_start = time.perf_counter()
         e.start()
         try:
             while e.running():
@@ -460,6 +462,7 @@ class Runner:
         finally:
             if progress is not None:
                 progress.close(e.cycles_done)
+        result.engine_s = time.perf_counter() - t_start
         r = e.result()
         result.cycles_done = r.cycles_done
         result.end = r.end_name

@@ -1,30 +1,37 @@
-"""Benchmark: lockstep cycles per second over the pty beside the raw pty round trip, and over CAN.
+"""Benchmark of the cycle engine: lockstep against the pty's own round trip, real time, recorder.
 
-    python -m bench.perf.loop [--cycles 20000] [--repeat 3] [--no-can]
+    python -m bench.perf.loop [--quick] [--no-can] [--engine-cpu N] [--stub-cpu N]
+    python -m bench.perf.loop --soak 10          # 10-minute lockstep run: memory of every process
 
-Measured in one run, on one machine, so the ratio is what to compare:
+Everything is measured in one run on one machine, and compared as ratios:
 
-1. ``pty_pingpong``: two C processes exchange one cycle's worth of bytes each way over a pty
-   (the floor under any lockstep cycle on this machine);
-2. the bench's lockstep loop against the C firmware stub, recording to MCAP (what `bench run`
-   does);
-3. the same loop with the recorder writing to /dev/null's equivalent (its cost isolated);
-4. the CAN paths (unless ``--no-can``): the same loop, recording, with the stub behind python-can's
-   slcan interface (SLCAN on a pty) and its socketcand interface (loopback TCP), and over the serial
-   pty on the same scenario for the ratio. The 10 kHz scenario of 2. does not fit classic CAN at
-   1 Mbit/s, so these runs use the period the bus fits (budget.can_fit_period_us: 600 us, TELEM_EMF
-   off, as bench/scenarios/gong_g2_500rpm_can.toml); the work per cycle is the same.
+1. ``pty_ceiling_per_s``: two C processes exchange one cycle's bytes over a pty (30 octets up:
+   SENSE_AUX + SENSE; 45 down: TELEM + TELEM_EMF + DUTY) -- the floor under any lockstep cycle;
+2. lockstep on the engine against the C stub, G2 scenario (10 kHz, one reference estimator),
+   recording on (``lockstep_recorded_per_s``) and off (``lockstep_unrecorded_per_s``); the rate
+   is cycles over the engine's own wall time (set-up excluded);
+3. real time at 5, 10 and 20 kHz against the stub (its ISR on SENSE arrival), G2 scenario,
+   recording on: the period start error (jitter) percentiles and the deadline-miss rate;
+4. ``recorder_msgs_per_s``: how fast the recorder process turns ring records into MCAP messages
+   (G2 rows, alone on the machine's second core);
+5. the CAN paths (unless --no-can): lockstep over python-can's slcan and socketcand interfaces
+   through the engine's bridge, at the period classic CAN carries (600 us).
 
-Prints JSON lines and a table. Figures in docs/performance.md come from this script.
+``--quick`` keeps the whole run under a minute (real-time runs of 3 s); the full run uses 60 s
+real-time runs. The last line printed is one JSON object with every figure. The figures in
+docs/performance.md come from this script, with the date, the machine and the command.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import platform
 import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -32,131 +39,210 @@ from protocol import budget
 from protocol.messages import HelloFlag
 
 REPO = Path(__file__).resolve().parents[2]
-SCENARIO = """
+
+G2 = """
 [scenario]
 name = "perf_loop"
 profile = "gong2020"
 duration_s = {duration}
+mode = "{mode}"
+[plant]
+initial_theta_e_rad = 0.4
+{plant}
 [controller]
 estimator = "SMO_SIGN"
 speed_ref_rpm = 500
+[controller.params]
+IQ_MAX_A = 6.0
+ALIGN_I_A = 3.0
+ALIGN_TIME_S = 0.2
+IF_I_A = 3.0
+IF_ACCEL_RAD_S2 = 60.0
+HANDOVER_SPEED_RAD_S = 20.0
+SMO_K_V = 25.0
+SMO_WC_RAD_S = 300.0
+[reference]
+estimators = ["SMO_SIGN"]
+[reference.SMO_SIGN]
+k_v = 25.0
+wc_rad_s = 300.0
+[realtime]
+max_consecutive_misses = 1000000
+{realtime}
 [metrics]
 window_s = [0.0, {duration}]
 """
 
 #: the CAN runs: the period classic CAN at 1 Mbit/s carries, 4 frames per cycle (no TELEM_EMF)
 CAN_TS_S = budget.can_fit_period_us(1_000_000, 0) * 1e-6
-CAN_LINKS = ("stub", "stub-slcan", "stub-socketcand")
-SCENARIO_CAN = """
-[scenario]
-name = "perf_loop_can"
-profile = "gong2020"
-duration_s = {duration}
-[plant]
-ts_s = {ts_s!r}
-[controller]
-estimator = "SMO_SIGN"
-speed_ref_rpm = 500
-telemetry_emf = false
-[metrics]
-window_s = [0.0, {duration}]
-"""
+CAN_LINKS = ("stub-slcan", "stub-socketcand")
 
 
-def pty_round_trips(iterations: int, nbytes: int) -> dict:
+def scenario(duration_s: float, mode: str = "lockstep", rate_hz: float = 10000.0,
+             realtime: str = "", telemetry_emf: bool = True):
+    from bench.scenario import parse_scenario
+
+    plant = "" if rate_hz == 10000.0 else f"ts_s = {1.0 / rate_hz!r}"
+    text = G2.format(duration=duration_s, mode=mode, plant=plant, realtime=realtime)
+    if not telemetry_emf:
+        text = text.replace('speed_ref_rpm = 500', 'speed_ref_rpm = 500\ntelemetry_emf = false')
+    return parse_scenario(text, Path("perf_loop.toml"))
+
+
+def pty_ceiling(iterations: int) -> dict:
     exe = REPO / "build" / "bin" / "pty_pingpong"
     if not exe.exists():
         sys.exit(f"{exe} not found: run `make build`")
-    out = subprocess.run([str(exe), str(iterations), str(nbytes)], capture_output=True, text=True,
-                         check=True).stdout
+    up = budget.serial_frame_bytes(8) * 2                        # SENSE_AUX + SENSE
+    down = budget.serial_frame_bytes(8) * 3                      # TELEM + TELEM_EMF + DUTY
+    out = subprocess.run([str(exe), str(iterations), str(up), str(down)], capture_output=True,
+                         text=True, check=True).stdout
     return json.loads(out)
 
 
-def lockstep(cycles: int, record: bool, link: str | None = None) -> dict:
-    """One lockstep run; ``link`` None: the 10 kHz scenario on the pty; else the CAN-rate scenario on
-    that link spec."""
-    from bench import runner as runner_mod
+def run(scn, *, link: str = "stub", record: bool = True, cpu: int | None = None,
+        stub_args: tuple[str, ...] = (), watch=None) -> dict:
     from bench.runner import Runner
-    from bench.scenario import parse_scenario
 
-    if link is None:
-        scn = parse_scenario(SCENARIO.format(duration=cycles * 1e-4), Path("perf_loop.toml"))
-    else:
-        scn = parse_scenario(SCENARIO_CAN.format(duration=cycles * CAN_TS_S, ts_s=CAN_TS_S),
-                             Path("perf_loop_can.toml"))
     with tempfile.TemporaryDirectory() as tmp:
-        original = runner_mod.ProcessRecorder
-        if not record:
-            runner_mod.ProcessRecorder = _NullRecorder
-        try:
-            r = Runner(scn, link_spec=link or "stub", out_path=Path(tmp) / "perf.mcap",
-                               progress=False)
-            t0 = time.perf_counter()
-            result = r.run()
-            wall = time.perf_counter() - t0
-        finally:
-            runner_mod.ProcessRecorder = original
-    if result.error:
-        sys.exit(f"lockstep run over {link or 'stub'} failed: {result.error}")
-    loop_s = r.cycle_wall_ns.sum() / 1e9
-    return {"cycles": result.cycles_done, "record": record, "link": link or "stub",
-            "cycles_per_s": result.cycles_done / loop_s,
-            "p50_us": result.link_stats["cycle_wall_p50_us"],
-            "p99_us": result.link_stats["cycle_wall_p99_us"],
-            "max_us": result.link_stats["cycle_wall_max_us"], "wall_s_incl_setup": wall}
+        r = Runner(scn, link_spec=link, out_path=Path(tmp) / "perf.mcap", progress=False,
+                   record=record, cpu=cpu, stub_args=stub_args)
+        if watch is not None:
+            th = threading.Thread(target=watch, args=(r,), daemon=True)
+            th.start()
+        result = r.run()
+        size = result.recording.stat().st_size if result.recording.exists() else 0
+    if result.error and scn.mode != "realtime":
+        sys.exit(f"{scn.mode} run over {link} failed: {result.error}")
+    out = {"cycles": result.cycles_done, "engine_s": result.engine_s, "error": result.error,
+           "cycles_per_s": result.cycles_done / result.engine_s, "record": record,
+           "link": link, "mode": result.mode, "file_bytes": size,
+           "rows_dropped": result.link_stats.get("rows_dropped", 0),
+           "realtime_notes": result.realtime_notes}
+    out.update(result.timing)
+    return out
 
 
-class _NullChannel:
-    def write(self, t_s, message):
+def recorder_rate(messages: int) -> dict:
+    """Messages per second the recorder process writes: G2 rows pushed into the ring as fast as
+    Python can, while the recorder drains them; time until the file is finalised."""
+    from bench import channels as ch
+    from bench.recorder import ProcessRecorder
+
+    rows = {
+        "PLANT_STATE": ch.encode_row("PLANT_STATE", [0.1234] * len(ch.PLANT_STATE_VALUES)),
+        "SENSE": ch.encode_row("SENSE", (0.1, 7, 1.1, -0.5, -0.6, 310.0, float("nan"))),
+        "TELEMETRY": ch.encode_row("TELEMETRY", (0.1, 7, 1.2, 200.0, 500.0, 3, 1, 1.0, 2.0, 0.5,
+                                                 0.5, 0.4, 0.6, 0.01)),
+        "TIMING": ch.encode_row("TIMING", (0.1, 7, float("nan"), 20.0, float("nan"), 30.0, 0, 0,
+                                           0, 0)),
+        "REFERENCE": ch.encode_row("REFERENCE", (0.1, 7, 1.2, 200.0, 500.0, 1.0, 2.0, 0.01)),
+        "FRAMES": ch.encode_row("FRAMES", (0.1, 7, "101#07009479000000 100#0700E803A2FEA2FE",
+                                           "181#0700A312F1FF0300 182#0700E8030A000A00 "
+                                           "180#07000040004000C0")),
+    }
+    from plant_rt._plant_c import lib
+
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = ProcessRecorder(Path(tmp) / "rate.mcap", ring_capacity=256 << 20)
+        chans = {k: rec.channel(t) for k, t in (("PLANT_STATE", ch.PLANT_STATE),
+                                               ("SENSE", ch.PLANT_SENSE),
+                                               ("TELEMETRY", ch.CONTROLLER_TELEMETRY),
+                                               ("TIMING", ch.TIMING),
+                                               ("REFERENCE", ch.REFERENCE_PREFIX + "X"),
+                                               ("FRAMES", ch.LINK_FRAMES))}
+        order = [(chans[k].index, rows[k]) for k in chans]
+        t0 = time.perf_counter()
+        n = 0
+        ring = rec.ring
+        while n < messages:
+            for index, data in order:
+                while lib.rec_ring_write(ring, index, n * 100000, data, len(data)) != 0:
+                    time.sleep(0.0005)
+                n += 1
+        rec.close()
+        wall = time.perf_counter() - t0
+        written = rec.messages
+    return {"messages": written, "wall_s": wall, "msgs_per_s": written / wall}
+
+
+def rss_kb(pid: int) -> int:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    except OSError:
         pass
-
-    def write_values(self, t_s, values):
-        pass
+    return -1
 
 
-class _NullRecorder:
-    """Stands in for the MCAP recorder to isolate its cost (benchmark only)."""
+def soak(minutes: float) -> int:
+    """Lockstep for ``minutes`` of wall time; resident memory of every process at start and end."""
+    samples: list[tuple[float, dict]] = []
+    stop = threading.Event()
+    # size the run so that it takes about `minutes` at the quick lockstep rate measured first
+    probe = run(scenario(0.5))
+    cycles = int(probe["cycles_per_s"] * minutes * 60.0)
+    scn = scenario(cycles * 1e-4)
 
-    def __init__(self, path):
-        self.path = path
+    def watch(r):
+        while not stop.is_set() and (getattr(r, "engine", None) is None
+                                     or r.engine.cycles_done < 1000):
+            time.sleep(0.05)
+        t0 = time.monotonic()
+        while not stop.is_set() and r.engine.running():
+            pids = {"bench": os.getpid(), "recorder": r.rec.pid, "stub": r.opened.stub.proc.pid}
+            samples.append((time.monotonic() - t0, {k: rss_kb(p) for k, p in pids.items()}))
+            stop.wait(5.0)
 
-    def channel(self, topic, schema, fields=None):
-        return _NullChannel()
-
-    def metadata(self, name, data):
-        pass
-
-    def attachment(self, name, media_type, data):
-        pass
-
-    def close(self):
-        pass
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        pass
+    result = run(scn, watch=watch)
+    stop.set()
+    first, last = samples[1][1], samples[-1][1]
+    print(f"soak: {result['cycles']} lockstep cycles in {result['engine_s'] / 60:.1f} min "
+          f"({result['cycles_per_s']:.0f}/s), recording {result['file_bytes'] / 1e6:.0f} MB, "
+          f"rows dropped {result['rows_dropped']}")
+    print(f"{'process':10s} {'RSS start kB':>13s} {'RSS end kB':>11s} {'change':>8s}")
+    out = {"soak_minutes": result["engine_s"] / 60, "soak_cycles": result["cycles"]}
+    for k in first:
+        change = (last[k] - first[k]) / first[k]
+        print(f"{k:10s} {first[k]:13d} {last[k]:11d} {change:+8.1%}")
+        out[f"rss_{k}_start_kb"] = first[k]
+        out[f"rss_{k}_end_kb"] = last[k]
+        out[f"rss_{k}_change"] = change
+    print(json.dumps(out))
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--cycles", type=int, default=20000)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--quick", action="store_true", help="the whole run under a minute")
     ap.add_argument("--no-can", action="store_true", help="skip the CAN paths")
+    ap.add_argument("--engine-cpu", type=int, default=None, help="real time: engine thread's CPU")
+    ap.add_argument("--stub-cpu", type=int, default=None, help="real time: the stub's CPU")
+    ap.add_argument("--soak", type=float, default=None, metavar="MINUTES",
+                    help="only the lockstep soak: memory of every process at start and end")
     args = ap.parse_args(argv)
-    flags = int(HelloFlag.TELEM_EMF)
-    per_cycle = budget.serial_bytes_per_cycle(flags)
-    nbytes = per_cycle // 2
-    rows = {"pty": [], "lockstep_recorded": [], "lockstep_unrecorded": []}
-    can_links = () if args.no_can else CAN_LINKS
-    rows.update({f"can_{spec}": [] for spec in can_links})
-    for _ in range(args.repeat):
-        rows["pty"].append(pty_round_trips(args.cycles, nbytes))
-        rows["lockstep_recorded"].append(lockstep(args.cycles, record=True))
-        rows["lockstep_unrecorded"].append(lockstep(args.cycles, record=False))
-        for spec in can_links:
-            rows[f"can_{spec}"].append(lockstep(args.cycles, record=True, link=spec))
+    if args.soak is not None:
+        return soak(args.soak)
+    quick = args.quick
+    cycles = 20000 if quick else 50000
+    repeat = 1 if quick else 3
+    rt_s = 3.0 if quick else 60.0
+    rows: dict[str, list[dict]] = {"pty": [], "lockstep_recorded": [], "lockstep_unrecorded": []}
+    for _ in range(repeat):
+        rows["pty"].append(pty_ceiling(cycles))
+        rows["lockstep_recorded"].append(run(scenario(cycles * 1e-4)))
+        rows["lockstep_unrecorded"].append(run(scenario(cycles * 1e-4), record=False))
+    rt_extra = "" if args.stub_cpu is None else f"stub_cpu = {args.stub_cpu}"
+    for rate in (5000, 10000, 20000):
+        rows[f"rt_{rate // 1000}khz"] = [run(scenario(rt_s, "realtime", rate, rt_extra),
+                                             cpu=args.engine_cpu)]
+    rows["recorder"] = [recorder_rate(200_000 if quick else 1_000_000)]
+    if not args.no_can:
+        for spec in ("stub",) + CAN_LINKS:
+            scn = scenario(cycles * (0.1 if quick else 0.25) * CAN_TS_S,
+                           rate_hz=1.0 / CAN_TS_S, telemetry_emf=False)
+            rows[f"can_{spec}"] = [run(scn, link=spec)]
     for name, rs in rows.items():
         for r in rs:
             print(json.dumps({"case": name, **r}))
@@ -164,31 +250,61 @@ def main(argv: list[str] | None = None) -> int:
     def med(name: str, key: str) -> float:
         return statistics.median(r[key] for r in rows[name])
 
-    pty_rate = med("pty", "round_trips_per_s")
+    ceiling = med("pty", "round_trips_per_s")
+    rec_rate = med("lockstep_recorded", "cycles_per_s")
+    unrec_rate = med("lockstep_unrecorded", "cycles_per_s")
     print()
-    print(f"{'case':34s} {'per s (median)':>15s} {'p50 us':>8s} {'p99 us':>8s} {'ratio to pty':>13s}")
-    print(f"{'raw pty round trip, 2 C processes':34s} {pty_rate:15.0f} {med('pty', 'p50_us'):8.1f} "
-          f"{med('pty', 'p99_us'):8.1f} {1.0:13.2f}")
-    for name, label in (("lockstep_recorded", "lockstep + MCAP recording"),
-                        ("lockstep_unrecorded", "lockstep, recorder disabled")):
-        rate = med(name, "cycles_per_s")
-        print(f"{label:34s} {rate:15.0f} {med(name, 'p50_us'):8.1f} {med(name, 'p99_us'):8.1f} "
-              f"{rate / pty_rate:13.2f}")
-    print(f"\n({args.repeat} repeats of {args.cycles} cycles; {nbytes} bytes each way per pty round "
-          f"trip = one cycle's frames with TELEM_EMF, {per_cycle} bytes both ways)")
-    if can_links:
-        same = med("can_stub", "cycles_per_s")
-        print(f"\nCAN-rate scenario (Ts {CAN_TS_S * 1e6:g} us, 4 frames per cycle), recording to MCAP:")
-        print(f"{'link':34s} {'cycles/s (median)':>17s} {'p50 us':>8s} {'p99 us':>8s} "
-              f"{'ratio to pty':>13s} {'to pty loop':>12s}")
-        labels = {"stub": "serial pty (COBS framing)", "stub-slcan": "SLCAN on a pty (python-can slcan)",
-                  "stub-socketcand": "socketcand on loopback TCP"}
-        for spec in can_links:
-            name = f"can_{spec}"
-            rate = med(name, "cycles_per_s")
-            print(f"{labels[spec]:34s} {rate:17.0f} {med(name, 'p50_us'):8.1f} {med(name, 'p99_us'):8.1f} "
-                  f"{rate / pty_rate:13.2f} {rate / same:12.2f}")
-        print(f"(real time at this period is {1 / CAN_TS_S:.0f} cycles/s)")
+    print(f"machine: {platform.node()}, {os.cpu_count()} CPUs, {platform.platform()}")
+    print(f"{'case':44s} {'per s':>9s} {'ratio':>6s} {'p50 us':>8s} {'p99 us':>8s}")
+    print(f"{'raw pty round trip, 2 C processes':44s} {ceiling:9.0f} {1.0:6.2f} "
+          f"{med('pty', 'p50_us'):8.1f} {med('pty', 'p99_us'):8.1f}")
+    for name, label, rate in (("lockstep_recorded", "lockstep, engine + recording + 1 reference",
+                               rec_rate),
+                              ("lockstep_unrecorded", "lockstep, engine, recording off", unrec_rate)):
+        print(f"{label:44s} {rate:9.0f} {rate / ceiling:6.2f} {med(name, 'cycle_p50_us'):8.1f} "
+              f"{med(name, 'cycle_p99_us'):8.1f}")
+    print(f"\nreal time against the stub, {rt_s:g} s each, recording on "
+          f"(engine CPU {args.engine_cpu}, stub CPU {args.stub_cpu}):")
+    print(f"{'rate':8s} {'jitter p50':>10s} {'p99':>8s} {'p99.9':>8s} {'max':>9s} {'missed':>7s} "
+          f"{'miss rate':>10s} {'overruns':>9s} {'RTT p50':>8s} {'RTT p99':>8s}")
+    for rate in (5, 10, 20):
+        r = rows[f"rt_{rate}khz"][0]
+        print(f"{rate:3d} kHz  {r['jitter_p50_us']:10.1f} {r['jitter_p99_us']:8.1f} "
+              f"{r['jitter_p999_us']:8.1f} {r['jitter_max_us']:9.1f} {r['missed']:7d} "
+              f"{r['miss_rate']:10.2e} {r['overruns']:9d} {r['cycle_p50_us']:8.1f} "
+              f"{r['cycle_p99_us']:8.1f}")
+        if r["realtime_notes"]:
+            print(f"         real-time setup not obtained: {r['realtime_notes']}")
+        if r["error"]:
+            print(f"         run ended early after {r['cycles']} cycles: {r['error']}")
+    print(f"\nrecorder: {med('recorder', 'msgs_per_s'):.0f} messages/s written to MCAP "
+          f"(G2 needs {6 * 10000} at 10 kHz: 6 messages a cycle)")
+    if not args.no_can:
+        print(f"\nCAN-rate scenario (Ts {CAN_TS_S * 1e6:g} us, 4 frames a cycle), lockstep, "
+              f"recording on:")
+        for spec in ("stub",) + CAN_LINKS:
+            r = rows[f"can_{spec}"][0]
+            print(f"  {spec:20s} {r['cycles_per_s']:8.0f} cycles/s "
+                  f"(real time at this period: {1 / CAN_TS_S:.0f})")
+    summary = {
+        "pty_ceiling_per_s": ceiling,
+        "lockstep_recorded_per_s": rec_rate, "ratio_recorded": rec_rate / ceiling,
+        "lockstep_unrecorded_per_s": unrec_rate, "ratio_unrecorded": unrec_rate / ceiling,
+        "rt_5khz_p99_jitter_us": rows["rt_5khz"][0]["jitter_p99_us"],
+        "rt_5khz_miss_rate": rows["rt_5khz"][0]["miss_rate"],
+        "rt_10khz_p99_jitter_us": rows["rt_10khz"][0]["jitter_p99_us"],
+        "rt_10khz_p999_jitter_us": rows["rt_10khz"][0]["jitter_p999_us"],
+        "rt_10khz_max_jitter_us": rows["rt_10khz"][0]["jitter_max_us"],
+        "rt_10khz_miss_rate": rows["rt_10khz"][0]["miss_rate"],
+        "rt_10khz_overruns": rows["rt_10khz"][0]["overruns"],
+        "rt_20khz_miss_rate": rows["rt_20khz"][0]["miss_rate"],
+        "recorder_msgs_per_s": med("recorder", "msgs_per_s"),
+        "rt_seconds": rt_s, "lockstep_cycles": cycles, "repeats": repeat,
+    }
+    if not args.no_can:
+        summary.update({f"can_{spec.replace('-', '_')}_per_s": rows[f"can_{spec}"][0]["cycles_per_s"]
+                        for spec in ("stub",) + CAN_LINKS})
+    print(json.dumps(summary))
     return 0
 
 

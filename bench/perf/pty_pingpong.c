@@ -2,11 +2,12 @@
  * @file pty_pingpong.c
  * @brief Raw pty round trip between two C processes: the floor under a lockstep cycle.
  *
- *   pty_pingpong [iterations] [bytes_per_direction]
+ *   pty_pingpong [iterations] [bytes_up] [bytes_down]
  *
- * The parent writes one message of N bytes on the pty master, the child (on the slave) reads
- * N bytes and writes N bytes back, the parent reads them: one round trip, like one lockstep
- * cycle's uplink and downlink frames. Prints round trips per second and latency percentiles.
+ * The parent writes one message of bytes_up on the pty master, the child (on the slave) reads
+ * it and writes bytes_down back (default: bytes_up), the parent reads them: one round trip, like
+ * one lockstep cycle's uplink (SENSE_AUX, SENSE) and downlink (TELEM, TELEM_EMF, DUTY) frames.
+ * Prints round trips per second and latency percentiles.
  */
 #define _DEFAULT_SOURCE
 #include <fcntl.h>
@@ -49,14 +50,15 @@ int main(int argc, char **argv)
 {
     int iterations = argc > 1 ? atoi(argv[1]) : 20000;
     size_t nbytes = argc > 2 ? (size_t)atoi(argv[2]) : 30u;
+    size_t nback = argc > 3 ? (size_t)atoi(argv[3]) : nbytes;
     int master, slave, i;
     struct termios t;
     pid_t pid;
     unsigned char buf[4096];
     long long *lat, t0, total;
 
-    if (iterations <= 0 || nbytes == 0u || nbytes > sizeof buf) {
-        fprintf(stderr, "usage: pty_pingpong [iterations>0] [bytes 1..4096]\n");
+    if (iterations <= 0 || nbytes == 0u || nbytes > sizeof buf || nback == 0u || nback > sizeof buf) {
+        fprintf(stderr, "usage: pty_pingpong [iterations>0] [bytes_up 1..4096] [bytes_down 1..4096]\n");
         return 2;
     }
     if (openpty(&master, &slave, NULL, NULL, NULL) != 0) {
@@ -81,7 +83,7 @@ int main(int argc, char **argv)
             if (read_exact(slave, buf, nbytes) != 0) {
                 _exit(0);
             }
-            if (write(slave, buf, nbytes) != (ssize_t)nbytes) {
+            if (write(slave, buf, nback) != (ssize_t)nback) {
                 _exit(1);
             }
         }
@@ -95,7 +97,7 @@ int main(int argc, char **argv)
     t0 = now_ns();
     for (i = 0; i < iterations; ++i) {
         long long s = now_ns();
-        if (write(master, buf, nbytes) != (ssize_t)nbytes || read_exact(master, buf, nbytes) != 0) {
+        if (write(master, buf, nbytes) != (ssize_t)nbytes || read_exact(master, buf, nback) != 0) {
             fprintf(stderr, "pty_pingpong: link failed at iteration %d\n", i);
             return 1;
         }
@@ -105,9 +107,9 @@ int main(int argc, char **argv)
     close(master);
     waitpid(pid, NULL, 0);
     qsort(lat, (size_t)iterations, sizeof lat[0], cmp_ll);
-    printf("{\"iterations\": %d, \"bytes_per_direction\": %zu, \"round_trips_per_s\": %.1f, "
+    printf("{\"iterations\": %d, \"bytes_up\": %zu, \"bytes_down\": %zu, \"round_trips_per_s\": %.1f, "
            "\"p50_us\": %.2f, \"p99_us\": %.2f, \"max_us\": %.2f}\n",
-           iterations, nbytes, (double)iterations * 1e9 / (double)total,
+           iterations, nbytes, nback, (double)iterations * 1e9 / (double)total,
            (double)lat[iterations / 2] / 1e3, (double)lat[(iterations * 99) / 100] / 1e3,
            (double)lat[iterations - 1] / 1e3);
     free(lat);

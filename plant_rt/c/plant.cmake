@@ -38,3 +38,12 @@ add_library(hil_engine STATIC
 target_include_directories(hil_engine PUBLIC ${HIL_ROOT}/plant_rt/c)
 target_compile_options(hil_engine PRIVATE ${HIL_STRICT_FLAGS} -ffp-contract=off)
 target_link_libraries(hil_engine PUBLIC hil_plant hil_fw hil_protocol m)
+
+# The engine alone and in closed loop with the firmware's session (in a thread), under the
+# sanitizers in `make sanitize` like every C test.
+find_package(Threads REQUIRED)
+add_executable(test_engine ${HIL_ROOT}/tests/c/test_engine.c)
+target_compile_options(test_engine PRIVATE ${HIL_STRICT_FLAGS})
+target_link_libraries(test_engine PRIVATE hil_engine Threads::Threads)
+target_include_directories(test_engine PRIVATE ${HIL_ROOT}/tests/c)
+add_test(NAME engine COMMAND test_engine)
