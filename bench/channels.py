@@ -32,6 +32,8 @@ LINK_STATS = "/link/stats"
 EVENTS = "/events"
 TIMING = "/timing"
 REFERENCE_PREFIX = "/reference/"
+REPLAY_CONTROLLER = "/replay/controller"
+REPLAY_PLANT = "/replay/plant"
 
 PACKAGE = "hil"
 MESSAGE_ENCODING = "protobuf"
@@ -124,7 +126,8 @@ LAYOUTS: dict[str, Layout] = _parse_layout(ffi.string(lib.rec_schema_layout()).d
 #: topic -> kind of the fixed topics (reference channels are /reference/<name>, kind REFERENCE)
 TOPIC_KIND = {PLANT_STATE: "PLANT_STATE", PLANT_SENSE: "SENSE",
               CONTROLLER_TELEMETRY: "TELEMETRY", LINK_FRAMES: "FRAMES", EVENTS: "EVENT",
-              TIMING: "TIMING", LINK_STATS: "LINK_STATS"}
+              TIMING: "TIMING", LINK_STATS: "LINK_STATS",
+              REPLAY_CONTROLLER: "REPLAY_CONTROLLER", REPLAY_PLANT: "REPLAY_PLANT"}
 
 #: what each channel holds (docs, Foxglove layout, bench check)
 DESCRIPTIONS = {
@@ -144,6 +147,10 @@ DESCRIPTIONS = {
               "round trip, DUTY arrival in the period, misses).",
     "LINK_STATS": "Cumulative link, engine and recorder counters; percentiles of cycle time and "
                   "period start error so far.",
+    "REPLAY_CONTROLLER": "Replay into a controller: its duties and telemetry for each recorded "
+                         "cycle beside the recorded ones.",
+    "REPLAY_PLANT": "Replay into the plant: its sampled phase currents under the recorded duties "
+                    "beside the recorded currents.",
 }
 
 # the field names every reader relies on (kept as constants for the callers)

@@ -186,6 +186,13 @@ size_t rec_encode_event(uint8_t *out, size_t cap, const rec_event_t *m);
 size_t rec_encode_frames(uint8_t *out, size_t cap, const rec_frames_t *m);
 
 typedef struct { double scale, offset, raw_min, raw_max; } engine_signal_t;
+typedef struct { uint16_t id, dlc; uint8_t data[64]; } engine_replay_frame_t;
+typedef struct {
+    double t_s; uint32_t first_frame; uint32_t n_frames; uint32_t seq;
+    int32_t has_duty, has_telem, has_theta;
+    double i_abc_a[3]; double v_dc_v; double theta_rad; uint32_t duty_raw[3];
+    double theta_hat_rad; double omega_hat_rad_s;
+} engine_replay_cycle_t;
 typedef struct {
     int mode; int duty_update; long n_cycles; double ts_s; double t_delay_s;
     int pole_pairs; double rpm_per_rad_s; int dual_sampling; int send_encoder;
@@ -200,6 +207,9 @@ typedef struct {
     uint32_t duty_raw_full, duty_raw_off;
     uint16_t aux_flag_theta_valid, aux_flag_dual_follows;
     char state_names[16][24];
+    int source; const engine_replay_cycle_t *replay_cycles;
+    const engine_replay_frame_t *replay_frames; long replay_n_frames; double pace_s;
+    uint16_t ch_replay;
     ...;
 } engine_config_t;
 typedef struct {

@@ -20,6 +20,8 @@ from plant_rt._plant_c import ffi, lib
 from protocol.messages import (DUTY_RAW_OFF, MESSAGES, SenseAuxFlag, State)
 
 LOCKSTEP, REALTIME = 0, 1
+#: engine_source_t: the live loop, or a replay (plant_rt/c/engine.h)
+SOURCE = {"plant": 0, "replay_controller": 1, "replay_plant": 2, "replay_estimators": 3}
 DUTY_UPDATE = {"on_arrival": 0, "next_period": 1}
 LINK_KIND = {"serial": 0, "can": 1, "canfd": 2}
 EV_CMD, EV_LOAD, EV_DYNO_SPEED, EV_NOTE = 0, 1, 2, 3
@@ -64,6 +66,31 @@ def _fill_wire_constants(cfg) -> None:
             cfg.state_names[st.value] = st.name.encode()[:23]
 
 
+def _struct_dtype(ctype: str):
+    """numpy dtype with the exact memory layout of a C struct of the engine."""
+    import numpy as np
+
+    names, formats, offsets = [], [], []
+    for name, f in ffi.typeof(ctype).fields:
+        t = f.type
+        shape = ()
+        if t.kind == "array":
+            shape = (t.length,)
+            t = t.item
+        base = {"double": "<f8", "uint32_t": "<u4", "int32_t": "<i4", "uint16_t": "<u2",
+                "uint8_t": "u1"}[t.cname]
+        names.append(name)
+        formats.append((base, shape) if shape else base)
+        offsets.append(f.offset)
+    return np.dtype({"names": names, "formats": formats, "offsets": offsets,
+                     "itemsize": ffi.sizeof(ctype)})
+
+
+#: numpy layouts of engine_replay_cycle_t / engine_replay_frame_t (fill them, hand them over)
+REPLAY_CYCLE_DTYPE = _struct_dtype("engine_replay_cycle_t")
+REPLAY_FRAME_DTYPE = _struct_dtype("engine_replay_frame_t")
+
+
 @dataclass
 class EngineResult:
     end: int
@@ -83,9 +110,13 @@ class EngineResult:
 class Engine:
     """One run of the C cycle engine over a plant and a link file descriptor."""
 
-    def __init__(self, plant, *, ts_s: float, n_cycles: int, link_fd: int, link_kind: str = "serial",
-                 mode: int = LOCKSTEP, ring=None, channels: dict[str, int] | None = None,
-                 **options):
+    def __init__(self, plant, *, ts_s: float, n_cycles: int, link_fd: int = -1,
+                 link_kind: str = "serial", mode: int = LOCKSTEP, ring=None,
+                 channels: dict[str, int] | None = None, source: str = "plant",
+                 replay_cycles=None, replay_frames=None, **options):
+        """``plant``: a plant_rt Plant (None for the replays without one). ``source`` and
+        the replay arrays (REPLAY_CYCLE_DTYPE / REPLAY_FRAME_DTYPE): see engine.h "Replay";
+        with a replay, n_cycles is the number of rows."""
         cfg = ffi.new("engine_config_t *")
         lib.engine_default_config(cfg)
         _fill_wire_constants(cfg)
@@ -102,6 +133,21 @@ class Engine:
             setattr(cfg, key, value)
         for name, index in (channels or {}).items():
             setattr(cfg, name, index)
+        cfg.source = SOURCE[source]
+        self._replay = []
+        if replay_cycles is not None:
+            if replay_cycles.dtype != REPLAY_CYCLE_DTYPE or len(replay_cycles) < n_cycles:
+                raise ValueError("replay_cycles: need REPLAY_CYCLE_DTYPE rows, one per cycle")
+            self._replay.append(replay_cycles)
+            cfg.replay_cycles = ffi.cast("const engine_replay_cycle_t *",
+                                         ffi.from_buffer(replay_cycles))
+        if replay_frames is not None:
+            if replay_frames.dtype != REPLAY_FRAME_DTYPE:
+                raise ValueError("replay_frames: need REPLAY_FRAME_DTYPE rows")
+            self._replay.append(replay_frames)
+            cfg.replay_frames = ffi.cast("const engine_replay_frame_t *",
+                                         ffi.from_buffer(replay_frames))
+            cfg.replay_n_frames = len(replay_frames)
         self._cfg = cfg
         self._plant = plant
         self._e = ffi.new("engine_t *")
@@ -112,7 +158,8 @@ class Engine:
             ring_mem = ffi.from_buffer(ring)
             ring_size = len(ring)
         self._ring_mem = ring_mem
-        if lib.engine_init(self._e, cfg, plant.c_plant, ring_mem, ring_size) != 0:
+        c_plant = plant.c_plant if plant is not None else ffi.NULL
+        if lib.engine_init(self._e, cfg, c_plant, ring_mem, ring_size) != 0:
             raise ValueError(ffi.string(self._e.message).decode())
         self._thread: threading.Thread | None = None
         self._keep: list = []

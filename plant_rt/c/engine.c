@@ -314,10 +314,31 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
     e->plant = plant;
     e->last_state = -1;
     e->end = ENGINE_END_CONFIG;
-    if (plant == NULL || !(cfg->ts_s > 0.0) || cfg->n_cycles < 0 || cfg->link_fd < 0 ||
-        !(cfg->sig_i.scale > 0.0) || !(cfg->sig_vdc.scale > 0.0) || cfg->duty_raw_full == 0u) {
-        set_message(e, "engine: incomplete configuration (plant, ts_s, link fd, DBC constants)");
-        return -1;
+    {
+        const int needs_link = cfg->source == ENGINE_SOURCE_PLANT ||
+                               cfg->source == ENGINE_SOURCE_REPLAY_CONTROLLER;
+        const int needs_plant = cfg->source == ENGINE_SOURCE_PLANT ||
+                                cfg->source == ENGINE_SOURCE_REPLAY_PLANT;
+        const int needs_rows = cfg->source != ENGINE_SOURCE_PLANT;
+        if ((needs_plant && plant == NULL) || !(cfg->ts_s > 0.0) || cfg->n_cycles < 0 ||
+            (needs_link && cfg->link_fd < 0) || (needs_rows && cfg->replay_cycles == NULL) ||
+            (cfg->source == ENGINE_SOURCE_REPLAY_CONTROLLER && cfg->replay_frames == NULL) ||
+            cfg->source < ENGINE_SOURCE_PLANT || cfg->source > ENGINE_SOURCE_REPLAY_ESTIMATORS ||
+            !(cfg->sig_i.scale > 0.0) || !(cfg->sig_vdc.scale > 0.0) || cfg->duty_raw_full == 0u) {
+            set_message(e, "engine: incomplete configuration (plant, ts_s, link fd, replay rows, "
+                        "DBC constants)");
+            return -1;
+        }
+    }
+    if (cfg->source == ENGINE_SOURCE_REPLAY_CONTROLLER) {
+        long k;
+        for (k = 0; k < cfg->n_cycles; ++k) {
+            const engine_replay_cycle_t *row = &cfg->replay_cycles[k];
+            if ((long)row->first_frame + (long)row->n_frames > cfg->replay_n_frames) {
+                set_message(e, "engine: replay row %ld names frames beyond the capture", k);
+                return -1;
+            }
+        }
     }
     if (cfg->mode != ENGINE_LOCKSTEP && cfg->mode != ENGINE_REALTIME) {
         set_message(e, "engine: unknown mode %d", cfg->mode);
@@ -330,7 +351,12 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
         }
         e->have_ring = 1;
     }
-    eng_link_init(&e->link, cfg->link_fd, cfg->link_kind);
+    if (cfg->link_fd >= 0) {
+        eng_link_init(&e->link, cfg->link_fd, cfg->link_kind);
+    } else {
+        hil_deframer_init(&e->link.deframer);
+        e->link.fd = -1;
+    }
     e->link.fd_brs = cfg->can_brs;
     e->duties[0] = e->duties[1] = e->duties[2] = 0.5;
     e->cmd_seq = cfg->cmd_seq_start;
@@ -403,6 +429,7 @@ typedef struct {
     /* the frames of the SENSE group, for re-sending */
     uint8_t aux[8], dual[8], sense[8];
     int have_dual;
+    const engine_replay_cycle_t *replay; /* replay into a controller: the recorded frames */
 } cycle_t;
 
 static void queue_frame(engine_t *e, uint16_t id, const uint8_t *data)
@@ -420,6 +447,26 @@ static void queue_sense_group(engine_t *e, const cycle_t *c)
         queue_frame(e, (uint16_t)HIL_SENSE_DUAL_FRAME_ID, c->dual);
     }
     queue_frame(e, (uint16_t)HIL_SENSE_FRAME_ID, c->sense);
+}
+
+/** The SENSE group again (lockstep retry): the recorded one in a replay. */
+static void queue_resend(engine_t *e, const cycle_t *c)
+{
+    if (c->replay != NULL) {
+        uint32_t i;
+        for (i = 0u; i < c->replay->n_frames; ++i) {
+            const engine_replay_frame_t *f = &e->cfg.replay_frames[c->replay->first_frame + i];
+            if (f->id == HIL_SENSE_AUX_FRAME_ID || f->id == HIL_SENSE_DUAL_FRAME_ID ||
+                f->id == HIL_SENSE_FRAME_ID) {
+                (void)eng_link_queue(&e->link, f->id, f->data, f->dlc);
+                if (e->cfg.record_frames) {
+                    text_frame(e->tx_text, &e->tx_len, f->id, f->data, f->dlc);
+                }
+            }
+        }
+        return;
+    }
+    queue_sense_group(e, c);
 }
 
 /** Events due at cycle k: CMD frames queued, plant inputs set, /events rows. */
@@ -921,10 +968,67 @@ static void link_failed(engine_t *e, const cycle_t *c)
 
 /* ---- lockstep ---------------------------------------------------------------------------------- */
 
-static int run_lockstep(engine_t *e)
+/**
+ * Lockstep exchange of cycle c: send what is queued, wait for the first valid DUTY(seq), re-send
+ * the SENSE group on silence (at most max_retries times). 0, or -1 with e->end set.
+ */
+static int exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns)
 {
     const engine_config_t *cfg = &e->cfg;
     const int64_t retry_ns = (int64_t)(cfg->retry_timeout_s * 1e9);
+    int64_t deadline;
+    int done = 0;
+    if (eng_link_flush(&e->link, c0 + NS_PER_S) != 0) {
+        link_failed(e, c);
+        return -1;
+    }
+    *sent_ns = eng_now_ns();
+    deadline = *sent_ns + retry_ns;
+    while (!done) {
+        eng_frame_t f;
+        int r;
+        while (!done && eng_link_pop(&e->link, &f)) {
+            r = handle_frame(e, c, &f, 1);
+            if (r < 0) {
+                return -1;
+            }
+            done = r;
+        }
+        if (done) {
+            break;
+        }
+        r = eng_link_poll(&e->link, deadline);
+        if (r < 0) {
+            link_failed(e, c);
+            return -1;
+        }
+        if (r > 0) {
+            continue;
+        }
+        if (stop_asked(e)) {
+            e->end = ENGINE_END_STOPPED;
+            set_message(e, "stopped at cycle %ld while waiting for DUTY", c->k);
+            return -1;
+        }
+        if (c->retries >= cfg->max_retries) {
+            describe_no_duty(e, c);
+            return -1;
+        }
+        c->retries++;
+        e->n.retries++;
+        queue_resend(e, c);
+        if (eng_link_flush(&e->link, eng_now_ns() + NS_PER_S) != 0) {
+            link_failed(e, c);
+            return -1;
+        }
+        deadline = eng_now_ns() + retry_ns;
+    }
+    return 0;
+}
+
+static int run_lockstep(engine_t *e)
+{
+    const engine_config_t *cfg = &e->cfg;
     ref_voltage_t rv;
     int next_event = 0;
     long k;
@@ -932,8 +1036,7 @@ static int run_lockstep(engine_t *e)
     rv.w_split = cfg->t_delay_s / cfg->ts_s;
     for (k = 0; k < cfg->n_cycles; ++k) {
         cycle_t c;
-        int64_t c0 = eng_now_ns(), sent_ns, deadline;
-        int done = 0;
+        int64_t c0 = eng_now_ns(), sent_ns;
         if (stop_asked(e)) {
             e->end = ENGINE_END_STOPPED;
             set_message(e, "stopped at cycle %ld", k);
@@ -945,50 +1048,8 @@ static int run_lockstep(engine_t *e)
             return e->end;
         }
         queue_sense_group(e, &c);
-        if (eng_link_flush(&e->link, c0 + NS_PER_S) != 0) {
-            link_failed(e, &c);
+        if (exchange_lockstep(e, &c, c0, &sent_ns) != 0) {
             return e->end;
-        }
-        sent_ns = eng_now_ns();
-        deadline = sent_ns + retry_ns;
-        while (!done) {
-            eng_frame_t f;
-            int r;
-            while (!done && eng_link_pop(&e->link, &f)) {
-                r = handle_frame(e, &c, &f, 1);
-                if (r < 0) {
-                    return e->end;
-                }
-                done = r;
-            }
-            if (done) {
-                break;
-            }
-            r = eng_link_poll(&e->link, deadline);
-            if (r < 0) {
-                link_failed(e, &c);
-                return e->end;
-            }
-            if (r > 0) {
-                continue;
-            }
-            if (stop_asked(e)) {
-                e->end = ENGINE_END_STOPPED;
-                set_message(e, "stopped at cycle %ld while waiting for DUTY", k);
-                return e->end;
-            }
-            if (c.retries >= cfg->max_retries) {
-                describe_no_duty(e, &c);
-                return e->end;
-            }
-            c.retries++;
-            e->n.retries++;
-            queue_sense_group(e, &c);
-            if (eng_link_flush(&e->link, eng_now_ns() + NS_PER_S) != 0) {
-                link_failed(e, &c);
-                return e->end;
-            }
-            deadline = eng_now_ns() + retry_ns;
         }
         if (take_duties(e, &c) < 0) {
             return e->end;
@@ -1024,6 +1085,239 @@ static int run_lockstep(engine_t *e)
         if (!plant_finite(e, &c)) {
             return e->end;
         }
+    }
+    return ENGINE_END_DONE;
+}
+
+/* ---- replay ------------------------------------------------------------------------------------ */
+
+static int64_t wait_until(int64_t deadline_ns, int64_t spin_ns);
+
+static double duty_of_raw(const engine_t *e, uint32_t raw)
+{
+    if (raw == e->cfg.duty_raw_off) {
+        return -1.0;
+    }
+    return (raw <= e->cfg.duty_raw_full) ? (double)raw / (double)e->cfg.duty_raw_full : (double)NAN;
+}
+
+/** Replay rows as fast as possible, or one every pace_s (absolute deadlines); the pacing error
+ *  of each row goes to the jitter histogram. */
+static int64_t replay_pace(engine_t *e, long k, int64_t *start_err_ns)
+{
+    int64_t now;
+    if (!(e->cfg.pace_s > 0.0)) {
+        *start_err_ns = 0;
+        return eng_now_ns();
+    }
+    if (k == 0) {
+        e->t0_ns = eng_now_ns() + 1000000LL;
+    }
+    {
+        const int64_t deadline = e->t0_ns + (int64_t)llround((double)k * e->cfg.pace_s * 1e9);
+        now = wait_until(deadline, (int64_t)(e->cfg.spin_s * 1e9));
+        *start_err_ns = now - deadline;
+        hist_add(&e->hist_jitter, (double)*start_err_ns * 1e-3);
+    }
+    return now;
+}
+
+static void replay_timing_row(engine_t *e, const cycle_t *c, int64_t c0, int64_t sent_ns,
+                              int64_t start_err_ns)
+{
+    const int64_t c1 = eng_now_ns();
+    rec_timing_t t;
+    hist_add(&e->hist_cycle, (double)(c1 - c0) * 1e-3);
+    if (!e->have_ring) {
+        return;
+    }
+    t.t_s = c->t_s;
+    t.seq = c->seq;
+    t.start_err_us = (e->cfg.pace_s > 0.0) ? (double)start_err_ns * 1e-3 : (double)NAN;
+    t.rtt_us = (sent_ns > 0 && c->have_duty) ? (double)(c->duty_t_ns - sent_ns) * 1e-3
+                                              : (double)NAN;
+    t.arrival_us = (double)NAN;
+    t.cycle_us = (double)(c1 - c0) * 1e-3;
+    t.missed = 0u;
+    t.retries = (uint32_t)c->retries;
+    t.late_total = e->n.late_duty;
+    t.missed_total = e->n.missed_duty;
+    RECORD(e, e->cfg.ch_timing, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
+}
+
+/** The recorded frames of each cycle to a live controller; its answers beside the recorded. */
+static int run_replay_controller(engine_t *e)
+{
+    const engine_config_t *cfg = &e->cfg;
+    long k;
+    for (k = 0; k < cfg->n_cycles; ++k) {
+        const engine_replay_cycle_t *row = &cfg->replay_cycles[k];
+        cycle_t c;
+        int64_t start_err, c0, sent_ns = 0;
+        uint32_t i;
+        if (stop_asked(e)) {
+            e->end = ENGINE_END_STOPPED;
+            set_message(e, "stopped at replayed cycle %ld", k);
+            return e->end;
+        }
+        c0 = replay_pace(e, k, &start_err);
+        begin_cycle(e, &c, k);
+        c.t_s = row->t_s;
+        c.seq = (uint16_t)row->seq;
+        c.replay = row;
+        c.snap.theta_e_rad = row->has_theta ? row->theta_rad : (double)NAN;
+        c.smp.v_dc_v = row->v_dc_v;
+        c.s_i[0] = row->i_abc_a[0];
+        c.s_i[1] = row->i_abc_a[1];
+        c.s_i[2] = row->i_abc_a[2];
+        c.theta_enc = (double)NAN;
+        for (i = 0u; i < row->n_frames; ++i) {
+            const engine_replay_frame_t *f = &cfg->replay_frames[row->first_frame + i];
+            (void)eng_link_queue(&e->link, f->id, f->data, f->dlc);
+            if (cfg->record_frames) {
+                text_frame(e->tx_text, &e->tx_len, f->id, f->data, f->dlc);
+            }
+        }
+        if (exchange_lockstep(e, &c, c0, &sent_ns) != 0) {
+            return e->end;
+        }
+        if (take_duties(e, &c) < 0) {
+            return e->end;
+        }
+        after_telemetry(e, &c);
+        record_cycle(e, &c);
+        if (e->have_ring) {
+            rec_replay_controller_t r;
+            r.t_s = c.t_s;
+            r.seq = c.seq;
+            r.duty_a_rec = row->has_duty ? duty_of_raw(e, row->duty_raw[0]) : (double)NAN;
+            r.duty_b_rec = row->has_duty ? duty_of_raw(e, row->duty_raw[1]) : (double)NAN;
+            r.duty_c_rec = row->has_duty ? duty_of_raw(e, row->duty_raw[2]) : (double)NAN;
+            r.duty_a = duty_of_raw(e, c.duty_raw[0]);
+            r.duty_b = duty_of_raw(e, c.duty_raw[1]);
+            r.duty_c = duty_of_raw(e, c.duty_raw[2]);
+            r.theta_hat_rec_rad = row->has_telem ? row->theta_hat_rad : (double)NAN;
+            r.omega_hat_rec_rad_s = row->has_telem ? row->omega_hat_rad_s : (double)NAN;
+            r.theta_hat_rad = c.have_telem ? c.th_hat : (double)NAN;
+            r.omega_hat_rad_s = c.have_telem ? c.w_hat : (double)NAN;
+            RECORD(e, cfg->ch_replay, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_replay_controller, &r);
+        }
+        e->prev_had_duty = 1;
+        replay_timing_row(e, &c, c0, sent_ns, start_err);
+        __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
+        if (cfg->stats_every_cycles > 0 && (k + 1) % cfg->stats_every_cycles == 0) {
+            engine_write_stats(e, c.t_s, NULL);
+        }
+    }
+    return ENGINE_END_DONE;
+}
+
+/** The recorded duties drive the plant open loop (no link); its currents beside the recorded,
+ *  reference estimators on its samples. */
+static int run_replay_plant(engine_t *e)
+{
+    const engine_config_t *cfg = &e->cfg;
+    ref_voltage_t rv;
+    int next_event = 0;
+    long k;
+    memset(&rv, 0, sizeof rv);
+    rv.w_split = cfg->t_delay_s / cfg->ts_s;
+    for (k = 0; k < cfg->n_cycles; ++k) {
+        const engine_replay_cycle_t *row = &cfg->replay_cycles[k];
+        cycle_t c;
+        int64_t start_err, c0;
+        if (stop_asked(e)) {
+            e->end = ENGINE_END_STOPPED;
+            set_message(e, "stopped at replayed cycle %ld", k);
+            return e->end;
+        }
+        c0 = replay_pace(e, k, &start_err);
+        begin_cycle(e, &c, k);
+        c.seq = (uint16_t)row->seq;
+        apply_events(e, &next_event, &c);
+        if (build_sense(e, &c) != 0) {
+            return e->end;
+        }
+        if (row->has_duty) {
+            c.have_duty = 1;
+            c.duty_raw[0] = row->duty_raw[0];
+            c.duty_raw[1] = row->duty_raw[1];
+            c.duty_raw[2] = row->duty_raw[2];
+            if (take_duties(e, &c) < 0) {
+                return e->end;
+            }
+        } else {
+            e->n.missed_duty++;   /* no DUTY in the capture for this cycle: the last duties held */
+        }
+        c.have_telem = 0;
+        record_cycle(e, &c);
+        if (e->have_ring) {
+            rec_replay_plant_t r;
+            r.t_s = c.t_s;
+            r.seq = c.seq;
+            r.i_a_rec_a = row->i_abc_a[0];
+            r.i_b_rec_a = row->i_abc_a[1];
+            r.i_c_rec_a = row->i_abc_a[2];
+            r.i_a_a = c.s_i[0];
+            r.i_b_a = c.s_i[1];
+            r.i_c_a = c.s_i[2];
+            RECORD(e, cfg->ch_replay, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_replay_plant, &r);
+        }
+        step_references(e, &c, &rv, 1);
+        plant_step(e->plant, e->duties);
+        replay_timing_row(e, &c, c0, 0, start_err);
+        __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
+        e->speed_rpm = e->plant->y[2] * cfg->rpm_per_rad_s;
+        if (cfg->stats_every_cycles > 0 && (k + 1) % cfg->stats_every_cycles == 0) {
+            engine_write_stats(e, (double)(k + 1) * cfg->ts_s, NULL);
+        }
+        if (!plant_finite(e, &c)) {
+            return e->end;
+        }
+    }
+    return ENGINE_END_DONE;
+}
+
+/** Offline: the reference estimators on the recorded samples and the voltage the recorded
+ *  duties applied -- the same step_references the live loop uses, so a recording replayed
+ *  gives bit-identical estimates with the same build. */
+static int run_replay_estimators(engine_t *e)
+{
+    const engine_config_t *cfg = &e->cfg;
+    ref_voltage_t rv;
+    long k;
+    memset(&rv, 0, sizeof rv);
+    rv.w_split = cfg->t_delay_s / cfg->ts_s;
+    for (k = 0; k < cfg->n_cycles; ++k) {
+        const engine_replay_cycle_t *row = &cfg->replay_cycles[k];
+        cycle_t c;
+        int64_t start_err, c0;
+        if (stop_asked(e)) {
+            e->end = ENGINE_END_STOPPED;
+            set_message(e, "stopped at replayed cycle %ld", k);
+            return e->end;
+        }
+        c0 = replay_pace(e, k, &start_err);
+        begin_cycle(e, &c, k);
+        c.t_s = row->t_s;
+        c.seq = (uint16_t)row->seq;
+        c.s_i[0] = row->i_abc_a[0];
+        c.s_i[1] = row->i_abc_a[1];
+        c.s_i[2] = row->i_abc_a[2];
+        c.smp.v_dc_v = row->v_dc_v;
+        c.snap.theta_e_rad = row->has_theta ? row->theta_rad : (double)NAN;
+        if (row->has_duty) {
+            c.have_duty = 1;
+            c.duty_raw[0] = row->duty_raw[0];
+            c.duty_raw[1] = row->duty_raw[1];
+            c.duty_raw[2] = row->duty_raw[2];
+            if (take_duties(e, &c) < 0) {
+                return e->end;
+            }
+        }
+        step_references(e, &c, &rv, 1);
+        replay_timing_row(e, &c, c0, 0, start_err);
+        __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
     }
     return ENGINE_END_DONE;
 }
@@ -1349,7 +1643,13 @@ int engine_run(engine_t *e)
         return e->end; /* init failed */
     }
     e->message[0] = '\0';
-    if (e->cfg.mode == ENGINE_REALTIME) {
+    if (e->cfg.source == ENGINE_SOURCE_REPLAY_CONTROLLER) {
+        e->end = run_replay_controller(e);
+    } else if (e->cfg.source == ENGINE_SOURCE_REPLAY_PLANT) {
+        e->end = run_replay_plant(e);
+    } else if (e->cfg.source == ENGINE_SOURCE_REPLAY_ESTIMATORS) {
+        e->end = run_replay_estimators(e);
+    } else if (e->cfg.mode == ENGINE_REALTIME) {
         rt_setup(e);
         e->end = run_realtime(e);
         rt_teardown(e);

@@ -100,6 +100,45 @@ typedef struct {
     char text[ENGINE_EVENT_TEXT];
 } engine_event_t;
 
+/**
+ * Replay (bench replay, docs/replay.md). What the engine steps on instead of, or beside, the live
+ * loop: one row per recorded cycle, and the frames of a capture.
+ *   ENGINE_SOURCE_PLANT              the live loop: plant -> SENSE -> controller -> DUTY -> plant
+ *   ENGINE_SOURCE_REPLAY_CONTROLLER  the recorded frames of each cycle go to a live controller
+ *                                    (lockstep, retries as live); its DUTY/TELEM are compared with
+ *                                    the recorded ones (/replay/controller); no plant
+ *   ENGINE_SOURCE_REPLAY_PLANT       the recorded duties drive the plant open loop, no link; the
+ *                                    plant's sampled currents are compared with the recorded ones
+ *                                    (/replay/plant); reference estimators on the plant's samples
+ *   ENGINE_SOURCE_REPLAY_ESTIMATORS  the reference estimators on the recorded samples and duties
+ *                                    (offline), no link, no plant
+ */
+typedef enum {
+    ENGINE_SOURCE_PLANT = 0,
+    ENGINE_SOURCE_REPLAY_CONTROLLER = 1,
+    ENGINE_SOURCE_REPLAY_PLANT = 2,
+    ENGINE_SOURCE_REPLAY_ESTIMATORS = 3
+} engine_source_t;
+
+typedef struct {
+    uint16_t id, dlc;
+    uint8_t data[64];
+} engine_replay_frame_t;
+
+typedef struct {
+    double t_s;                 /* recorded time of the cycle (the capture's clock, from 0) */
+    uint32_t first_frame;       /* replay into a controller: frames[first_frame + 0..n_frames) */
+    uint32_t n_frames;          /* go out this cycle, in order (CMD, SENSE_AUX, ..., SENSE) */
+    uint32_t seq;               /* the cycle's seq (its SENSE) */
+    int32_t has_duty, has_telem, has_theta;
+    double i_abc_a[3];          /* the currents the controller was sent (wire values) */
+    double v_dc_v;              /* the bus voltage it was sent */
+    double theta_rad;           /* encoder / true angle when the capture has one */
+    uint32_t duty_raw[3];       /* the recorded DUTY */
+    double theta_hat_rad;       /* the recorded TELEM (has_telem) */
+    double omega_hat_rad_s;
+} engine_replay_cycle_t;
+
 /** Linear wire scaling of one signal (from the DBC): raw = round((phys - offset) / scale). */
 typedef struct {
     double scale, offset, raw_min, raw_max;
@@ -147,6 +186,13 @@ typedef struct {
     uint32_t duty_raw_full, duty_raw_off;
     uint16_t aux_flag_theta_valid, aux_flag_dual_follows;
     char state_names[ENGINE_STATE_NAMES][24];
+    /* replay (n_cycles = replay rows) */
+    int source;                                  /* engine_source_t */
+    const engine_replay_cycle_t *replay_cycles;
+    const engine_replay_frame_t *replay_frames;
+    long replay_n_frames;
+    double pace_s;              /* replay: one row every pace_s of wall time (0: at once) */
+    uint16_t ch_replay;         /* /replay/controller or /replay/plant */
 } engine_config_t;
 
 typedef struct {

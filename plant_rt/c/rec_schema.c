@@ -90,6 +90,8 @@ REC_DEFINE_ENCODER(rec_encode_frames, rec_frames_t, REC_FRAMES, FR)
 REC_DEFINE_ENCODER(rec_encode_event, rec_event_t, REC_EVENT, EV)
 REC_DEFINE_ENCODER(rec_encode_timing, rec_timing_t, REC_TIMING, TI)
 REC_DEFINE_ENCODER(rec_encode_link_stats, rec_link_stats_t, REC_LINK_STATS, LS)
+REC_DEFINE_ENCODER(rec_encode_replay_controller, rec_replay_controller_t, REC_REPLAY_CONTROLLER, RC)
+REC_DEFINE_ENCODER(rec_encode_replay_plant, rec_replay_plant_t, REC_REPLAY_PLANT, RP)
 
 /* ---- the layout string --------------------------------------------------------------------- */
 

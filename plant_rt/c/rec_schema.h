@@ -98,6 +98,19 @@
     X(P, F64, jitter_p50_us) X(P, F64, jitter_p99_us) X(P, F64, jitter_p999_us)                \
     X(P, F64, jitter_max_us)
 
+/** /replay/controller, hil.ReplayController: a live controller's answer to a recorded cycle
+ *  beside the recorded answer (duties: -1 = leg off, NaN = no DUTY; angles: NaN = no TELEM). */
+#define REC_REPLAY_CONTROLLER(X, P)                                                            \
+    X(P, F64, t_s) X(P, U32, seq) X(P, F64, duty_a_rec) X(P, F64, duty_a) X(P, F64, duty_b_rec) \
+    X(P, F64, duty_b) X(P, F64, duty_c_rec) X(P, F64, duty_c) X(P, F64, theta_hat_rec_rad)      \
+    X(P, F64, theta_hat_rad) X(P, F64, omega_hat_rec_rad_s) X(P, F64, omega_hat_rad_s)
+
+/** /replay/plant, hil.ReplayPlant: the plant driven by the recorded duties; its sampled phase
+ *  currents (wire values) beside the recorded ones. */
+#define REC_REPLAY_PLANT(X, P)                                                                 \
+    X(P, F64, t_s) X(P, U32, seq) X(P, F64, i_a_rec_a) X(P, F64, i_a_a) X(P, F64, i_b_rec_a)    \
+    X(P, F64, i_b_a) X(P, F64, i_c_rec_a) X(P, F64, i_c_a)
+
 /** Every channel: X(P, kind, schema name, field list macro). Kind ids are the order below. */
 #define REC_CHANNELS(C)                                                                        \
     C(PLANT_STATE, "hil.PlantState", REC_PLANT_STATE)                                          \
@@ -107,7 +120,9 @@
     C(FRAMES, "hil.CycleFrames", REC_FRAMES)                                                   \
     C(EVENT, "hil.Event", REC_EVENT)                                                           \
     C(TIMING, "hil.Timing", REC_TIMING)                                                        \
-    C(LINK_STATS, "hil.LinkStats", REC_LINK_STATS)
+    C(LINK_STATS, "hil.LinkStats", REC_LINK_STATS)                                             \
+    C(REPLAY_CONTROLLER, "hil.ReplayController", REC_REPLAY_CONTROLLER)                        \
+    C(REPLAY_PLANT, "hil.ReplayPlant", REC_REPLAY_PLANT)
 
 /* ---- generated from the lists ------------------------------------------------------------- */
 
@@ -136,6 +151,8 @@ typedef struct { REC_FRAMES(REC_STRUCT_FIELD_, x) } rec_frames_t;
 typedef struct { REC_EVENT(REC_STRUCT_FIELD_, x) } rec_event_t;
 typedef struct { REC_TIMING(REC_STRUCT_FIELD_, x) } rec_timing_t;
 typedef struct { REC_LINK_STATS(REC_STRUCT_FIELD_, x) } rec_link_stats_t;
+typedef struct { REC_REPLAY_CONTROLLER(REC_STRUCT_FIELD_, x) } rec_replay_controller_t;
+typedef struct { REC_REPLAY_PLANT(REC_STRUCT_FIELD_, x) } rec_replay_plant_t;
 
 /** Largest encoded size of a row whose strings total str_len octets. */
 #define REC_MAX_FIXED_SIZE 512u
@@ -151,6 +168,8 @@ size_t rec_encode_frames(uint8_t *out, size_t cap, const rec_frames_t *m);
 size_t rec_encode_event(uint8_t *out, size_t cap, const rec_event_t *m);
 size_t rec_encode_timing(uint8_t *out, size_t cap, const rec_timing_t *m);
 size_t rec_encode_link_stats(uint8_t *out, size_t cap, const rec_link_stats_t *m);
+size_t rec_encode_replay_controller(uint8_t *out, size_t cap, const rec_replay_controller_t *m);
+size_t rec_encode_replay_plant(uint8_t *out, size_t cap, const rec_replay_plant_t *m);
 
 /**
  * Layout of every channel, one line per kind in rec_kind_t order:
