@@ -6,6 +6,7 @@ add_library(hil_plant STATIC
   ${HIL_ROOT}/plant_rt/c/mechanics.c
   ${HIL_ROOT}/plant_rt/c/sensor.c
   ${HIL_ROOT}/plant_rt/c/plant.c
+  ${HIL_ROOT}/plant_rt/c/plant_fault.c
 )
 target_include_directories(hil_plant PUBLIC ${HIL_ROOT}/plant_rt/c)
 target_compile_options(hil_plant PRIVATE ${HIL_STRICT_FLAGS})
