@@ -26,3 +26,10 @@ target_compile_options(test_plant_nonideal PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(test_plant_nonideal PRIVATE hil_plant)
 target_include_directories(test_plant_nonideal PRIVATE ${HIL_ROOT}/tests/c)
 add_test(NAME plant_nonideal COMMAND test_plant_nonideal)
+
+# Run-time faults (plant_fault.h): off = bit for bit, open phase, short, sensors, lock, refusals.
+add_executable(test_plant_fault ${HIL_ROOT}/tests/c/test_plant_fault.c)
+target_compile_options(test_plant_fault PRIVATE ${HIL_STRICT_FLAGS})
+target_link_libraries(test_plant_fault PRIVATE hil_plant)
+target_include_directories(test_plant_fault PRIVATE ${HIL_ROOT}/tests/c)
+add_test(NAME plant_fault COMMAND test_plant_fault)
