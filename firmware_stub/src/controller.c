@@ -332,15 +332,21 @@ void ctrl_clear_fault(controller_t *c)
     }
 }
 
+/* A non-finite reference (a NaN in a CMD frame: found by tests/fuzz/fuzz_session.c) would
+ * turn every duty into NaN: it is ignored, the previous reference holds. */
 void ctrl_set_speed_ref(controller_t *c, float speed_ref_rad_s)
 {
-    c->speed_ref_rad_s = speed_ref_rad_s;
+    if (fw_is_finite(speed_ref_rad_s)) {
+        c->speed_ref_rad_s = speed_ref_rad_s;
+    }
 }
 
 void ctrl_set_current_ref(controller_t *c, float id_a, float iq_a)
 {
-    c->id_cmd_a = id_a;
-    c->iq_cmd_a = iq_a;
+    if (fw_is_finite(id_a) && fw_is_finite(iq_a)) {
+        c->id_cmd_a = id_a;
+        c->iq_cmd_a = iq_a;
+    }
 }
 
 void ctrl_set_mode(controller_t *c, ctrl_mode_t mode)
