@@ -147,7 +147,8 @@ int ctrl_protect_step(ctrl_protect_t *p, const ctrl_protect_input_t *in)
                 p->t_stuck_s[x] += ts;
                 p->stuck_max_a[x] = fmaxf(p->stuck_max_a[x], fmaxf(fabsf(i[y] - p->stuck_ref_a[x][0]),
                                                                    fabsf(i[z] - p->stuck_ref_a[x][1])));
-                if (p->t_stuck_s[x] >= k->stuck_time_s && p->stuck_max_a[x] > k->stuck_delta_a) {
+                if (p->t_stuck_s[x] >= k->stuck_time_s - 0.5f * ts &&
+                    p->stuck_max_a[x] > k->stuck_delta_a) {
                     return trip(p, CTRL_PROTECT_SENSOR_FAULT, detail_of(x, i[x]));
                 }
             } else { /* a new reading: time it from here, the others' excursion from here */
