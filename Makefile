@@ -7,7 +7,7 @@ STAMP   := $(VENV)/.installed
 BUILD   := build
 SCENARIO ?= bench/scenarios/gong_g2_500rpm.toml
 
-.PHONY: all build native cmake test test-c test-py sanitize demo perf clean
+.PHONY: all build native cmake test test-c test-py sanitize demo perf clean fuzz fuzz-ci
 
 all: build
 
@@ -53,6 +53,14 @@ demo: build
 
 perf: build
 	$(VPY) -m bench.perf.loop
+
+# libFuzzer harnesses (clang; installs it with apt-get if missing, skips if it cannot):
+# >= 10^6 executions per harness, or a 20 s pass per harness for CI (tests/fuzz/run.sh).
+fuzz:
+	tests/fuzz/run.sh
+
+fuzz-ci:
+	tests/fuzz/run.sh --time 20
 
 clean:
 	rm -rf $(BUILD) $(BUILD)-asan

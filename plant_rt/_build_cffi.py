@@ -13,7 +13,7 @@ from pathlib import Path
 from cffi import FFI
 
 C_DIR = Path(__file__).resolve().parent / "c"
-SOURCES = ("pmsm_machine.c", "inverter.c", "mechanics.c", "sensor.c", "plant.c",
+SOURCES = ("pmsm_machine.c", "inverter.c", "mechanics.c", "sensor.c", "plant.c", "plant_fault.c",
            # the cycle engine and the recording ring / schema (engine.h, rec_ring.h, rec_schema.h)
            "engine.c", "engine_link.c", "engine_refs.c", "rec_ring.c", "rec_schema.c")
 ROOT = C_DIR.parents[1]
@@ -93,12 +93,27 @@ typedef struct plant_sample {
     int code_a, code_b, code_c, code_vdc;
     int code2_a, code2_b, code2_c;
     int dual_valid;
+    double theta_enc_rad;
+    int enc_valid;
 } plant_sample_t;
 
 typedef struct plant_energy {
     double electrical_in_j, copper_loss_j, viscous_loss_j, load_work_j, magnetic_j, kinetic_j;
     double coulomb_loss_j, inverter_loss_j, dc_bus_in_j;
+    double short_loss_j, fault_absorbed_j;
 } plant_energy_t;
+
+typedef struct plant_fault {
+    int kind; int phase; int phase2; int level; double value;
+} plant_fault_t;
+typedef struct plant_fault_status {
+    unsigned active;
+    double i_short_a;
+    double i_leg_a_a, i_leg_b_a, i_leg_c_a;
+    double v_dc_v;
+    double absorbed_j;
+    unsigned long short_fallbacks;
+} plant_fault_status_t;
 
 typedef struct plant { double t_s; unsigned long events; ...; } plant_t;  /* read-only: time, diode events */
 
@@ -116,6 +131,12 @@ void plant_energy(const plant_t *pl, plant_energy_t *out);
 void plant_sample(const plant_t *pl, plant_sample_t *out);
 void plant_set_dyno_speed(plant_t *pl, double omega_m_rad_s);
 double plant_load_torque_at(const plant_t *pl, double t_s);
+const char *plant_fault_check(const plant_t *pl, const plant_fault_t *f);
+int plant_set_fault(plant_t *pl, const plant_fault_t *f);
+void plant_clear_fault(plant_t *pl, int kind, int phase);
+void plant_clear_faults(plant_t *pl);
+unsigned plant_faults_active(const plant_t *pl);
+void plant_fault_status(const plant_t *pl, plant_fault_status_t *out);
 
 /* parts, for tests of each part alone */
 typedef struct sensor_rng { uint64_t s[4]; double cached_normal; int has_cached; } sensor_rng_t;

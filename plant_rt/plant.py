@@ -13,6 +13,9 @@
 
     Plant.from_profile("yuan2020", inverter_nonlinear=True, adc_model=1, adc_seed=7)
                                       # non-idealities: flat keys (plant_rt/profile.py)
+    plant.set_fault("open_phase", phase="b")          # run-time faults (plant_rt/c/plant_fault.h)
+    plant.set_fault("phase_short", phase="a", phase2="b", value=0.5)
+    plant.clear_fault("open_phase"); plant.clear_faults()
 
 Units are SI and named in the fields (see plant_rt/c/plant.h for the timing contract: the
 snapshot after step k is taken at t_{k+1}, the next sampling instant).
@@ -44,6 +47,42 @@ except ImportError as _exc:  # pragma: no cover - exercised by a subprocess test
         "plant_rt._plant_c (the compiled C plant) is not built: run `make build` "
         "(or `.venv/bin/python tools/build_native.py`)"
     ) from _exc
+
+#: run-time fault kinds (plant_fault_kind_t in plant_rt/c/plant_fault.h) -> C value
+FAULT_KINDS: dict[str, int] = {
+    "open_phase": 1,       # phase: the wire is disconnected (current 0 through the machine equations)
+    "leg_stuck": 2,        # phase, level (1: upper switch shorted -> + rail, 0: lower -> - rail)
+    "phase_short": 3,      # phase, phase2, value = R [ohm] between the two machine terminals
+    "sensor_stuck": 4,     # phase, value = reading [A]
+    "sensor_offset": 5,    # phase, value = offset [A]
+    "sensor_gain": 6,      # phase, value = relative gain error (> -1)
+    "sensor_dropout": 7,   # phase: reads 0 A
+    "vdc": 8,              # value = bus voltage [V] (sag: set then clear; step: set)
+    "encoder_loss": 9,     # sample().enc_valid = 0
+    "encoder_stuck": 10,   # sample().theta_enc_rad frozen
+    "locked_rotor": 11,    # speed held at 0 from the next period
+    "load_torque": 12,     # value = extra load torque [N m] (a spike: set then clear)
+}
+_PHASES = {"a": 0, "b": 1, "c": 2, 0: 0, 1: 1, 2: 2}
+
+
+def fault_kind(kind: str | int) -> int:
+    """C value of a fault kind given by name (FAULT_KINDS) or number."""
+    if isinstance(kind, str):
+        if kind not in FAULT_KINDS:
+            raise ValueError(f"unknown fault kind {kind!r}; known: {', '.join(FAULT_KINDS)}")
+        return FAULT_KINDS[kind]
+    if int(kind) not in FAULT_KINDS.values():
+        raise ValueError(f"unknown fault kind {kind!r}")
+    return int(kind)
+
+
+def _phase(value: str | int, name: str) -> int:
+    key = value.lower() if isinstance(value, str) else value
+    if key not in _PHASES:
+        raise ValueError(f"{name}: must be 'a', 'b', 'c' or 0..2, got {value!r}")
+    return _PHASES[key]
+
 
 #: plant_snapshot_t field names, in struct order (all double)
 SNAPSHOT_FIELDS: tuple[str, ...] = tuple(name for name, _ in ffi.typeof("plant_snapshot_t").fields)
@@ -244,6 +283,45 @@ class Plant:
         """Back to t = 0, zero currents and speed (dyno mode: the dyno's set speed), no load
         torque, previous duties 0.5, noise generator reseeded (the same samples again)."""
         lib.plant_reset(self._pl)
+
+    # -- faults (plant_rt/c/plant_fault.h) ----------------------------------------------------
+    def set_fault(self, kind: str | int, *, phase: str | int = 0, phase2: str | int = 1,
+                  level: int = 1, value: float = 0.0) -> None:
+        """Switch a fault on from now (t_k) on; see FAULT_KINDS for what each field means.
+        Raises ValueError (with the C check's reason) if the fault cannot be set."""
+        f = ffi.new("plant_fault_t *")
+        f.kind = fault_kind(kind)
+        f.phase = _phase(phase, "phase")
+        f.phase2 = _phase(phase2, "phase2")
+        f.level = int(level)
+        f.value = float(value)
+        msg = lib.plant_fault_check(self._pl, f)
+        if msg != ffi.NULL:
+            raise ValueError(f"fault {kind!r}: {ffi.string(msg).decode()}")
+        if lib.plant_set_fault(self._pl, f) != 0:  # pragma: no cover - checked above
+            raise ValueError(f"fault {kind!r}: refused")
+
+    def clear_fault(self, kind: str | int, phase: str | int | None = None) -> None:
+        """Switch a fault kind off (phase: only that leg / sensor for leg_stuck and sensor_*)."""
+        lib.plant_clear_fault(self._pl, fault_kind(kind), -1 if phase is None else _phase(phase, "phase"))
+
+    def clear_faults(self) -> None:
+        """Every fault off (reset() does this too)."""
+        lib.plant_clear_faults(self._pl)
+
+    def faults_active(self) -> list[str]:
+        """Names of the fault kinds that are on."""
+        mask = lib.plant_faults_active(self._pl)
+        return [name for name, v in FAULT_KINDS.items() if mask & (1 << v)]
+
+    def fault_status(self) -> dict[str, Any]:
+        """What the faults do now: short current (averaged model), leg currents, bus voltage,
+        energy absorbed at a phase interruption, diagnostics (plant_fault_status_t)."""
+        st = ffi.new("plant_fault_status_t *")
+        lib.plant_fault_status(self._pl, st)
+        out = {name: getattr(st, name) for name, _ in ffi.typeof("plant_fault_status_t").fields}
+        out["active"] = self.faults_active()
+        return out
 
     def step_abc(self, duties: Sequence[float]) -> None:
         """``step`` with a 3-sequence of duties."""

@@ -514,3 +514,242 @@ def simulate(params: Any, duties: np.ndarray, *, theta_e0: float = 0.0, omega_m0
         i_abc_act_a=act,
         torque_dyno_nm=torque_dyno,
     )
+
+
+# ---------------------------------------------------------------------------------------------
+# faults (plant_rt/c/plant_fault.h): the circuit written out, independently of the C network code
+
+@dataclass
+class FaultResult:
+    """Fault reference at t_k = k Ts, k = 0..n: machine phase currents, leg currents (what the
+    inverter carries; differs from the machine's in a phase short), the short current
+    (x -> y, averaged model), speed and angle."""
+
+    t_s: np.ndarray
+    i_abc_a: np.ndarray        # (n+1, 3) machine phase currents
+    i_leg_abc_a: np.ndarray    # (n+1, 3) inverter leg currents
+    i_short_a: np.ndarray      # (n+1,)
+    omega_m_rad_s: np.ndarray
+    theta_e_rad: np.ndarray
+
+
+class _FaultModel(_Model):
+    """The machine as phase circuits with a faulted terminal network.
+
+    Full state: (psi_alpha, psi_beta, omega_m, theta_e) as in _Model. With an open wire at
+    phase x the machine is ONE circuit through phases y and z (i_y = -i_z = i, i_x = 0): the
+    state is the loop's flux linkage lambda = psi_y - psi_z (psi_abc = INV_CLARKE psi_ab),
+    lambda' = (u_y - u_z) - 2 R i, i = (lambda - psi_f q.e(theta)) / (q.L(theta) w) with
+    q = u_y - u_z the loop's axis and w = CLARKE (e_y - e_z) its current direction; the loop's
+    flux is continuous when the wire opens (the C plant's interruption rule, derived here from
+    the loop equation). A phase short R_f between terminals x and y: i_f = (u_x - u_y)/R_f,
+    leg currents l_x = i_x + i_f, l_y = i_y - i_f; a disabled leg's terminal is the smooth diode
+    u = V_dc/2 (1 - tanh(l/i0)) of its LEG current, so the terminals of disabled legs in the
+    short solve an implicit equation (monotone: brentq). A stuck leg's terminal is a rail.
+    """
+
+    def __init__(self, p: RefParams, diode_i0_a: float):
+        super().__init__(p, "alphabeta", diode_i0_a, "continuous")
+        if p.inverter_nonlinear or p.saturation:
+            raise ValueError("the fault reference models the ideal inverter and linear magnetics")
+        self.open_phase: int | None = None
+        self.stuck: dict[int, int] = {}
+        self.short: tuple[int, int, float] | None = None
+        self.v_dc = p.v_dc_v
+        self.extra_load = 0.0
+
+    # -- terminals -----------------------------------------------------------------------------
+    def diode(self, l: float) -> float:
+        return 0.5 * self.v_dc * (1.0 - math.tanh(l / self.i0))
+
+    def source(self, k: int) -> float | None:
+        """Terminal voltage of a leg that is a voltage source, None for a disabled leg."""
+        if k in self.stuck:
+            return self.v_dc if self.stuck[k] else 0.0
+        if self.enabled[k]:
+            return float(self.duty[k]) * self.v_dc
+        return None
+
+    def terminals(self, i_abc: np.ndarray) -> tuple[np.ndarray, float]:
+        """Terminal voltages u (w.r.t. the - rail) and the short current for machine currents."""
+        from scipy.optimize import brentq
+        u = np.empty(3)
+        src = [self.source(k) for k in range(3)]
+        if self.short is None:
+            for k in range(3):
+                u[k] = src[k] if src[k] is not None else self.diode(i_abc[k])
+            return u, 0.0
+        x, y, r = self.short
+        z = 3 - x - y
+        u[z] = src[z] if src[z] is not None else self.diode(i_abc[z])
+        vdc = self.v_dc
+        if src[x] is not None and src[y] is not None:
+            u[x], u[y] = src[x], src[y]
+        elif src[y] is not None:
+            u[y] = src[y]
+            u[x] = brentq(lambda ux: ux - self.diode(i_abc[x] + (ux - u[y]) / r),
+                          -vdc, 2.0 * vdc, xtol=1e-13, rtol=1e-15, maxiter=500)
+        elif src[x] is not None:
+            u[x] = src[x]
+            u[y] = brentq(lambda uy: uy - self.diode(i_abc[y] - (u[x] - uy) / r),
+                          -vdc, 2.0 * vdc, xtol=1e-13, rtol=1e-15, maxiter=500)
+        else:
+            def f(vf: float) -> float:
+                return vf - self.diode(i_abc[x] + vf / r) + self.diode(i_abc[y] - vf / r)
+            vf = brentq(f, -2.0 * vdc, 2.0 * vdc, xtol=1e-13, rtol=1e-15, maxiter=500)
+            u[x] = self.diode(i_abc[x] + vf / r)
+            u[y] = self.diode(i_abc[y] - vf / r)
+        return u, (u[x] - u[y]) / r
+
+    # -- open wire: the loop through the two other phases ----------------------------------------
+    def loop_vectors(self) -> tuple[np.ndarray, np.ndarray, int, int]:
+        x = self.open_phase
+        y, z = (x + 1) % 3, (x + 2) % 3
+        q = INV_CLARKE[y] - INV_CLARKE[z]
+        w = CLARKE[:, y] - CLARKE[:, z]
+        return q, w, y, z
+
+    def inductance_ab(self, th: float) -> np.ndarray:
+        p = self.p
+        l0, l2 = 0.5 * (p.ld_h + p.lq_h), 0.5 * (p.ld_h - p.lq_h)
+        c2, s2 = math.cos(2.0 * th), math.sin(2.0 * th)
+        return np.array([[l0 + l2 * c2, l2 * s2], [l2 * s2, l0 - l2 * c2]])
+
+    def loop_current(self, lam: float, th: float) -> float:
+        q, w, _, _ = self.loop_vectors()
+        e = np.array([math.cos(th), math.sin(th)])
+        return (lam - self.p.psi_f_wb * float(q @ e)) / float(q @ self.inductance_ab(th) @ w)
+
+    def to_loop(self, x_full: np.ndarray) -> np.ndarray:
+        q, _, _, _ = self.loop_vectors()
+        return np.array([float(q @ x_full[:2]), x_full[2], x_full[3]])
+
+    def to_full(self, x_loop: np.ndarray) -> np.ndarray:
+        _, w, _, _ = self.loop_vectors()
+        th = x_loop[2]
+        i_ab = self.loop_current(x_loop[0], th) * w
+        psi = self.inductance_ab(th) @ i_ab + self.p.psi_f_wb * np.array([math.cos(th), math.sin(th)])
+        return np.array([psi[0], psi[1], x_loop[1], th])
+
+    # -- right-hand sides ----------------------------------------------------------------------
+    def mech(self, te: float, wm: float) -> float:
+        p = self.p
+        return (te - p.b_nms * wm - self.load_nm - self.extra_load) / p.j_kgm2
+
+    def rhs_full(self, _t: float, x: np.ndarray) -> np.ndarray:
+        p = self.p
+        i_ab = self.currents_ab(x)
+        u, _ = self.terminals(INV_CLARKE @ i_ab)
+        v_ab = CLARKE @ (u - u.mean())
+        d = v_ab - p.rs_ohm * i_ab
+        te = 1.5 * p.pole_pairs * (x[0] * i_ab[1] - x[1] * i_ab[0])
+        return np.array([d[0], d[1], self.mech(te, x[2]), p.pole_pairs * x[2]])
+
+    def rhs_loop(self, _t: float, x: np.ndarray) -> np.ndarray:
+        p = self.p
+        lam, wm, th = x
+        i = self.loop_current(lam, th)
+        q, w, y, z = self.loop_vectors()
+        i_abc = np.zeros(3)
+        i_abc[y], i_abc[z] = i, -i
+        u, _ = self.terminals(i_abc)
+        i_ab = i * w
+        psi = self.inductance_ab(th) @ i_ab + p.psi_f_wb * np.array([math.cos(th), math.sin(th)])
+        te = 1.5 * p.pole_pairs * (psi[0] * i_ab[1] - psi[1] * i_ab[0])
+        return np.array([u[y] - u[z] - 2.0 * p.rs_ohm * i, self.mech(te, wm), p.pole_pairs * wm])
+
+    def observe(self, x_full: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Machine currents, leg currents, short current at a full state."""
+        i_abc = INV_CLARKE @ self.currents_ab(x_full)
+        if self.open_phase is not None:
+            i_abc[self.open_phase] = 0.0
+        u, i_f = self.terminals(i_abc)
+        leg = i_abc.copy()
+        if self.short is not None:
+            x, y, _ = self.short
+            leg[x] += i_f
+            leg[y] -= i_f
+        return i_abc, leg, i_f
+
+
+def simulate_faults(params: Any, duties: np.ndarray, faults: list[dict[str, Any]], *,
+                    theta_e0: float = 0.0, omega_m0: float = 0.0, load_torque_nm: float = 0.0,
+                    rtol: float = 1e-10, diode_i0_a: float = 1e-6) -> FaultResult:
+    """Integrate len(duties) periods with faults switched at period starts.
+
+    faults: dicts {kind, k_on, k_off (None: never), phase, phase2, level, value} with kind one
+    of "open_phase", "leg_stuck", "phase_short", "vdc", "load_torque" (same meaning as
+    plant_rt.plant.FAULT_KINDS). Ideal inverter, linear magnetics. Duty semantics as simulate().
+    """
+    p = RefParams.of(params)
+    duties = np.asarray(duties, dtype=float)
+    n = duties.shape[0]
+    model = _FaultModel(p, diode_i0_a)
+    model.load_nm = float(load_torque_nm)
+    x = model.initial_state(theta_e0 % (2.0 * math.pi), omega_m0)   # full state
+    t_act = p.t_act_s
+    out_i = np.empty((n + 1, 3))
+    out_leg = np.empty((n + 1, 3))
+    out_if = np.empty(n + 1)
+    out_w = np.empty(n + 1)
+    out_th = np.empty(n + 1)
+    prev = np.full(3, 0.5)
+
+    def record(k: int) -> None:
+        i_abc, leg, i_f = model.observe(x)
+        out_i[k], out_leg[k], out_if[k] = i_abc, leg, i_f
+        out_w[k], out_th[k] = x[2], x[3] % (2.0 * math.pi)
+
+    def apply(k: int) -> None:
+        nonlocal x
+        for f in faults:
+            on = f["k_on"] <= k and (f.get("k_off") is None or k < f["k_off"])
+            kind = f["kind"]
+            if kind == "open_phase":
+                if on and model.open_phase is None:
+                    model.open_phase = int(f["phase"])
+                    x = model.to_full(model.to_loop(x))   # the loop's flux is continuous
+                elif not on and model.open_phase == int(f["phase"]):
+                    model.open_phase = None
+            elif kind == "leg_stuck":
+                if on:
+                    model.stuck[int(f["phase"])] = int(f.get("level", 1))
+                else:
+                    model.stuck.pop(int(f["phase"]), None)
+            elif kind == "phase_short":
+                model.short = (int(f["phase"]), int(f["phase2"]), float(f["value"])) if on else None
+            elif kind == "vdc":
+                model.v_dc = float(f["value"]) if on else p.v_dc_v
+            elif kind == "load_torque":
+                model.extra_load = float(f["value"]) if on else 0.0
+            else:
+                raise ValueError(f"fault kind {kind!r} is not in the reference")
+
+    apply(0)
+    model.set_inputs(prev, model.load_nm)
+    record(0)
+    for k in range(n):
+        apply(k)
+        for length, old in ((t_act, True), (p.ts_s - t_act, False)):
+            if length <= 0.0:
+                continue
+            model.set_inputs(prev if old else duties[k], model.load_nm)
+            if model.open_phase is not None:
+                y0 = model.to_loop(x)
+                y0[2] %= 2.0 * math.pi
+                sol = solve_ivp(model.rhs_loop, (0.0, length), y0, method="Radau", rtol=rtol,
+                                atol=np.array([1e-13, 1e-10, 1e-12]))
+                x = model.to_full(sol.y[:, -1])
+            else:
+                x0 = np.array([x[0], x[1], x[2], x[3] % (2.0 * math.pi)])
+                meth = "Radau" if (model.has_disabled or model.short is not None) else "DOP853"
+                sol = solve_ivp(model.rhs_full, (0.0, length), x0, method=meth, rtol=rtol,
+                                atol=np.array([1e-13, 1e-13, 1e-10, 1e-12]))
+                x = sol.y[:, -1]
+            if not sol.success:
+                raise RuntimeError(f"fault reference: solve_ivp failed in period {k}: {sol.message}")
+        prev = duties[k]
+        model.set_inputs(prev, model.load_nm)
+        record(k + 1)
+    return FaultResult(t_s=np.arange(n + 1) * p.ts_s, i_abc_a=out_i, i_leg_abc_a=out_leg,
+                       i_short_a=out_if, omega_m_rad_s=out_w, theta_e_rad=out_th)

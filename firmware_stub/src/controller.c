@@ -60,6 +60,7 @@ void ctrl_config_defaults(ctrl_config_t *cfg)
     cfg->harm_m = 96.0f;
     cfg->harm_k_comp = 1.0f;
     cfg->harm_extractor = (float)HARM_EXTRACT_GSDFT;
+    ctrl_protect_default_config(&cfg->prot);
 }
 
 static void set_outputs_off(controller_t *c)
@@ -87,6 +88,9 @@ void ctrl_init(controller_t *c)
     set_outputs_off(c);
     c->out.state = c->state;
     c->out.fault = c->fault;
+    c->fault_detail = 0;
+    c->out.fault_detail = 0;
+    c->prot_ref_valid = 0;
 }
 
 static void enter_fault(controller_t *c, ctrl_fault_t fault)
@@ -94,6 +98,51 @@ static void enter_fault(controller_t *c, ctrl_fault_t fault)
     c->state = CTRL_STATE_FAULT;
     c->fault = fault;
     set_outputs_off(c);
+}
+
+/* protection (ctrl_protect.h): the sample and the currents the loop tracked; 1 = tripped */
+static int protect(controller_t *c, const ctrl_sample_t *s)
+{
+    ctrl_protect_input_t in;
+    int code;
+    in.i_abc_a[0] = s->i_a_a;
+    in.i_abc_a[1] = s->i_b_a;
+    in.i_abc_a[2] = s->i_c_a;
+    in.i_ref_abc_a[0] = in.i_ref_abc_a[1] = in.i_ref_abc_a[2] = 0.0f;
+    if (c->prot_ref_valid) {
+        fw_vec2_t dq, ab;
+        dq.x = c->prot_id_ref_a;
+        dq.y = c->prot_iq_ref_a;
+        ab = fw_park_inv(dq, sinf(c->prot_theta_rad), cosf(c->prot_theta_rad));
+        in.i_ref_abc_a[0] = ab.x;
+        in.i_ref_abc_a[1] = -0.5f * ab.x + 0.5f * FW_SQRT3_F * ab.y;
+        in.i_ref_abc_a[2] = -0.5f * ab.x - 0.5f * FW_SQRT3_F * ab.y;
+    }
+    in.v_dc_v = s->v_dc_v;
+    code = ctrl_protect_step(&c->prot, &in);
+    if (code != CTRL_PROTECT_NONE) {
+        enter_fault(c, (ctrl_fault_t)code);
+        c->fault_detail = c->prot.detail;
+        return 1;
+    }
+    return 0;
+}
+
+ctrl_fault_t ctrl_link_tick(controller_t *c, float dt_s)
+{
+    if (c->state == CTRL_STATE_IDLE || c->state == CTRL_STATE_STOPPED ||
+        c->state == CTRL_STATE_FAULT) {
+        return CTRL_FAULT_NONE;
+    }
+    if (ctrl_protect_link_tick(&c->prot, dt_s) == CTRL_PROTECT_LINK_TIMEOUT) {
+        enter_fault(c, CTRL_FAULT_LINK_TIMEOUT);
+        c->fault_detail = c->prot.detail;
+        c->out.state = c->state;
+        c->out.fault = c->fault;
+        c->out.fault_detail = c->fault_detail;
+        return CTRL_FAULT_LINK_TIMEOUT;
+    }
+    return CTRL_FAULT_NONE;
 }
 
 static int config_valid(const ctrl_config_t *k)
@@ -214,7 +263,9 @@ int ctrl_start(controller_t *c)
     float bw, kp_q, ki, vmax;
 
     c->hfi_out = NULL;
-    if (!config_valid(k) || estimator_init(c) != 0 || extras_init(c) != 0) {
+    k->prot.i_trip_a = k->i_trip_a;
+    if (!config_valid(k) || estimator_init(c) != 0 || extras_init(c) != 0 ||
+        ctrl_protect_init(&c->prot, &k->prot, k->ts_s, k->v_dc_nom_v) != 0) {
         enter_fault(c, CTRL_FAULT_CONFIG_INVALID);
         return -1;
     }
@@ -249,6 +300,8 @@ int ctrl_start(controller_t *c)
     c->v_ab_older_v = c->v_ab_applied_v;
     c->v_ab_acted_v = c->v_ab_applied_v;
     c->fault = CTRL_FAULT_NONE;
+    c->fault_detail = 0;
+    c->prot_ref_valid = 0;
     /* with an encoder there is nothing to start open loop: close the loop at once; HF injection
      * finds the initial position at standstill first (Hou section 3) */
     if ((int)k->estimator == CTRL_EST_ENCODER) {
@@ -274,18 +327,26 @@ void ctrl_clear_fault(controller_t *c)
     if (c->state == CTRL_STATE_FAULT) {
         c->state = CTRL_STATE_IDLE;
         c->fault = CTRL_FAULT_NONE;
+        c->fault_detail = 0;
+        ctrl_protect_reset(&c->prot);
     }
 }
 
+/* A non-finite reference (a NaN in a CMD frame: found by tests/fuzz/fuzz_session.c) would
+ * turn every duty into NaN: it is ignored, the previous reference holds. */
 void ctrl_set_speed_ref(controller_t *c, float speed_ref_rad_s)
 {
-    c->speed_ref_rad_s = speed_ref_rad_s;
+    if (fw_is_finite(speed_ref_rad_s)) {
+        c->speed_ref_rad_s = speed_ref_rad_s;
+    }
 }
 
 void ctrl_set_current_ref(controller_t *c, float id_a, float iq_a)
 {
-    c->id_cmd_a = id_a;
-    c->iq_cmd_a = iq_a;
+    if (fw_is_finite(id_a) && fw_is_finite(iq_a)) {
+        c->id_cmd_a = id_a;
+        c->iq_cmd_a = iq_a;
+    }
 }
 
 void ctrl_set_mode(controller_t *c, ctrl_mode_t mode)
@@ -349,20 +410,14 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
 {
     const ctrl_config_t *k = &c->cfg;
     fw_vec2_t i_ab, i_dq, v_dq, v_ab;
-    float theta, omega_e, sin_t, cos_t, v_dc, vmax, ff_d, ff_q, vq_lim, theta_pwm, i_peak;
+    float theta, omega_e, sin_t, cos_t, v_dc, vmax, ff_d, ff_q, vq_lim, theta_pwm;
 
     if (c->state == CTRL_STATE_IDLE || c->state == CTRL_STATE_STOPPED ||
         c->state == CTRL_STATE_FAULT) {
         set_outputs_off(c);
         goto finish;
     }
-    if (!fw_is_finite(s->i_a_a) || !fw_is_finite(s->i_b_a) || !fw_is_finite(s->i_c_a)) {
-        enter_fault(c, CTRL_FAULT_OVERCURRENT);
-        goto finish;
-    }
-    i_peak = fmaxf(fabsf(s->i_a_a), fmaxf(fabsf(s->i_b_a), fabsf(s->i_c_a)));
-    if (i_peak > k->i_trip_a) {
-        enter_fault(c, CTRL_FAULT_OVERCURRENT);
+    if (protect(c, s)) { /* over-current, open phase, sensors, bus (ctrl_protect.h) */
         goto finish;
     }
     i_ab = fw_clarke(s->i_a_a, s->i_b_a, s->i_c_a);
@@ -482,6 +537,10 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     vq_lim = sqrtf(fmaxf(vmax * vmax - v_dq.x * v_dq.x, 0.0f));
     pi_ctrl_set_limits(&c->pi_q, -vq_lim - ff_q, vq_lim - ff_q);
     v_dq.y = pi_ctrl_step(&c->pi_q, c->iq_ref_a - i_dq.y, k->ts_s) + ff_q;
+    c->prot_ref_valid = 1; /* what the loop tracks, at the angle of the next sample */
+    c->prot_id_ref_a = c->id_ref_a;
+    c->prot_iq_ref_a = c->iq_ref_a;
+    c->prot_theta_rad = theta + omega_e * k->ts_s;
 
     /* the voltage acts from t_k + delay on: advance the angle to the middle of its action */
     theta_pwm = theta + omega_e * (k->t_act_delay_s + 0.5f * k->ts_s);
@@ -510,5 +569,6 @@ finish:
     c->out.i_q_ref_a = c->iq_ref_a;
     c->out.state = c->state;
     c->out.fault = c->fault;
+    c->out.fault_detail = c->fault_detail;
     return &c->out;
 }

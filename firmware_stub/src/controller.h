@@ -10,6 +10,7 @@
 #ifndef CONTROLLER_H
 #define CONTROLLER_H
 
+#include "ctrl_protect.h"
 #include "est_common.h"
 #include "est_delay_comp.h"
 #include "est_hfi.h"
@@ -44,10 +45,16 @@ typedef enum {
 /** Fault causes; the numbers are the protocol's fault `code` value table. */
 typedef enum {
     CTRL_FAULT_NONE = 0,
+    CTRL_FAULT_LINK_TIMEOUT = CTRL_PROTECT_LINK_TIMEOUT,
     CTRL_FAULT_OVERCURRENT = 4,
     CTRL_FAULT_INVALID_DUTY = 5,
     CTRL_FAULT_CONFIG_INVALID = 8,
-    CTRL_FAULT_STARTUP_FAILED = 10
+    CTRL_FAULT_OVERVOLTAGE = CTRL_PROTECT_OVERVOLTAGE,
+    CTRL_FAULT_STARTUP_FAILED = 10,
+    /* not in protocol/hil.dbc yet (proposed values, see ctrl_protect.h) */
+    CTRL_FAULT_OPEN_PHASE = CTRL_PROTECT_OPEN_PHASE,
+    CTRL_FAULT_UNDERVOLTAGE = CTRL_PROTECT_UNDERVOLTAGE,
+    CTRL_FAULT_SENSOR_FAULT = CTRL_PROTECT_SENSOR_FAULT
 } ctrl_fault_t;
 
 typedef enum { CTRL_MODE_SPEED = 0, CTRL_MODE_CURRENT = 1 } ctrl_mode_t;
@@ -95,6 +102,8 @@ typedef struct {
     float delay_comp_mode, delay_comp_td_s;
     /* inverter-nonlinearity compensation (Yuan eq. 28-37) */
     float harm_comp_enable, harm_m, harm_k_comp, harm_extractor;
+    /* protection thresholds (ctrl_protect.h; prot.i_trip_a is set from i_trip_a at start) */
+    ctrl_protect_config_t prot;
 } ctrl_config_t;
 
 typedef struct {
@@ -114,6 +123,7 @@ typedef struct {
     float t_d_est_s;     /**< delay-compensation estimate in use (0 when off) */
     ctrl_state_t state;
     ctrl_fault_t fault;
+    int32_t fault_detail; /**< FAULT_CTRL detail of the fault (ctrl_protect.h), 0 if none */
 } ctrl_output_t;
 
 typedef struct {
@@ -149,6 +159,11 @@ typedef struct {
     fw_vec2_t v_ab_applied_v;   /**< command of the last ISR, as realised by SVPWM */
     fw_vec2_t v_ab_older_v;     /**< command of the ISR before */
     fw_vec2_t v_ab_acted_v;     /**< what acted over the last period (delay-weighted) */
+    /* protection: the current references of the last period at the angle of t_k */
+    ctrl_protect_t prot;
+    int prot_ref_valid;
+    float prot_id_ref_a, prot_iq_ref_a, prot_theta_rad;
+    int32_t fault_detail;
     ctrl_output_t out;
 } controller_t;
 
@@ -164,5 +179,12 @@ void ctrl_set_current_ref(controller_t *c, float id_a, float iq_a);
 void ctrl_set_mode(controller_t *c, ctrl_mode_t mode);
 /** The ISR. */
 const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s);
+/**
+ * Link timer of a free-running port (no SENSE -> no ISR): call it from the port's timer with
+ * the time since the last call. Returns CTRL_FAULT_LINK_TIMEOUT when it trips now (the
+ * controller is then in FAULT with its outputs off: send FAULT_CTRL with out.fault_detail),
+ * else CTRL_FAULT_NONE. Acts only while the controller is running.
+ */
+ctrl_fault_t ctrl_link_tick(controller_t *c, float dt_s);
 
 #endif

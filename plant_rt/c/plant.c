@@ -30,6 +30,7 @@
  * effect that is off leaves the arithmetic of the ideal plant unchanged (bit for bit).
  */
 #include "plant.h"
+#include "plant_fault_internal.h"
 
 #include <math.h>
 #include <string.h>
@@ -45,6 +46,7 @@ enum {
     Q_THM,                                  /* int omega_m dt [rad] */
     Q_EIN, Q_ECU, Q_EVISC, Q_ELOAD,         /* energies [J] */
     Q_ECOUL, Q_EINV,                        /* Coulomb friction loss, inverter loss [J] */
+    Q_ESHORT,                               /* phase-to-phase short loss [J] (faults) */
     S_N
 };
 
@@ -58,7 +60,13 @@ typedef struct step_mode {
     int n_open;         /* 0, 1 (open_phase open) or >= 2 (all currents zero) */
     int open_phase;
     int has_disabled;   /* any disabled leg: guards must be watched */
+    int short_on;       /* fault PHASE_SHORT: the network of plant_fault.c replaces the above */
+    plant_short_mode_t sh;
 } step_mode_t;
+
+/* A phase disconnected by an OPEN_PHASE fault: always open, its terminal not clamped. */
+#define FORCED_OPEN(pl, k) (((pl)->faults.active & PLANT_FAULT_BIT(PLANT_FAULT_OPEN_PHASE)) && \
+                            (pl)->faults.open_phase == (k))
 
 /* ------------------------------------------------------------------------------------------ */
 /* parameters                                                                                 */
@@ -343,6 +351,7 @@ static void finish_mode(const plant_t *pl, const double duty[3], step_mode_t *mo
     mode->n_open = 0;
     mode->open_phase = -1;
     mode->has_disabled = 0;
+    mode->short_on = 0;
     for (k = 0; k < 3; ++k) {
         mode->duty[k] = duty[k];
         if (mode->leg[k] == INV_LEG_OPEN) {
@@ -368,8 +377,18 @@ static void resolve_mode(const plant_t *pl, const double duty[3], double *s, ste
     const inverter_t *inv = &pl->inverter;
     double i_abc[3];
     int iter;
+    if (pl->faults.active & PLANT_FAULT_BIT(PLANT_FAULT_PHASE_SHORT)) {
+        plant_short_resolve((plant_t *)(void *)pl, duty, s, &mode->sh); /* counts fallbacks */
+        mode->short_on = 1;
+        mode->has_disabled = 1;
+        mode->n_open = 0;
+        return;
+    }
     currents_abc(s, i_abc);
     (void)inverter_classify(inv, duty, i_abc, mode->leg);
+    if (pl->faults.active & PLANT_FAULT_BIT(PLANT_FAULT_OPEN_PHASE)) {
+        mode->leg[pl->faults.open_phase] = INV_LEG_OPEN;
+    }
     for (iter = 0; iter < 4; ++iter) {
         finish_mode(pl, duty, mode);
         if (mode->n_open == 0) {
@@ -378,6 +397,9 @@ static void resolve_mode(const plant_t *pl, const double duty[3], double *s, ste
         if (mode->n_open == 1) {
             const int x = mode->open_phase;
             clamp_phase_current(s, x);
+            if (FORCED_OPEN(pl, x)) {
+                return; /* disconnected: no diode can clamp the floating terminal */
+            }
             mode->leg[x] = inverter_open_leg_mode(inv, open_terminal_voltage(pl, mode, s));
             finish_mode(pl, duty, mode);
             return;
@@ -391,11 +413,12 @@ static void resolve_mode(const plant_t *pl, const double duty[3], double *s, ste
             s[S_IQ] = 0.0;
             emf_abc(pl, s, e);
             if (mode->n_open == 3) {
-                int kmax = 0;
-                int kmin = 0;
-                for (k = 1; k < 3; ++k) {
-                    if (e[k] > e[kmax]) kmax = k;
-                    if (e[k] < e[kmin]) kmin = k;
+                int kmax = -1;
+                int kmin = -1;
+                for (k = 0; k < 3; ++k) {
+                    if (FORCED_OPEN(pl, k)) continue; /* the line EMF of the connected pair */
+                    if (kmax < 0 || e[k] > e[kmax]) kmax = k;
+                    if (kmin < 0 || e[k] < e[kmin]) kmin = k;
                 }
                 if (e[kmax] - e[kmin] > inv->cfg.v_dc_v + 2.0 * inv->nl.v_diode_drop_v + inv->v_tol_v) {
                     mode->leg[kmax] = INV_LEG_DIODE_HIGH; /* current leaves the machine there */
@@ -410,7 +433,7 @@ static void resolve_mode(const plant_t *pl, const double duty[3], double *s, ste
                 double worst_margin = 0.0;
                 const double v_n = neutral_from_source_leg(pl, mode, s, e, &z);
                 for (k = 0; k < 3; ++k) {
-                    if (k != z) {
+                    if (k != z && !FORCED_OPEN(pl, k)) {
                         const double m = inverter_open_margin(inv, v_n + e[k]);
                         if (m < worst_margin) {
                             worst_margin = m;
@@ -436,6 +459,9 @@ static double mode_margin(const plant_t *pl, const step_mode_t *mode, const doub
     double margin = HUGE_VAL;
     double i_abc[3];
     int k;
+    if (mode->short_on) {
+        return plant_short_margin(pl, &mode->sh, s);
+    }
     currents_abc(s, i_abc);
     for (k = 0; k < 3; ++k) {
         if (mode->leg[k] == INV_LEG_DIODE_LOW && i_abc[k] < margin) {
@@ -445,21 +471,31 @@ static double mode_margin(const plant_t *pl, const step_mode_t *mode, const doub
         }
     }
     if (mode->n_open == 1) {
-        const double m = inverter_open_margin(inv, open_terminal_voltage(pl, mode, s));
-        if (m < margin) margin = m;
+        if (!FORCED_OPEN(pl, mode->open_phase)) {
+            const double m = inverter_open_margin(inv, open_terminal_voltage(pl, mode, s));
+            if (m < margin) margin = m;
+        }
     } else if (mode->n_open >= 2) {
         double e[3];
         emf_abc(pl, s, e);
         if (mode->n_open == 3) {
-            const double emax = fmax(e[0], fmax(e[1], e[2]));
-            const double emin = fmin(e[0], fmin(e[1], e[2]));
-            const double m = inv->cfg.v_dc_v + 2.0 * inv->nl.v_diode_drop_v + inv->v_tol_v - (emax - emin);
+            double emax = fmax(e[0], fmax(e[1], e[2]));
+            double emin = fmin(e[0], fmin(e[1], e[2]));
+            double m;
+            if (pl->faults.active & PLANT_FAULT_BIT(PLANT_FAULT_OPEN_PHASE)) {
+                /* the line EMF of the two connected phases */
+                const int y = (pl->faults.open_phase + 1) % 3;
+                const int z = (pl->faults.open_phase + 2) % 3;
+                emax = fmax(e[y], e[z]);
+                emin = fmin(e[y], e[z]);
+            }
+            m = inv->cfg.v_dc_v + 2.0 * inv->nl.v_diode_drop_v + inv->v_tol_v - (emax - emin);
             if (m < margin) margin = m;
         } else {
             int z;
             const double v_n = neutral_from_source_leg(pl, mode, s, e, &z);
             for (k = 0; k < 3; ++k) {
-                if (k != z) {
+                if (k != z && !FORCED_OPEN(pl, k)) {
                     const double m = inverter_open_margin(inv, v_n + e[k]);
                     if (m < margin) margin = m;
                 }
@@ -474,6 +510,10 @@ static void enforce_mode(const step_mode_t *mode, double *s)
 {
     double i_abc[3];
     int k;
+    if (mode->short_on) {
+        plant_short_enforce(&mode->sh, s);
+        return;
+    }
     if (mode->n_open >= 2) {
         s[S_ID] = 0.0;
         s[S_IQ] = 0.0;
@@ -507,8 +547,22 @@ static void deriv(const plant_t *pl, const step_mode_t *mode, const double *s, d
     double v[3];
     double valpha, vbeta, vd, vq, did, diq, te, tl, accel;
     double p_inv = 0.0;
+    double p_short = 0.0;
 
-    if (mode->n_open == 0) {
+    if (mode->short_on) {
+        plant_short_out_t o;
+        plant_short_solve(pl, &mode->sh, s, sn, cs, &o);
+        did = o.did;
+        diq = o.diq;
+        v[0] = o.v_phase_v[0];
+        v[1] = o.v_phase_v[1];
+        v[2] = o.v_phase_v[2];
+        valpha = v[0];
+        vbeta = (v[0] + 2.0 * v[1]) * PL_INV_SQRT3;
+        vd = valpha * cs + vbeta * sn;
+        vq = -valpha * sn + vbeta * cs;
+        p_short = mode->sh.r_ohm * o.i_f_a * o.i_f_a;
+    } else if (mode->n_open == 0) {
         if (pl->inverter.nonlinear) {
             double i_abc[3], vp[3], f[3];
             const double ia = id * cs - iq * sn;
@@ -590,6 +644,7 @@ static void deriv(const plant_t *pl, const step_mode_t *mode, const double *s, d
                       ? pl->mech.coulomb_nm * tanh(wm * pl->mech.inv_coulomb_band) * wm
                       : 0.0;
     ds[Q_EINV] = p_inv;
+    ds[Q_ESHORT] = p_short;
 }
 
 /**
@@ -726,6 +781,17 @@ static void adc_currents(plant_t *pl, const double i_abc[3], double out[3], int 
     }
 }
 
+/** adc_currents for the first sample, keeping the noise deviates (plant_fault_sample reuses
+ *  them when a fault changes what the sensors see at t_k). ADC model on. */
+static void adc_currents_keep(plant_t *pl, const double i_abc[3], double out[3], int code[3])
+{
+    int k;
+    for (k = 0; k < 3; ++k) {
+        pl->sample_noise[k] = sensor_rng_normal(&pl->rng);
+        out[k] = sensor_adc_convert_noise(&pl->adc_i[k], i_abc[k], pl->sample_noise[k], &code[k]);
+    }
+}
+
 /**
  * The first sample of the period starting now (t_s), from the state y. Ideal sensors: nothing
  * to draw, plant_sample computes the exact values when asked.
@@ -735,11 +801,16 @@ static void take_first_sample(plant_t *pl)
     plant_sample_t *sm = &pl->sample;
     double i_abc[3], meas[3];
     int code[3];
+    pl->faults.resample = 0;
     if (!pl->params.sensors.adc_model) {
         return;
     }
-    currents_abc(pl->y, i_abc);
-    adc_currents(pl, i_abc, meas, code);
+    if (pl->faults.active & PLANT_FAULT_SENSE_BITS) {
+        plant_fault_sensed_currents(pl, pl->duty_prev, pl->y, i_abc);
+    } else {
+        currents_abc(pl->y, i_abc);
+    }
+    adc_currents_keep(pl, i_abc, meas, code);
     sm->t_s = pl->t_s;
     sm->i_a_a = meas[0];
     sm->i_b_a = meas[1];
@@ -748,15 +819,18 @@ static void take_first_sample(plant_t *pl)
     sm->code_b = code[1];
     sm->code_c = code[2];
     if (pl->params.sensors.adc_model) {
-        sm->v_dc_v = sensor_adc_convert(&pl->adc_vdc, &pl->rng, pl->params.v_dc_v, &sm->code_vdc);
+        pl->sample_noise[3] = sensor_rng_normal(&pl->rng);
+        sm->v_dc_v = sensor_adc_convert_noise(&pl->adc_vdc, pl->params.v_dc_v, pl->sample_noise[3],
+                                              &sm->code_vdc);
     } else {
         sm->v_dc_v = pl->params.v_dc_v;
         sm->code_vdc = -1;
     }
 }
 
-/** The second sample of the present period, at its actuation instant (state s). */
-static void take_second_sample(plant_t *pl, const double *s)
+/** The second sample of the present period, at its actuation instant (state s, duties that
+ *  take effect then). */
+static void take_second_sample(plant_t *pl, const double *s, const double duty[3])
 {
     plant_sample_t *sm = &pl->sample;
     double i_abc[3], meas[3];
@@ -765,7 +839,11 @@ static void take_second_sample(plant_t *pl, const double *s)
     if (!dual && !pl->params.sensors.adc_model) {
         return; /* nothing to record, no random draws to keep in step */
     }
-    currents_abc(s, i_abc);
+    if (pl->faults.active & PLANT_FAULT_SENSE_BITS) {
+        plant_fault_sensed_currents(pl, duty, s, i_abc);
+    } else {
+        currents_abc(s, i_abc);
+    }
     adc_currents(pl, i_abc, meas, code); /* draws even without dual sampling: same stream */
     sm->i2_a_a = dual ? meas[0] : 0.0;
     sm->i2_b_a = dual ? meas[1] : 0.0;
@@ -883,6 +961,7 @@ int plant_init(plant_t *pl, const plant_params_t *p)
 void plant_reset(plant_t *pl)
 {
     int k;
+    plant_fault_reset(pl); /* first: restores what a fault replaced (bus, mechanics) */
     pmsm_machine_reset(&pl->machine);
     inverter_reset(&pl->inverter);
     mechanics_reset(&pl->mech);
@@ -896,7 +975,7 @@ void plant_reset(plant_t *pl)
         pl->duty_now[k] = 0.5;
     }
     for (k = 0; k < 5; ++k) pl->v_avg[k] = 0.0;
-    for (k = 0; k < 6; ++k) pl->energy[k] = 0.0;
+    for (k = 0; k < 7; ++k) pl->energy[k] = 0.0;
     pl->events = 0UL;
     pl->torque_load_period_nm = 0.0;
     pl->dyno_accel_now_rad_s2 = 0.0;
@@ -966,6 +1045,9 @@ static void begin_period_mechanics(plant_t *pl)
         pl->torque_load_period_nm =
             pl->torque_load_nm + mechanics_load_profile_mean(&pl->load, pl->t_s, pl->t_s + p->ts_s);
     }
+    if (!p->mechanics.dyno && (pl->faults.active & PLANT_FAULT_BIT(PLANT_FAULT_LOAD_TORQUE))) {
+        pl->torque_load_period_nm += pl->faults.load_extra_nm;
+    }
 }
 
 static void step_segments(plant_t *pl, const double duty_abc[3], const int seg_steps[2],
@@ -998,6 +1080,9 @@ static void step_segments(plant_t *pl, const double duty_abc[3], const int seg_s
     for (k = 0; k < 3; ++k) {
         duty_new[k] = inverter_sanitize_duty(duty_abc[k]);
     }
+    if (pl->faults.active & PLANT_FAULT_BIT(PLANT_FAULT_LEG_STUCK)) {
+        plant_fault_apply_stuck(pl, duty_new);
+    }
     begin_period_mechanics(pl);
     for (i = 0; i < S_N; ++i) s[i] = 0.0;
     for (i = 0; i < 4; ++i) s[i] = pl->y[i];
@@ -1005,7 +1090,8 @@ static void step_segments(plant_t *pl, const double duty_abc[3], const int seg_s
         const double *duty = (seg == 0) ? pl->duty_prev : duty_new;
         const double h = seg_h_s[seg];
         const int any_disabled = inverter_leg_disabled(duty[0]) ||
-                                 inverter_leg_disabled(duty[1]) || inverter_leg_disabled(duty[2]);
+                                 inverter_leg_disabled(duty[1]) || inverter_leg_disabled(duty[2]) ||
+                                 (pl->faults.active & PLANT_FAULT_TOPOLOGY_BITS) != 0u;
         step_mode_t pwm;
         if (!any_disabled) { /* fast path: three PWM legs, no events possible */
             pwm.leg[0] = INV_LEG_PWM;
@@ -1024,12 +1110,12 @@ static void step_segments(plant_t *pl, const double duty_abc[3], const int seg_s
             s[S_TH] = wrap_2pi(s[S_TH]);
         }
         if (seg == 0) {
-            take_second_sample(pl, s); /* the actuation instant t_k + t_d */
+            take_second_sample(pl, s, duty_new); /* the actuation instant t_k + t_d */
         }
     }
     for (i = 0; i < 4; ++i) pl->y[i] = s[i];
     for (k = 0; k < 5; ++k) pl->v_avg[k] = s[Q_VA + k] / pl->params.ts_s;
-    for (k = 0; k < 6; ++k) pl->energy[k] += s[Q_EIN + k];
+    for (k = 0; k < 7; ++k) pl->energy[k] += s[Q_EIN + k];
     pl->theta_m_rad += s[Q_THM];
     /* mirror the state into the parts (their own fields serve stand-alone use and debugging) */
     sync_parts(pl);
@@ -1076,6 +1162,9 @@ void plant_snapshot(const plant_t *pl, plant_snapshot_t *out)
     } else {
         out->torque_load_nm = plant_load_torque_at(pl, pl->t_s);
     }
+    if (!p->mechanics.dyno && (pl->faults.active & PLANT_FAULT_BIT(PLANT_FAULT_LOAD_TORQUE))) {
+        out->torque_load_nm += pl->faults.load_extra_nm;
+    }
     out->e_alpha_v = -we * p->psi_f_wb * sin(th);
     out->e_beta_v = we * p->psi_f_wb * cos(th);
     out->v_dc_v = p->v_dc_v;
@@ -1114,6 +1203,11 @@ void plant_energy(const plant_t *pl, plant_energy_t *out)
     out->coulomb_loss_j = pl->energy[4];
     out->inverter_loss_j = pl->energy[5];
     out->dc_bus_in_j = pl->energy[0] + pl->energy[5];
+    out->short_loss_j = pl->energy[6];
+    out->fault_absorbed_j = pl->faults.absorbed_j;
+    if (pl->faults.short_used) {
+        out->dc_bus_in_j += pl->energy[6];
+    }
 }
 
 void plant_sample(const plant_t *pl, plant_sample_t *out)
@@ -1132,5 +1226,10 @@ void plant_sample(const plant_t *pl, plant_sample_t *out)
         out->code_b = -1;
         out->code_c = -1;
         out->code_vdc = -1;
+    }
+    out->theta_enc_rad = pl->y[S_TH];
+    out->enc_valid = 1;
+    if (pl->faults.active || pl->faults.resample) {
+        plant_fault_sample(pl, out);
     }
 }

@@ -6,6 +6,7 @@ add_library(hil_plant STATIC
   ${HIL_ROOT}/plant_rt/c/mechanics.c
   ${HIL_ROOT}/plant_rt/c/sensor.c
   ${HIL_ROOT}/plant_rt/c/plant.c
+  ${HIL_ROOT}/plant_rt/c/plant_fault.c
 )
 target_include_directories(hil_plant PUBLIC ${HIL_ROOT}/plant_rt/c)
 target_compile_options(hil_plant PRIVATE ${HIL_STRICT_FLAGS})
@@ -47,3 +48,9 @@ target_compile_options(test_engine PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(test_engine PRIVATE hil_engine Threads::Threads)
 target_include_directories(test_engine PRIVATE ${HIL_ROOT}/tests/c)
 add_test(NAME engine COMMAND test_engine)
+# Run-time faults (plant_fault.h): off = bit for bit, open phase, short, sensors, lock, refusals.
+add_executable(test_plant_fault ${HIL_ROOT}/tests/c/test_plant_fault.c)
+target_compile_options(test_plant_fault PRIVATE ${HIL_STRICT_FLAGS})
+target_link_libraries(test_plant_fault PRIVATE hil_plant)
+target_include_directories(test_plant_fault PRIVATE ${HIL_ROOT}/tests/c)
+add_test(NAME plant_fault COMMAND test_plant_fault)

@@ -77,6 +77,7 @@
 
 #include "inverter.h"
 #include "mechanics.h"
+#include "plant_fault.h"
 #include "pmsm_machine.h"
 #include "sensor.h"
 
@@ -174,6 +175,10 @@ typedef struct plant_sample {
     int code_a, code_b, code_c, code_vdc;   /* raw ADC codes of the first sample */
     int code2_a, code2_b, code2_c;          /* raw ADC codes of the second sample */
     int dual_valid;                 /* 1: dual sampling on and k >= 1 */
+    /* additions (faults) */
+    double theta_enc_rad;           /* encoder angle at t_k (electrical, [0, 2pi)): theta_e unless
+                                       an encoder fault is on */
+    int enc_valid;                  /* 0 with ENCODER_LOSS */
 } plant_sample_t;
 
 /** Energy bookkeeping since plant_init/plant_reset [J]. */
@@ -187,10 +192,14 @@ typedef struct plant_energy {
     /* additions */
     double coulomb_loss_j;  /**< int T_c tanh(omega/omega_c) omega_m dt */
     double inverter_loss_j; /**< int sum_x (f_x V_dc - v_xN) i_x dt: conduction losses (0 when ideal) */
-    double dc_bus_in_j;     /**< int V_dc i_dc dt = electrical_in_j + inverter_loss_j */
+    double dc_bus_in_j;     /**< int V_dc i_dc dt = electrical_in_j + inverter_loss_j (+ short_loss_j) */
+    /* additions (faults, plant_fault.h) */
+    double short_loss_j;    /**< int R_f i_f^2 dt in a phase-to-phase short (delivered by the inverter) */
+    double fault_absorbed_j;/**< magnetic energy released when an open-phase fault cut a current */
 } plant_energy_t;
-/* Balance: electrical_in = copper + viscous + coulomb + load_work + (magnetic + kinetic)
- *          - (their values at the start); dc_bus_in = electrical_in + inverter_loss.
+/* Balance: electrical_in = copper + viscous + coulomb + load_work + fault_absorbed
+ *          + (magnetic + kinetic) - (their values at the start);
+ *          dc_bus_in = electrical_in + inverter_loss + short_loss.
  * In dynamometer mode load_work is the work done on the dynamometer (int T_dyno omega_m dt,
  * including the kinetic energy of a speed step, booked at the step). */
 
@@ -215,7 +224,7 @@ typedef struct plant {
     double duty_prev[3];   /* sanitised duties in effect before the delay instant */
     double duty_now[3];    /* sanitised duties commanded for the last period */
     double v_avg[5];       /* last-period averages: v_a, v_b, v_c, v_d, v_q [V] */
-    double energy[6];      /* electrical_in, copper, viscous, load, coulomb, inverter loss [J] */
+    double energy[7];      /* electrical_in, copper, viscous, load, coulomb, inverter loss, short loss [J] */
     unsigned long events;  /* diode events located since reset (diagnostic) */
     /* non-idealities */
     double t_delay_eff_s;  /* t_delay_s, or ts_s with full_period_delay */
@@ -227,6 +236,9 @@ typedef struct plant {
     sensor_rng_t rng;
     sensor_adc_config_t adc_i[3], adc_vdc;
     plant_sample_t sample;        /* what plant_sample returns */
+    /* faults (plant_fault.h) */
+    plant_fault_state_t faults;
+    double sample_noise[4];       /* Gaussian deviates of the first sample (a, b, c, bus) */
 } plant_t;
 
 /** NULL if valid, else "field: reason" (static string), e.g. "ld_h: must be > 0". */
@@ -286,5 +298,23 @@ void plant_sample(const plant_t *pl, plant_sample_t *out);
 void plant_set_dyno_speed(plant_t *pl, double omega_m_rad_s);
 /** Total load torque the plant applies at time t [N m]: set torque + profile(t) (not the dyno). */
 double plant_load_torque_at(const plant_t *pl, double t_s);
+
+/* ---- faults (plant_fault.c; physics and timing in plant_fault.h) ---- */
+
+/** NULL if the fault can be set on this plant now, else "field: reason" (static string). */
+const char *plant_fault_check(const plant_t *pl, const plant_fault_t *f);
+/** Switch a fault on (replacing one of the same kind, or of the same kind and phase for
+ *  LEG_STUCK and SENSOR_*: one sensor fault per phase). 0, or -1 (nothing changed) if
+ *  plant_fault_check refuses it. */
+int plant_set_fault(plant_t *pl, const plant_fault_t *f);
+/** Switch a fault kind off; phase selects the leg / sensor for LEG_STUCK and SENSOR_* (-1: all
+ *  phases; ignored for the other kinds). Clearing a kind that is off does nothing. */
+void plant_clear_fault(plant_t *pl, int kind, int phase);
+/** Every fault off (plant_reset does this too). */
+void plant_clear_faults(plant_t *pl);
+/** Bitmask of the kinds that are on (bit 1u << kind). */
+unsigned plant_faults_active(const plant_t *pl);
+/** What the faults do at the present time (short current, leg currents, bus, diagnostics). */
+void plant_fault_status(const plant_t *pl, plant_fault_status_t *out);
 
 #endif

@@ -70,7 +70,12 @@ double sensor_rng_normal(sensor_rng_t *rng)
 double sensor_adc_convert(const sensor_adc_config_t *cfg, sensor_rng_t *rng, double x_true,
                           int *code_out)
 {
-    const double n = sensor_rng_normal(rng);
+    return sensor_adc_convert_noise(cfg, x_true, sensor_rng_normal(rng), code_out);
+}
+
+double sensor_adc_convert_noise(const sensor_adc_config_t *cfg, double x_true, double n,
+                                int *code_out)
+{
     const double x = (1.0 + cfg->gain_err) * x_true + cfg->offset + cfg->noise_rms * n;
     const double levels = ldexp(1.0, cfg->bits);          /* 2^bits */
     const double mid = cfg->bipolar ? 0.5 * levels : 0.0;  /* code of zero */

@@ -58,5 +58,8 @@ typedef struct sensor_adc_config {
  */
 double sensor_adc_convert(const sensor_adc_config_t *cfg, sensor_rng_t *rng, double x_true,
                           int *code_out);
+/** The same conversion with a given standard-normal deviate n (sensor_adc_convert draws it). */
+double sensor_adc_convert_noise(const sensor_adc_config_t *cfg, double x_true, double n,
+                                int *code_out);
 
 #endif
