@@ -147,7 +147,14 @@ def section_value_tables() -> str:
     return "\n".join(out)
 
 
+def section_params() -> str:
+    from protocol import params
+
+    return params.markdown_table()
+
+
 SECTIONS = {
+    "params": section_params,
     "example": section_example,
     "messages": section_messages,
     "value_tables": section_value_tables,
