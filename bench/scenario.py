@@ -437,7 +437,7 @@ def _realtime(top: _Fields, mode: str) -> RealtimeSettings:
 
 
 def _link(top: _Fields) -> LinkSettings:
-    from .integrity import LINK_COUNTERS
+    from .integrity import ALLOWABLE_COUNTERS, LINK_COUNTERS
 
     k = top.table_of("link")
     retry_timeout_s = k.number("retry_timeout_s", 0.05)
@@ -448,6 +448,9 @@ def _link(top: _Fields) -> LinkSettings:
     for counter in list(a.table):
         if counter not in LINK_COUNTERS:
             raise a.fail(counter, f"not a link counter; known: {', '.join(LINK_COUNTERS)}")
+        if counter not in ALLOWABLE_COUNTERS:
+            raise a.fail(counter, "cannot be allowed: a run whose controller reported another estimator "
+                                  "has INVALID claims (docs/protocol.md 6.8)")
         allow[counter] = a.integer(counter, 0, 0, 2**63 - 1)
     k.reject_unknown()
     return LinkSettings(retry_timeout_s, max_retries, allow)
