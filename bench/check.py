@@ -130,7 +130,9 @@ def print_integrity(integrity: Integrity | None, console: Console) -> None:
     """One line when the run is intact, else one line per problem (allowed ones marked)."""
     if integrity is None:
         return
-    cycles = f"{integrity.cycles_done}/{integrity.cycles_planned} cycles"
+    done = "?" if integrity.cycles_done is None else integrity.cycles_done
+    planned = "?" if integrity.cycles_planned is None else integrity.cycles_planned
+    cycles = f"{done}/{planned} cycles"
     if not integrity.problems and not integrity.estimator_mismatch:
         console.print(f"integrity: [green]complete[/green] ({cycles}), link clean")
         return
