@@ -120,9 +120,9 @@ def check_recording(path: str | Path) -> CheckReport:
             raise RecordingError(f"{rec.path}: scenario names unknown claim {claim_id!r}")
         report.results.extend(evaluate(claim, ctx, scn.name))
     report.integrity = check_integrity(rec, scn.link.allow, rec.run.get("estimator"))
-    reason = report.integrity.invalid_reason
-    if reason:
-        report.results = [dataclasses.replace(r, verdict="INVALID", note=reason) for r in report.results]
+    note = report.integrity.invalid_note
+    if note:
+        report.results = [dataclasses.replace(r, verdict="INVALID", note=note) for r in report.results]
     return report
 
 

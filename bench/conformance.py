@@ -29,7 +29,7 @@ from protocol.messages import (DUTY_RAW_OFF, MESSAGES, PROTO_VERSION, Command, C
 
 ANSWER_TIMEOUT_S = 0.5      # the host's patience for an answer (docs/protocol.md 6.1-6.5)
 SILENCE_S = 0.1             # how long a frame that must not be answered is given
-HEARTBEAT_WAIT_S = 0.35     # more than three heartbeat periods
+HEARTBEAT_WAIT_S = 1.5      # for three heartbeats (a drive may still be starting when the link opens)
 DUTY_RAW_FULL = 32768
 
 M = MESSAGES
@@ -105,11 +105,14 @@ class _Session:
             if self.stub is not None and not self.stub.alive():
                 raise _Abort(self.stub.death_message())
 
-    def gather(self, duration_s: float) -> list[tuple[int, bytes]]:
-        out: list[tuple[int, bytes]] = []
-        end = time.monotonic() + duration_s
-        while time.monotonic() < end:
-            out += self.recv(end - time.monotonic())
+    def heartbeats(self, n: int, timeout_s: float) -> list[tuple[float, dict]]:
+        """Up to ``n`` HEARTBEAT_CTRL (arrival time, values), waiting at most ``timeout_s``."""
+        out: list[tuple[float, dict]] = []
+        end = time.monotonic() + timeout_s
+        while len(out) < n and time.monotonic() < end:
+            for f, p in self.recv(end - time.monotonic()):
+                if _ok(f, p, "HEARTBEAT_CTRL"):
+                    out.append((time.monotonic(), M["HEARTBEAT_CTRL"].unpack(p)))
         return out
 
 
@@ -179,11 +182,13 @@ def run_conformance(link_spec: str = "stub", stub_args: tuple[str, ...] = (), cy
 
 def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, cycles: int, serial: bool):
     # -- idle heartbeats (6.7) ---------------------------------------------------------------------------
-    beats = [M["HEARTBEAT_CTRL"].unpack(p) for f, p in s.gather(HEARTBEAT_WAIT_S) if _ok(f, p, "HEARTBEAT_CTRL")]
-    counters = [int(b["counter"]) for b in beats]
+    beats = s.heartbeats(3, HEARTBEAT_WAIT_S)
+    counters = [int(b["counter"]) for _, b in beats]
+    gaps = [round((b[0] - a[0]) * 1e3) for a, b in zip(beats, beats[1:])]
     add(Item("6.7", "HEARTBEAT_CTRL every 100 ms while idle, counter +1 each",
-             len(beats) >= 2 and all((b - a) & 0xFFFF == 1 for a, b in zip(counters, counters[1:])),
-             f"{len(beats)} in {HEARTBEAT_WAIT_S:g} s, counters {counters}"))
+             len(beats) == 3 and all((b - a) & 0xFFFF == 1 for a, b in zip(counters, counters[1:]))
+             and all(50 <= g <= 250 for g in gaps),
+             f"{len(beats)} within {HEARTBEAT_WAIT_S:g} s, counters {counters}, {gaps} ms apart"))
 
     # -- handshake (6.1) -------------------------------------------------------------------------------
     ack = _hello(s, version=99, estimator=int(est), period_s=ts_s)
@@ -365,7 +370,7 @@ def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, 
              f"HELLO {'OK' if ok2 else 'refused'}, {answered2}/3 answered, {emf_seen} TELEM_EMF"))
 
     # -- heartbeats again, counting the bad frame (6.7) ---------------------------------------------------------
-    beats = [M["HEARTBEAT_CTRL"].unpack(p) for f, p in s.gather(HEARTBEAT_WAIT_S) if _ok(f, p, "HEARTBEAT_CTRL")]
+    beats = [b for _, b in s.heartbeats(2, HEARTBEAT_WAIT_S)]
     counted = bool(beats) and int(beats[-1]["rx_errors"]) >= 1
     add(Item("6.7", "HEARTBEAT_CTRL again once cycles stop" + ("; rx_errors counts the bad-CRC frame" if serial
                                                                  else ""),

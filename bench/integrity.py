@@ -76,6 +76,14 @@ class Integrity:
         return not self.unallowed and self.estimator_mismatch == 0
 
     @property
+    def invalid_note(self) -> str | None:
+        """A few words for the claims table (the full reason is printed with the integrity)."""
+        if self.estimator_mismatch:
+            return "estimator mismatch: see integrity"
+        bad = self.unallowed
+        return f"{bad[0].kind} problem: see integrity" if bad else None
+
+    @property
     def invalid_reason(self) -> str | None:
         """Why the claims of this run are INVALID, or None."""
         if self.estimator_mismatch:
