@@ -128,8 +128,13 @@ class HostSession:
         return _HEARTBEAT_PLANT.frame_id, payload
 
     def _heartbeat_if_due(self) -> None:
+        """HEARTBEAT_PLANT 100 ms after the first wait began (right after the first HELLO), then every
+        100 ms; sent only between reads that found nothing to match, so it never overtakes an answer
+        already on its way in a link's capture log."""
         now = time.monotonic()
-        if self._hb_due is None or now >= self._hb_due:
+        if self._hb_due is None:
+            self._hb_due = now + HEARTBEAT_PERIOD_S
+        elif now >= self._hb_due:
             self.send([self.heartbeat_frame()])
             self._hb_due = now + HEARTBEAT_PERIOD_S
 

@@ -196,7 +196,13 @@ def test_heartbeat_plant_every_100ms_while_the_host_waits():
     assert all(int(b["state"]) == State.IDLE for _, b in beats)
     gaps = [b[0] - a[0] for a, b in zip(beats, beats[1:])]
     assert all(0.08 <= g <= 0.2 for g in gaps), gaps
-    assert link.sent[0][1] == HELLO.frame_id and link.sent[1][1] == HB.frame_id   # HELLO first
+    assert link.sent[0][1] == HELLO.frame_id                       # HELLO first, the heartbeats 100 ms on
+    assert 0.08 <= beats[0][0] - link.sent[0][0] <= 0.2
+    # a controller that answers at once gets no heartbeat at all: the host never waits 100 ms
+    s, link = session_with(good_controller)
+    handshake(s)
+    s.configure({Param.RS_OHM: 0.5, Param.LD_H: 1e-3})
+    assert not [f for _, f, _ in link.sent if f == HB.frame_id]
 
 
 # ---------------------------------------------------------------------------------------------------------
