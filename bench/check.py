@@ -2,9 +2,15 @@
 
 The scenario (attached to the recording), the plant parameters and the run metadata come out of
 the MCAP itself, so a recording checks the same on any machine.
+
+Beside the claims the report carries the run's integrity (``bench/integrity.py``, docs/protocol.md 6.9):
+an incomplete or damaged run, or one over a link with errors the scenario does not allow, never passes
+(``all_pass`` is false, ``--strict`` exits 1) and its claims are INVALID, as are those of a run whose
+controller reported another estimator than the one asked for.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
@@ -16,6 +22,7 @@ from rich.table import Table
 from . import channels as ch
 from . import metrics
 from .claims import CLAIMS, Context, QuantityResult, evaluate
+from .integrity import Integrity, check_integrity
 from .recording import Recording, RecordingError, load_recording
 from .scenario import RPM_PER_RAD_S, Scenario, ScenarioError, parse_scenario, speed_ref_at
 
@@ -27,10 +34,13 @@ class CheckReport:
     context: Context
     summary: dict[str, float] = field(default_factory=dict)
     results: list[QuantityResult] = field(default_factory=list)
+    integrity: Integrity | None = None
 
     @property
     def all_pass(self) -> bool:
-        return all(r.verdict == "PASS" for r in self.results)
+        """Every claim PASSes and the run is complete, undamaged, over a clean (or allowed) link."""
+        intact = self.integrity is None or self.integrity.ok
+        return intact and all(r.verdict == "PASS" for r in self.results)
 
 
 def scenario_of(rec: Recording) -> Scenario:
@@ -109,7 +119,30 @@ def check_recording(path: str | Path) -> CheckReport:
         if claim is None:
             raise RecordingError(f"{rec.path}: scenario names unknown claim {claim_id!r}")
         report.results.extend(evaluate(claim, ctx, scn.name))
+    report.integrity = check_integrity(rec, scn.link.allow, rec.run.get("estimator"))
+    note = report.integrity.invalid_note
+    if note:
+        report.results = [dataclasses.replace(r, verdict="INVALID", note=note) for r in report.results]
     return report
+
+
+def print_integrity(integrity: Integrity | None, console: Console) -> None:
+    """One line when the run is intact, else one line per problem (allowed ones marked)."""
+    if integrity is None:
+        return
+    done = "?" if integrity.cycles_done is None else integrity.cycles_done
+    planned = "?" if integrity.cycles_planned is None else integrity.cycles_planned
+    cycles = f"{done}/{planned} cycles"
+    if not integrity.problems and not integrity.estimator_mismatch:
+        console.print(f"integrity: [green]complete[/green] ({cycles}), link clean")
+        return
+    state = "[green]ok[/green]" if integrity.ok else "[red]NOT OK[/red]"
+    console.print(f"integrity: {state} ({cycles})")
+    for p in integrity.problems:
+        tag = "[dim]allowed[/dim]" if p.is_allowed else "[red]problem[/red]"
+        console.print(f"  {tag} {p.kind}: {p.text}")
+    if integrity.estimator_mismatch:
+        console.print(f"  [red]INVALID[/red] estimator: {integrity.estimator_text}")
 
 
 def _fmt(v: float, unit: str = "") -> str:
@@ -129,8 +162,14 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
     result = rec.metadata.get("run_result", {})
     if result.get("error"):
         console.print(f"[red]run ended early:[/red] {result['error']}")
-    if rec.truncated:
-        console.print(f"[yellow]recording truncated:[/yellow] {rec.truncated}")
+    if rec.truncated or getattr(rec, "unreadable_chunks", 0):
+        console.print(f"[yellow]recording damaged:[/yellow] read {rec.messages} messages"
+                      + (f"; {rec.truncated}" if rec.truncated else "")
+                      + (f"; {rec.unreadable_chunks} unreadable chunk(s)"
+                         if getattr(rec, "unreadable_chunks", 0) else "")
+                      + f". `bench recover {rec.path} -o FIXED.mcap` copies every intact chunk, also "
+                        "those after the damage.")
+    print_integrity(report.integrity, console)
     w0, w1 = ctx.window_s
     console.print(f"window {w0:g}..{w1:g} s, speed reference {ctx.speed_ref_rpm:g} rpm")
     s = report.summary
@@ -145,7 +184,7 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
 
     for r in report.results:
         unit = METRICS[r.quantity.metric][0]
-        colour = {"PASS": "green", "DIFFERS": "yellow"}.get(r.verdict, "red")
+        colour = {"PASS": "green", "DIFFERS": "yellow", "INVALID": "magenta"}.get(r.verdict, "red")
         table.add_row(r.claim.id, r.quantity.what or r.quantity.metric,
                       _fmt(r.quantity.paper_value, unit), _fmt(r.measured, unit),
                       r.quantity.rule_text(), f"[{colour}]{r.verdict}[/{colour}]"

@@ -1,4 +1,5 @@
-"""Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``."""
+"""Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``, ``bench recover``,
+``bench conformance``."""
 from __future__ import annotations
 
 import argparse
@@ -70,10 +71,29 @@ def _cmd_check(args: argparse.Namespace) -> int:
     try:
         report = check_recording(args.recording)
     except RecordingError as exc:
-        Console(stderr=True).print(f"[red]error:[/red] {exc}")
+        Console(stderr=True).print(f"[red]error:[/red] {exc}\n(a damaged recording: `bench recover "
+                                   f"{args.recording} -o FIXED.mcap` copies every intact chunk)")
         return 2
     print_report(report)
     return 1 if (args.strict and not report.all_pass) else 0
+
+
+def _cmd_recover(args: argparse.Namespace) -> int:
+    from .recover import RecoverError, recover
+
+    try:
+        report = recover(args.recording, args.out)
+    except RecoverError as exc:
+        Console(stderr=True).print(f"[red]error:[/red] {exc}")
+        return 2
+    print(report.text())
+    return 0
+
+
+def _cmd_conformance(args: argparse.Namespace) -> int:
+    from .conformance import main as conformance_main
+
+    return conformance_main(args)
 
 
 def _cmd_scenarios(args: argparse.Namespace) -> int:
@@ -131,6 +151,18 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--strict", action="store_true",
                    help="exit 1 if any paper claim does not reproduce")
     c.set_defaults(func=_cmd_check)
+
+    v = sub.add_parser("recover", help="copy every intact chunk of a damaged recording into a new file")
+    v.add_argument("recording", type=Path)
+    v.add_argument("-o", "--out", type=Path, default=None,
+                   help="output (default: <recording>.recovered.mcap beside it)")
+    v.set_defaults(func=_cmd_recover)
+
+    f = sub.add_parser("conformance", help="check a controller against docs/protocol.md (scripted session)")
+    f.add_argument("--link", default="stub", help="as for `bench run` (default: the C firmware stub)")
+    f.add_argument("--cycles", type=int, default=300, help="control cycles to run (default 300)")
+    f.add_argument("--estimator", default="SMO_SIGN", help="estimator to ask for (default SMO_SIGN)")
+    f.set_defaults(func=_cmd_conformance)
 
     s = sub.add_parser("scenarios", help="list the bundled scenarios")
     s.set_defaults(func=_cmd_scenarios)

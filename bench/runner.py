@@ -206,14 +206,7 @@ class Runner:
         return params
 
     def hello_flags(self) -> int:
-        flags = HelloFlag(0)
-        if self.scn.send_encoder:
-            flags |= HelloFlag.ENCODER_VALID
-        if self.plant.params.dual_sampling:
-            flags |= HelloFlag.DUAL_SAMPLING
-        if self.scn.telemetry_emf:
-            flags |= HelloFlag.TELEM_EMF
-        return int(flags)
+        return self.scn.hello_flags(bool(self.plant.params.dual_sampling))
 
     # -- the run --------------------------------------------------------------------------
     def run(self) -> RunResult:
@@ -322,7 +315,7 @@ class Runner:
             "controller_params": json.dumps({p.name: v for p, v in
                                              self.controller_params().items()}),
             "estimator": scn.estimator.name,
-            "send_encoder": str(scn.send_encoder).lower(),
+            "encoder_angle_sent": str(scn.encoder_angle_sent).lower(),
             "reference_estimators": json.dumps({n: scn.reference_config.get(n, {})
                                                 for n in scn.reference_estimators}),
             "metrics_window_s": json.dumps(list(scn.metrics_window_s)),
@@ -373,7 +366,7 @@ class Runner:
             pole_pairs=int(self.profile.pole_pairs),
             rpm_per_rad_s=RPM_PER_RAD_S,
             dual_sampling=int(bool(self.plant.params.dual_sampling)),
-            send_encoder=int(scn.send_encoder),
+            send_encoder=int(scn.encoder_angle_sent),
             estimator_expected=int(scn.estimator),
             cmd_seq_start=int(getattr(self.session, "cmd_seq", 0)) & 0xFFFF,
             retry_timeout_s=scn.link.retry_timeout_s,

@@ -5,20 +5,43 @@ and parameters (protocol ``param_id`` names, SI units), a timeline of events (sp
 load torque, current references), the reference estimators to run on the host beside the
 controller, the metrics window, and the paper claims it reproduces.
 
-Every problem is reported as :class:`ScenarioError` naming the file and the dotted field.
+Every problem is reported as :class:`ScenarioError` naming the file, the line (where TOML has one), the
+dotted field and the allowed range, when the scenario is loaded: before any process or device is touched.
+Ranges come from physics (a run needs at least one control period) and from the wire: a value the
+protocol cannot carry (a speed reference beyond what TELEM.omega_hat can report, a current beyond
+SENSE.i_a, a parameter that is not a binary32 of its kind) is refused here, with the DBC signal it
+comes from, instead of failing mid-run.
+
+``parse_scenario`` checks what the text alone can say (``bench check`` re-parses the scenario attached
+to a recording with it); ``load_scenario`` also checks the scenario against its motor profile (control
+period, pole pairs, plant overrides: ``check_against_profile``).
+
+Keys for the protocol-1.0 link behaviour (docs/protocol.md 6.4, 6.5, 6.8, 6.9), read by the host's cycle
+engine: ``[scenario] mode = "lockstep" | "realtime"``; ``[realtime] duty_update = "on_arrival" |
+"next_period"``, ``max_consecutive_misses`` (10), ``cpu``; ``[link] retry_timeout_s`` (0.05),
+``max_retries`` (3), ``allow = {counter = n, ...}``; ``[controller] send_encoder_angle`` (false).
 """
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from protocol.messages import Estimator, Param
+from protocol import params as param_info
+from protocol.messages import MESSAGES, Estimator, HelloFlag, Param
 
 SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
+#: the longest run a scenario may ask for (a recording of 10 kHz cycles grows by ~tens of MB per second)
+MAX_DURATION_S = 3600.0
+#: a scenario name becomes a file name in the recordings folder: no path separators, no leading dot
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,99}\Z")
+FLOAT32_MAX = 3.4028234663852886e38
+DUTY_UPDATES = ("on_arrival", "next_period")
+MODES = ("lockstep", "realtime")
 
 
 class ScenarioError(ValueError):
@@ -52,34 +75,32 @@ class Event:
         return ", ".join(parts) + (f" ({self.label})" if self.label else "")
 
 
-DUTY_UPDATES = ("on_arrival", "next_period")
-
-
 @dataclass(frozen=True)
-class RealtimeOptions:
-    """``[realtime]``: how a real-time run paces the plant (plant_rt/c/engine.h)."""
+class RealtimeSettings:
+    """``[realtime]``: how the real-time engine paces and applies duties (docs/protocol.md 6.4,
+    plant_rt/c/engine.h). Used when ``[scenario] mode = "realtime"`` or ``bench run --realtime``."""
 
-    duty_update: str = "on_arrival"        # "on_arrival" (ePWM immediate) | "next_period" (shadow)
-    max_consecutive_misses: int = 10       # then the inverter goes to its safe state
-    cpu: int | None = None                 # pin the engine thread to this CPU
-    priority: int = 80                     # SCHED_FIFO priority asked for (0: do not ask)
-    mlock: bool = True                     # mlockall when allowed
-    spin_us: float = 30.0                  # spin this long before each deadline
-    guard_us: float = 10.0                 # on_arrival: DUTY due by the period end - guard
-    # the C stub as the controller (--link stub): what fires its ISR, its priority and CPU
-    stub_isr: str = "sense"                # "sense" (on SENSE arrival) | "timer" (free-running)
-    stub_phase_us: float | None = None     # timer: first tick after the first SENSE
-    stub_priority: int = 70                # SCHED_FIFO priority asked for the stub (0: none)
+    duty_update: str = "on_arrival"         # "on_arrival" (ePWM immediate) | "next_period" (shadow)
+    max_consecutive_misses: int = 10        # then all legs OFF, FAULT_PLANT, and the run ends
+    cpu: int | None = None                  # pin the engine to this CPU (None: not pinned)
+    priority: int = 80                      # SCHED_FIFO priority asked for (0: do not ask)
+    mlock: bool = True                      # mlockall when allowed
+    spin_us: float = 30.0                   # spin this long before each deadline
+    guard_us: float = 10.0                  # on_arrival: DUTY due by the period end - guard
+    # the C stub as the controller (--link stub...): what fires its ISR, its priority and CPU
+    stub_isr: str = "sense"                 # "sense" (on SENSE arrival) | "timer" (free-running)
+    stub_phase_us: float | None = None      # timer: first tick this long after the first SENSE
+    stub_priority: int = 70                 # SCHED_FIFO priority asked for the stub (0: none)
     stub_cpu: int | None = None
 
 
 @dataclass(frozen=True)
-class LinkOptions:
-    """``[link]``: lockstep retries and the link errors a run may show and still pass."""
+class LinkSettings:
+    """``[link]``: lockstep retries (docs/protocol.md 6.5) and integrity allowances (6.9)."""
 
-    retry_timeout_s: float = 0.05          # wait this long for DUTY, then re-send SENSE
-    max_retries: int = 3                   # re-sends of one cycle before the run ends
-    allow: dict[str, int] = field(default_factory=dict)   # counter -> allowed count
+    retry_timeout_s: float = 0.05           # re-send the cycle's SENSE frames after this long
+    max_retries: int = 3                    # then the run ends naming what arrived
+    allow: dict[str, int] = field(default_factory=dict)   # link counter -> allowed count
 
 
 @dataclass(frozen=True)
@@ -104,14 +125,31 @@ class Scenario:
     claims: tuple[str, ...]
     telemetry_emf: bool
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
-    realtime: RealtimeOptions = field(default_factory=RealtimeOptions)
-    link: LinkOptions = field(default_factory=LinkOptions)
-    send_encoder: bool = False     # SENSE_AUX carries the true angle (ENCODER runs, or asked)
     text: str = field(repr=False, default="")
+    send_encoder_angle: bool = False        # [controller]: send theta_enc also to a sensorless estimator
+    realtime: RealtimeSettings = field(default_factory=RealtimeSettings)
+    link: LinkSettings = field(default_factory=LinkSettings)
 
     @property
     def display_path(self) -> str:
         return _display(self.path)
+
+    @property
+    def encoder_angle_sent(self) -> bool:
+        """The plant's angle goes to the controller (SENSE_AUX.theta_enc, HELLO flag ENCODER_VALID, SENSE_AUX
+        flag THETA_ENC_VALID) only for the ENCODER estimator or when the scenario asks (section 6.8)."""
+        return self.estimator is Estimator.ENCODER or self.send_encoder_angle
+
+    def hello_flags(self, dual_sampling: bool) -> int:
+        """HELLO.flags of this scenario (``dual_sampling``: the plant's setting, from the profile)."""
+        flags = HelloFlag(0)
+        if dual_sampling:
+            flags |= HelloFlag.DUAL_SAMPLING
+        if self.telemetry_emf:
+            flags |= HelloFlag.TELEM_EMF
+        if self.encoder_angle_sent:
+            flags |= HelloFlag.ENCODER_VALID
+        return int(flags)
 
 
 def _display(path: Path) -> str:
@@ -129,22 +167,75 @@ def resolve_path(name_or_path: str | Path) -> Path:
     return p
 
 
+_HEADER = re.compile(r"\s*(\[\[?)\s*([^\]]+?)\s*\]\]?")
+_KEY = re.compile(r"\s*(?:\"([^\"]+)\"|'([^']+)'|([A-Za-z0-9_-]+))\s*=")
+
+
+def line_of(text: str, table: str, key: str | None = None) -> int | None:
+    """1-based line of ``key`` in the TOML table ``table`` ("scenario", "controller.params", "events[2]";
+    "" = top level), or of the table's header if ``key`` is None; None if not found. A key inside an
+    inline table (``allow = {crc_errors = 5}``) is found as its enclosing key's line."""
+    current = ""
+    counts: dict[str, int] = {}
+    header_line: int | None = 1 if table == "" else None
+    for n, line in enumerate(text.splitlines(), 1):
+        stripped = line.split("#", 1)[0]
+        h = _HEADER.match(stripped)
+        if h:
+            name = h.group(2).strip()
+            if h.group(1) == "[[":
+                counts[name] = counts.get(name, -1) + 1
+                name = f"{name}[{counts[name]}]"
+            current = name
+            if current == table:
+                header_line = n
+            continue
+        if current == table and key is not None:
+            k = _KEY.match(stripped)
+            if k and (k.group(1) or k.group(2) or k.group(3)) == key:
+                return n
+    if key is None:
+        return header_line
+    sub = line_of(text, f"{table}.{key}" if table else key) if not key.endswith("]") else None
+    if sub is not None and (table or key) and _has_header(text, f"{table}.{key}" if table else key):
+        return sub   # the key is a table of its own: its header
+    if "." in table:   # an inline table: the line of its key in the parent table
+        parent, _, inner = table.rpartition(".")
+        return line_of(text, parent, inner)
+    return None
+
+
+def _has_header(text: str, table: str) -> bool:
+    return any((h := _HEADER.match(line.split("#", 1)[0])) and h.group(2).strip() == table
+               for line in text.splitlines())
+
+
 class _Fields:
     """Typed access to one TOML table that remembers the dotted path and rejects unknown keys."""
 
-    def __init__(self, where: str, table: Any, prefix: str):
-        if not isinstance(table, dict):
-            raise ScenarioError(f"{where}: {prefix}: must be a table, got {type(table).__name__}")
+    def __init__(self, where: str, table: Any, prefix: str, text: str = ""):
         self.where = where
-        self.table = table
         self.prefix = prefix
+        self.text = text
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{self._at(None)}: {prefix}: must be a table, got {type(table).__name__}")
+        self.table = table
         self.used: set[str] = set()
 
     def _name(self, key: str) -> str:
         return f"{self.prefix}.{key}" if self.prefix else key
 
+    def _at(self, key: str | None) -> str:
+        """``file:line`` of a key of this table (``file`` alone if TOML does not say)."""
+        if key is None:
+            parent, _, last = self.prefix.rpartition(".")
+            line = line_of(self.text, self.prefix) or line_of(self.text, parent, last) if self.text else None
+        else:
+            line = line_of(self.text, self.prefix, key) if self.text else None
+        return f"{self.where}:{line}" if line else self.where
+
     def fail(self, key: str, why: str) -> ScenarioError:
-        return ScenarioError(f"{self.where}: {self._name(key)}: {why}")
+        return ScenarioError(f"{self._at(key)}: {self._name(key)}: {why}")
 
     def number(self, key: str, default: float | None = None, *, min_value: float | None = None,
                positive: bool = False) -> float:
@@ -163,6 +254,23 @@ class _Fields:
             raise self.fail(key, f"must be > 0, got {v!r}")
         if min_value is not None and v < min_value:
             raise self.fail(key, f"must be >= {min_value:g}, got {v!r}")
+        return v
+
+    def integer(self, key: str, default: int, lo: int, hi: int) -> int:
+        self.used.add(key)
+        if key not in self.table:
+            return default
+        v = self.table[key]
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise self.fail(key, f"must be a whole number in [{lo}, {hi}], got {v!r}")
+        if not lo <= v <= hi:
+            raise self.fail(key, f"must be in [{lo}, {hi}], got {v!r}")
+        return v
+
+    def within(self, key: str, v: float, lo: float, hi: float, unit: str, why: str) -> float:
+        """Check a number already read against [lo, hi] (``why``: where the range comes from)."""
+        if not lo <= v <= hi:
+            raise self.fail(key, f"{v:g} {unit} is outside [{lo:g}, {hi:g}] {unit} ({why})")
         return v
 
     def string(self, key: str, default: str | None = None) -> str:
@@ -192,7 +300,7 @@ class _Fields:
 
     def table_of(self, key: str) -> "_Fields":
         self.used.add(key)
-        return _Fields(self.where, self.table.get(key, {}), self._name(key))
+        return _Fields(self.where, self.table.get(key, {}), self._name(key), self.text)
 
     def reject_unknown(self, allowed_extra: set[str] = frozenset()) -> None:
         unknown = set(self.table) - self.used - set(allowed_extra)
@@ -235,20 +343,53 @@ def _controller_params(fields: _Fields) -> dict[Param, float]:
         except KeyError:
             raise fields.fail(key, f"unknown controller parameter; known: "
                                    f"{', '.join(p.name for p in Param)}") from None
-        out[param] = fields.number(key)
+        value = fields.number(key)
+        problem = param_info.BY_NAME[param.name].check(value)
+        if problem:   # docs/protocol.md 6.2: how integer, boolean and enum parameters travel
+            raise fields.fail(key, f"{problem} (CONFIG.value, docs/protocol.md 6.2)")
+        out[param] = value
     return out
 
 
-def _events(where: str, items: Any, duration_s: float) -> tuple[Event, ...]:
+def _wire_range(message: str, signal: str) -> tuple[float, float]:
+    s = MESSAGES[message].signal(signal)
+    return float(s.minimum), float(s.maximum)
+
+
+#: current references travel as CMD.value but are measured back through SENSE.i_a..i_c
+CURRENT_RANGE_A = _wire_range("SENSE", "i_a")
+
+
+def _float32(f: _Fields, key: str, v: float, what: str) -> float:
+    if abs(v) > FLOAT32_MAX:
+        raise f.fail(key, f"{v:g} does not fit the binary32 {what} ([-3.4e38, 3.4e38], docs/protocol.md 3)")
+    return v
+
+
+def _current(f: _Fields, key: str) -> float:
+    v = f.number(key)
+    lo, hi = CURRENT_RANGE_A
+    return f.within(key, v, lo, hi, "A", "the range SENSE.i_a..i_c can report, protocol/hil.dbc")
+
+
+def _speed_rpm(f: _Fields, key: str, default: float | None = None) -> float:
+    v = f.number(key, default)
+    if abs(v / RPM_PER_RAD_S) > FLOAT32_MAX:
+        raise f.fail(key, f"{v:g} rpm ({v / RPM_PER_RAD_S:.4g} rad/s) does not fit the binary32 CMD.value "
+                          f"([-3.4e38, 3.4e38] rad/s, docs/protocol.md 3)")
+    return v
+
+
+def _events(where: str, items: Any, duration_s: float, text: str = "") -> tuple[Event, ...]:
     if not isinstance(items, list):
         raise ScenarioError(f"{where}: events: must be an array of tables ([[events]])")
     events = []
     for i, item in enumerate(items):
-        f = _Fields(where, item, f"events[{i}]")
+        f = _Fields(where, item, f"events[{i}]", text)
         t_s = f.number("t_s", min_value=0.0)
         if t_s > duration_s:
             raise f.fail("t_s", f"{t_s:g} s is after the end of the run ({duration_s:g} s)")
-        speed = f.number("speed_ref_rpm", math.nan) if "speed_ref_rpm" in item else None
+        speed = _speed_rpm(f, "speed_ref_rpm") if "speed_ref_rpm" in item else None
         mode = f.string("control_mode") if "control_mode" in item else None
         if mode is not None and mode not in ("speed", "current"):
             raise f.fail("control_mode", f"must be 'speed' or 'current', got {mode!r}")
@@ -256,31 +397,84 @@ def _events(where: str, items: Any, duration_s: float) -> tuple[Event, ...]:
             t_s=t_s,
             speed_ref_rad_s=None if speed is None else speed / RPM_PER_RAD_S,
             load_torque_nm=f.number("load_torque_nm") if "load_torque_nm" in item else None,
-            iq_ref_a=f.number("iq_ref_a") if "iq_ref_a" in item else None,
-            id_ref_a=f.number("id_ref_a") if "id_ref_a" in item else None,
+            iq_ref_a=_current(f, "iq_ref_a") if "iq_ref_a" in item else None,
+            id_ref_a=_current(f, "id_ref_a") if "id_ref_a" in item else None,
             control_mode=mode,
             label=f.string("label", ""),
         )
         f.reject_unknown()
         if ev.describe() == "" or ev.describe().startswith(" ("):
-            raise ScenarioError(f"{where}: events[{i}]: does nothing (give speed_ref_rpm, "
+            raise ScenarioError(f"{f._at(None)}: events[{i}]: does nothing (give speed_ref_rpm, "
                                 f"load_torque_nm, iq_ref_a, id_ref_a or control_mode)")
         events.append(ev)
     return tuple(sorted(events, key=lambda e: e.t_s))
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
-    """Load and validate a scenario; raises ScenarioError naming the file and field."""
+    """Load and validate a scenario, also against its motor profile; raises ScenarioError naming the
+    file, line and field."""
     path = resolve_path(name_or_path)
     where = _display(path)
     try:
-        text = path.read_text()
+        data = path.read_bytes()
     except FileNotFoundError:
         known = ", ".join(sorted(p.stem for p in SCENARIO_DIR.glob("*.toml")))
         raise ScenarioError(f"{where}: no such scenario file (bundled scenarios: {known})") from None
     except OSError as exc:
         raise ScenarioError(f"{where}: cannot read: {exc.strerror}") from None
-    return parse_scenario(text, path)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise ScenarioError(f"{where}:{line}: not a scenario file: octet 0x{data[exc.start]:02X} at offset "
+                            f"{exc.start} is not UTF-8 text (a scenario is a TOML text file)") from None
+    scn = parse_scenario(text, path)
+    check_against_profile(scn)
+    return scn
+
+
+def _realtime(top: _Fields, mode: str) -> RealtimeSettings:
+    """The [realtime] table; a lockstep scenario may carry one for `bench run --realtime`."""
+    d = RealtimeSettings()
+    r = top.table_of("realtime")
+    duty_update = r.string("duty_update", d.duty_update)
+    if duty_update not in DUTY_UPDATES:
+        raise r.fail("duty_update", f"must be one of {', '.join(DUTY_UPDATES)}, got {duty_update!r}")
+    misses = r.integer("max_consecutive_misses", d.max_consecutive_misses, 1, 1_000_000)
+    cpu = r.integer("cpu", -1, 0, 4095) if "cpu" in r.table else None
+    priority = r.integer("priority", d.priority, 0, 99)
+    mlock = r.boolean("mlock", d.mlock)
+    spin_us = r.number("spin_us", d.spin_us, min_value=0.0)
+    guard_us = r.number("guard_us", d.guard_us, min_value=0.0)
+    stub_isr = r.string("stub_isr", d.stub_isr)
+    if stub_isr not in ("sense", "timer"):
+        raise r.fail("stub_isr", f"must be 'sense' or 'timer', got {stub_isr!r}")
+    stub_phase_us = r.number("stub_phase_us", min_value=0.0) if "stub_phase_us" in r.table else None
+    stub_priority = r.integer("stub_priority", d.stub_priority, 0, 99)
+    stub_cpu = r.integer("stub_cpu", -1, 0, 4095) if "stub_cpu" in r.table else None
+    r.reject_unknown()
+    return RealtimeSettings(duty_update, misses, cpu, priority, mlock, spin_us, guard_us, stub_isr,
+                            stub_phase_us, stub_priority, stub_cpu)
+
+
+def _link(top: _Fields) -> LinkSettings:
+    from .integrity import ALLOWABLE_COUNTERS, LINK_COUNTERS
+
+    k = top.table_of("link")
+    retry_timeout_s = k.number("retry_timeout_s", 0.05)
+    k.within("retry_timeout_s", retry_timeout_s, 0.001, 10.0, "s", "docs/protocol.md 6.5")
+    max_retries = k.integer("max_retries", 3, 0, 100)
+    a = k.table_of("allow")
+    allow = {}
+    for counter in list(a.table):
+        if counter not in LINK_COUNTERS:
+            raise a.fail(counter, f"not a link counter; known: {', '.join(LINK_COUNTERS)}")
+        if counter not in ALLOWABLE_COUNTERS:
+            raise a.fail(counter, "cannot be allowed: a run whose controller reported another estimator "
+                                  "has INVALID claims (docs/protocol.md 6.8)")
+        allow[counter] = a.integer(counter, 0, 0, 2**63 - 1)
+    k.reject_unknown()
+    return LinkSettings(retry_timeout_s, max_retries, allow)
 
 
 def parse_scenario(text: str, path: Path) -> Scenario:
@@ -291,16 +485,25 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{where}: not valid TOML: {exc}") from None
 
-    top = _Fields(where, raw, "")
+    top = _Fields(where, raw, "", text)
     s = top.table_of("scenario")
     name = s.string("name", path.stem)
+    if not NAME_PATTERN.match(name):
+        raise s.fail("name", f"{name!r} must be 1-100 letters, digits, '_', '-' or '.', not starting with "
+                             f"'.' or '-' (it names the recording file)")
     description = s.string("description", "")
     profile = s.string("profile")
     duration_s = s.number("duration_s", positive=True)
+    s.within("duration_s", duration_s, 0.0, MAX_DURATION_S, "s", "the longest run the bench records")
     mode = s.string("mode", "lockstep")
-    if mode not in ("lockstep", "realtime"):
-        raise s.fail("mode", f"must be 'lockstep' or 'realtime', got {mode!r}")
+    if mode not in MODES:
+        raise s.fail("mode", f"must be one of {', '.join(MODES)}, got {mode!r}")
     claims = s.strings("claims")
+    from .claims import CLAIMS
+
+    for claim in claims:
+        if claim not in CLAIMS:
+            raise s.fail("claims", f"unknown claim {claim!r}; known: {', '.join(CLAIMS)} (bench claims)")
     s.reject_unknown()
 
     p = top.table_of("plant")
@@ -312,11 +515,12 @@ def parse_scenario(text: str, path: Path) -> Scenario:
 
     c = top.table_of("controller")
     estimator = _estimator(c, "estimator")
-    speed_ref = c.number("speed_ref_rpm", 0.0) / RPM_PER_RAD_S
+    speed_ref = _speed_rpm(c, "speed_ref_rpm", 0.0) / RPM_PER_RAD_S
     telemetry_emf = c.boolean("telemetry_emf", True)
-    # the true angle goes to the controller only when it closes its loop on it, or when the
-    # scenario asks (a drive that logs it): a sensorless run must not be able to use it
-    send_encoder = c.boolean("send_encoder", estimator == Estimator.ENCODER)
+    send_encoder = c.boolean("send_encoder_angle", False)
+    if estimator is Estimator.ENCODER and "send_encoder_angle" in c.table and not send_encoder:
+        raise c.fail("send_encoder_angle", "the ENCODER estimator needs the encoder angle: drop the key or "
+                                           "set it to true (docs/protocol.md 6.8)")
     params = _controller_params(c.table_of("params"))
     c.reject_unknown()
 
@@ -347,9 +551,9 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     m.reject_unknown()
 
     top.used.add("events")
-    events = _events(where, raw.get("events", []), duration_s)
-    realtime = _realtime_options(top.table_of("realtime"))
-    link = _link_options(top.table_of("link"))
+    events = _events(where, raw.get("events", []), duration_s, text)
+    realtime = _realtime(top, mode)
+    link = _link(top)
     top.reject_unknown()
 
     return Scenario(
@@ -359,57 +563,74 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         initial_speed_rad_s=initial_speed, initial_load_torque_nm=initial_load, events=events,
         reference_estimators=reference, reference_config=reference_config,
         metrics_window_s=(w0, w1), claims=claims,
-        telemetry_emf=telemetry_emf, raw=raw, text=text, realtime=realtime, link=link,
-        send_encoder=send_encoder,
+        telemetry_emf=telemetry_emf, raw=raw, text=text,
+        send_encoder_angle=send_encoder, realtime=realtime, link=link,
     )
 
 
-def _integer(fields: _Fields, key: str, default: int, lo: int, hi: int) -> int:
-    fields.used.add(key)
-    v = fields.table.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise fields.fail(key, f"must be an integer in [{lo}, {hi}], got {v!r}")
-    return v
+#: TELEM.omega_hat carries the electrical speed: a mechanical speed beyond max / pole pairs cannot be reported
+OMEGA_HAT_RANGE_RAD_S = _wire_range("TELEM", "omega_hat")
+#: HELLO.period_us: 0.1 us resolution, at most 6553.5 us
+PERIOD_US = MESSAGES["HELLO"].signal("period_us")
 
 
-def _realtime_options(f: _Fields) -> RealtimeOptions:
-    d = RealtimeOptions()
-    duty_update = f.string("duty_update", d.duty_update)
-    if duty_update not in DUTY_UPDATES:
-        raise f.fail("duty_update", f"must be one of {', '.join(DUTY_UPDATES)}, got {duty_update!r}")
-    cpu = _integer(f, "cpu", -1, 0, 1023) if "cpu" in f.table else None
-    out = RealtimeOptions(
-        duty_update=duty_update,
-        max_consecutive_misses=_integer(f, "max_consecutive_misses", d.max_consecutive_misses,
-                                        1, 1_000_000),
-        cpu=cpu,
-        priority=_integer(f, "priority", d.priority, 0, 99),
-        mlock=f.boolean("mlock", d.mlock),
-        spin_us=f.number("spin_us", d.spin_us, min_value=0.0),
-        guard_us=f.number("guard_us", d.guard_us, min_value=0.0),
-        stub_isr=f.string("stub_isr", d.stub_isr),
-        stub_phase_us=(f.number("stub_phase_us", min_value=0.0) if "stub_phase_us" in f.table
-                       else None),
-        stub_priority=_integer(f, "stub_priority", d.stub_priority, 0, 99),
-        stub_cpu=_integer(f, "stub_cpu", -1, 0, 1023) if "stub_cpu" in f.table else None,
-    )
-    if out.stub_isr not in ("sense", "timer"):
-        raise f.fail("stub_isr", f"must be 'sense' or 'timer', got {out.stub_isr!r}")
-    f.reject_unknown()
-    return out
+def check_against_profile(scn: Scenario) -> None:
+    """What only the motor profile can tell: the control period (HELLO.period_us must carry it, the run
+    must last at least one period) and the pole pairs (speeds must fit TELEM.omega_hat); the plant
+    overrides are checked by building the plant. Raises ScenarioError naming file, line and field."""
+    from plant_rt.plant import Plant
+    from plant_rt.profile import ProfileError, load_profile
 
+    text, where = scn.text, scn.display_path
 
-def _link_options(f: _Fields) -> LinkOptions:
-    d = LinkOptions()
-    retry = f.number("retry_timeout_s", d.retry_timeout_s, positive=True)
-    if retry > 0.45:
-        raise f.fail("retry_timeout_s", f"must be below 0.45 s (a silent controller must end "
-                                        f"the run within a second), got {retry:g}")
-    retries = _integer(f, "max_retries", d.max_retries, 0, 100)
-    allow_f = f.table_of("allow")
-    allow = {k: _integer(allow_f, k, 0, 0, 2**62) for k in allow_f.table}
-    f.reject_unknown()
-    return LinkOptions(retry_timeout_s=retry, max_retries=retries, allow=allow)
+    def fail(table: str, key: str, why: str) -> ScenarioError:
+        line = line_of(text, table, key)
+        dotted = f"{table}.{key}" if table else key
+        return ScenarioError(f"{where}:{line}: {dotted}: {why}" if line else f"{where}: {dotted}: {why}")
+
+    try:
+        profile = load_profile(scn.profile)
+    except ProfileError as exc:
+        raise fail("scenario", "profile", str(exc)) from None
+    try:
+        plant = Plant(profile, **scn.plant_overrides)
+    except (ProfileError, TypeError, ValueError) as exc:
+        bad = next((k for k in scn.plant_overrides if k in str(exc)), None)
+        raise (fail("plant", bad, str(exc)) if bad else ScenarioError(f"{where}: plant: {exc}")) from None
+    ts_s = float(plant.params.ts_s)
+    ts_key = ("plant", "ts_s") if "ts_s" in scn.plant_overrides else ("scenario", "profile")
+    ts_text = f"Ts = {ts_s * 1e6:g} us" + (f" from profile {profile.name}" if ts_key[0] == "scenario" else "")
+    period_raw = ts_s * 1e6 / PERIOD_US.scale
+    if not 1 <= round(period_raw) <= PERIOD_US.raw_max or abs(period_raw - round(period_raw)) > 1e-6:
+        raise fail(*ts_key, f"{ts_text}: HELLO.period_us carries 0.1 .. {PERIOD_US.maximum:g} us in steps "
+                            f"of 0.1 us (protocol/hil.dbc)")
+    if scn.duration_s < ts_s * (1 - 1e-9):
+        raise fail("scenario", "duration_s", f"{scn.duration_s:g} s is shorter than one control period "
+                                             f"({ts_text}): the run would have no cycle")
+    w0, w1 = scn.metrics_window_s
+    if w1 - w0 < ts_s * (1 - 1e-9):
+        raise fail("metrics", "window_s", f"[{w0:g}, {w1:g}] holds no control period ({ts_text})")
+    pp = int(plant.params.pole_pairs)
+    lo, hi = OMEGA_HAT_RANGE_RAD_S
+    max_rpm = min(-lo, hi) / pp * RPM_PER_RAD_S
+    why = (f"|speed| <= {max_rpm:.0f} rpm: TELEM.omega_hat carries [{lo:g}, {hi:g}] rad/s electrical, "
+           f"{pp} pole pairs")
+    speeds = [("controller", "speed_ref_rpm", scn.speed_ref_rad_s),
+              ("plant", "initial_speed_rpm", scn.initial_speed_rad_s)]
+    speeds += [(f"events[{i}]", "speed_ref_rpm", float(item["speed_ref_rpm"]) / RPM_PER_RAD_S)
+               for i, item in enumerate(scn.raw.get("events", [])) if "speed_ref_rpm" in item]
+    for table, key, w in speeds:
+        if abs(w * RPM_PER_RAD_S) > max_rpm:
+            raise fail(table, key, f"{w * RPM_PER_RAD_S:g} rpm is outside the range the protocol carries ({why})")
+    if scn.reference_estimators:
+        try:
+            from firmware_stub.estimators import REFERENCE_ESTIMATORS
+        except ImportError:   # not built yet: the runner says so when it builds them
+            return
+        for entry in scn.reference_estimators:
+            if entry.partition(":")[0] not in REFERENCE_ESTIMATORS:
+                raise fail("reference", "estimators", f"unknown estimator {entry!r}; available: "
+                                                      f"{', '.join(REFERENCE_ESTIMATORS)} (optionally NAME:label)")
 
 
 def speed_ref_at(scn: Scenario, t_s: float) -> float:

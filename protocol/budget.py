@@ -29,7 +29,7 @@ from . import dbc, framing
 BITS_PER_UART_BYTE = 10  #: 8N1: start + 8 data + stop
 FD_LENGTHS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)  #: valid CAN FD payload sizes
 
-_FLAG = {f.name: f.mask for f in dbc.HELLO_FLAGS}
+_FLAG = {f.name: f.mask for f in dbc.flag_table("HelloFlag").bits}
 DUAL_SAMPLING = _FLAG["DUAL_SAMPLING"]  #: HELLO flags bit0: SENSE_DUAL every cycle
 TELEM_EMF = _FLAG["TELEM_EMF"]  #: HELLO flags bit1: TELEM_EMF every cycle
 FLAG_COMBINATIONS = (0, DUAL_SAMPLING, TELEM_EMF, DUAL_SAMPLING | TELEM_EMF)

@@ -7,8 +7,14 @@ from the cantools database, once:
   DBC range, raw type range and the DBC range expressed as raw integers (``raw_min``/``raw_max``);
 * ``value_tables()``: the value tables, named for Python (``Param``) and C (``HIL_PARAM_``), each emitted
   once even when several messages carry it;
-* ``sentinels()``: named raw values that lie outside a signal's range (DUTY's raw 65535 = ``OFF``);
+* ``sentinels()``: named raw values inside a signal's declared DBC range but outside its valid range
+  (DUTY's raw 65535 = ``OFF``; the valid range ends at the signal attribute ``HilValidMax``);
+* ``flag_tables()``: the flag bytes (HELLO.flags, SENSE_AUX.flags), whose DBC value tables name every
+  combination of their bits; the bits are the single-bit entries;
 * ``round_half_away()``: THE rounding rule of the protocol (shared with the generated C code).
+
+Cyclic (angle) signals: an unsigned ``rad`` signal whose raw range covers exactly one turn
+(``scale * 2**length == 2 pi``) wraps: raw = round(angle / scale) mod 2**length.
 
 Only what the naming tables below say is hand-written: how value tables are called in Python and C.
 A DBC change that this module does not know how to name fails loudly (``DbcError``) instead of guessing.
@@ -48,10 +54,37 @@ _VALUE_TABLE_NAMING: tuple[tuple[str, str, str, tuple[tuple[str, str], ...]], ..
     ("Mode", "HIL_MODE", "hil_mode_t", (("HELLO", "mode"),)),
 )
 
-#: (message, signals, choice name, C macro): single named raw values outside the signal's DBC range.
+#: (message, signals, choice name, C macro): single named raw values outside the signal's valid range.
 _SENTINEL_NAMING: tuple[tuple[str, tuple[str, ...], str, str], ...] = (
     ("DUTY", ("d_a", "d_b", "d_c"), "OFF", "HIL_DUTY_RAW_OFF"),
 )
+
+#: (Python IntFlag name, C macro prefix, the flag byte as (message, signal), meaning of each bit by name).
+#: The bits themselves come from the DBC value table of the signal (its single-bit entries).
+_FLAG_TABLE_NAMING: tuple[tuple[str, str, tuple[str, str], dict[str, str]], ...] = (
+    ("HelloFlag", "HIL_HELLO_FLAG", ("HELLO", "flags"), {
+        "DUAL_SAMPLING": "dual sampling: the host sends SENSE_DUAL every cycle",
+        "TELEM_EMF": "the controller sends TELEM_EMF every cycle",
+        "ENCODER_VALID": "SENSE_AUX.theta_enc carries the plant's angle every cycle (only when the estimator "
+                         "is ENCODER or the scenario asks for it)",
+    }),
+    ("SenseAuxFlag", "HIL_SENSE_AUX_FLAG", ("SENSE_AUX", "flags"), {
+        "DUAL_FOLLOWS": "SENSE_DUAL of this seq was sent before SENSE",
+        "THETA_ENC_VALID": "theta_enc carries the plant's angle (set every cycle exactly when HELLO flag "
+                           "ENCODER_VALID was)",
+    }),
+)
+
+#: Signal attribute (FLOAT, physical) ending the valid range of a signal below its declared DBC maximum.
+VALID_MAX_ATTRIBUTE = "HilValidMax"
+#: Message attribute (ENUM) saying when a message is sent; its values and their wording in the docs.
+SENT_ATTRIBUTE = "HilSent"
+SENT_WORDING = {
+    "OnEvent": "event",
+    "EveryControlCycle": "every cycle",
+    "EveryControlCycleIfFlag": "every cycle if the HELLO flag asks",
+    "EveryHeartbeatWhileIdle": "while idle",
+}
 
 
 @dataclass(frozen=True)
@@ -67,17 +100,15 @@ class FlagBit:
         return 1 << self.bit
 
 
-#: HELLO.flags (see the DBC comment of HELLO.flags; a test checks the comment names every bit).
-HELLO_FLAGS: tuple[FlagBit, ...] = (
-    FlagBit("DUAL_SAMPLING", 0, "dual sampling: the host sends SENSE_DUAL every cycle"),
-    FlagBit("TELEM_EMF", 1, "the controller sends TELEM_EMF every cycle"),
-    FlagBit("ENCODER_VALID", 2, "SENSE_AUX.theta_enc carries the true encoder angle"),
-)
-#: SENSE_AUX.flags (see the DBC comment of SENSE_AUX.flags).
-SENSE_AUX_FLAGS: tuple[FlagBit, ...] = (
-    FlagBit("DUAL_FOLLOWS", 0, "SENSE_DUAL follows for this seq"),
-    FlagBit("THETA_ENC_VALID", 1, "theta_enc is valid"),
-)
+@dataclass(frozen=True)
+class FlagTable:
+    """A flag byte: its bits (from the single-bit entries of the DBC value table) and names."""
+
+    py_name: str
+    c_prefix: str
+    message: str
+    signal: str
+    bits: tuple[FlagBit, ...]
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -100,6 +131,13 @@ def round_half_away(q: float) -> int:
     return r
 
 
+def wrap_raw(q: float, length_bits: int) -> int:
+    """Raw value of a cyclic signal: ``round_half_away(q)`` modulo ``2**length_bits`` for any finite q
+    (``q`` = angle / scale). The generated C code does the same (``fmod`` first, then the rounding)."""
+    r = math.fmod(q, float(1 << length_bits))  # exact, keeps the sign of q: rounds like q itself
+    return round_half_away(r) % (1 << length_bits)
+
+
 # ---------------------------------------------------------------------------------------------------------
 # Specifications
 # ---------------------------------------------------------------------------------------------------------
@@ -114,7 +152,14 @@ def _num(x: float | int | None) -> float | int | None:
 
 @dataclass(frozen=True)
 class SignalSpec:
-    """One signal, little-endian (Intel) in the DBC; raw values are integers except for IEEE floats."""
+    """One signal, little-endian (Intel) in the DBC; raw values are integers except for IEEE floats.
+
+    ``minimum``/``maximum`` (and ``raw_min``/``raw_max``) are the *valid* range the codecs encode and
+    ``*_is_in_range`` accept: the DBC [min|max], narrowed at the top by the signal attribute
+    ``HilValidMax`` where the DBC declares one (DUTY: valid 0..1, declared 0..1.99997 so that the value
+    table's OFF = raw 65535 lies inside the declared range, as CAN tools expect).
+    ``dbc_minimum``/``dbc_maximum`` are the declared [min|max]. ``is_cyclic``: an angle that wraps.
+    """
 
     message: str
     name: str
@@ -133,6 +178,9 @@ class SignalSpec:
     type_max: float | int
     raw_min: float | int
     raw_max: float | int
+    dbc_minimum: float | int = 0
+    dbc_maximum: float | int = 0
+    is_cyclic: bool = False
 
     @property
     def qualified_name(self) -> str:
@@ -148,9 +196,12 @@ class SignalSpec:
         return self.start_bit % 8 == 0 and self.length_bits in (8, 16, 32)
 
     def raw_of(self, physical: float) -> int | float:
-        """Physical -> raw by the protocol rule, without range checks (floats: the value itself)."""
+        """Physical -> raw by the protocol rule, without range checks (floats: the value itself;
+        cyclic signals: wrapped into one turn)."""
         if self.is_float:
             return float(physical)
+        if self.is_cyclic:
+            return wrap_raw(physical / self.scale, self.length_bits)
         return round_half_away((physical - self.offset) / self.scale)
 
     def physical_of(self, raw: int | float) -> int | float:
@@ -168,8 +219,15 @@ class MessageSpec:
     signals: tuple[SignalSpec, ...]
     comment: str
     sender: str
-    send_type: str
-    cycle_time_ms: int
+    send_type: str       # Vector GenMsgSendType: Cyclic (heartbeats) or NoMsgSendType
+    cycle_time_ms: int   # Vector GenMsgCycleTime (0: not time-cyclic)
+    sent: str = "OnEvent"  # HilSent: OnEvent, EveryControlCycle, EveryControlCycleIfFlag, EveryHeartbeatWhileIdle
+
+    @property
+    def sent_text(self) -> str:
+        """When the message is sent, in the words of the docs tables."""
+        text = SENT_WORDING.get(self.sent, self.sent)
+        return f"{text}, {self.cycle_time_ms} ms" if self.cycle_time_ms else text
 
     def signal(self, name: str) -> SignalSpec:
         for s in self.signals:
@@ -206,13 +264,18 @@ def database() -> cantools.database.can.Database:
     return cantools.database.load_file(str(DBC_PATH), strict=True)
 
 
-def proto_version() -> int:
-    """Protocol version: the trailing integer of the DBC ``VERSION`` string ("hil-bench protocol 1")."""
+def proto_version_text() -> str:
+    """Protocol version as written at the end of the DBC ``VERSION`` string ("1.0")."""
     version = database().version or ""
-    m = re.search(r"protocol\s+(\d+)\s*$", version)
+    m = re.search(r"protocol\s+(\d+)\.(\d+)\s*$", version)
     if not m:
-        raise DbcError(f"{DBC_PATH}: VERSION {version!r} does not end with 'protocol <n>'")
-    return int(m.group(1))
+        raise DbcError(f"{DBC_PATH}: VERSION {version!r} does not end with 'protocol <major>.<minor>'")
+    return f"{int(m.group(1))}.{int(m.group(2))}"
+
+
+def proto_version() -> int:
+    """The major protocol version, the number HELLO.proto_version carries ("hil-bench protocol 1.0" -> 1)."""
+    return int(proto_version_text().split(".")[0])
 
 
 def _type_range(length: int, signed: bool, is_float: bool) -> tuple[float | int, float | int]:
@@ -245,6 +308,14 @@ def _signal_spec(msg: cantools.database.can.Message, sig: cantools.database.can.
     type_min, type_max = _type_range(sig.length, sig.is_signed, sig.is_float)
     minimum = _num(sig.minimum)
     maximum = _num(sig.maximum)
+    dbc_min, dbc_max = minimum, maximum
+    attrs = sig.dbc.attributes if sig.dbc is not None else {}
+    if VALID_MAX_ATTRIBUTE in attrs:
+        valid_max = _num(attrs[VALID_MAX_ATTRIBUTE].value)
+        if sig.is_float or maximum is None or not (minimum or 0) <= valid_max <= maximum:
+            raise DbcError(f"{where}: {VALID_MAX_ATTRIBUTE} {valid_max} must lie in the declared range "
+                           f"[{minimum}, {maximum}] of an integer signal")
+        maximum = valid_max
     if sig.is_float:
         minimum = type_min if minimum is None else minimum
         maximum = type_max if maximum is None else maximum
@@ -262,21 +333,39 @@ def _signal_spec(msg: cantools.database.can.Message, sig: cantools.database.can.
     if minimum > maximum:
         raise DbcError(f"{where}: minimum {minimum} > maximum {maximum}")
     choices = {int(k): str(v) for k, v in (sig.choices or {}).items()}
+    cyclic = (not sig.is_float and not sig.is_signed and (sig.unit or "") == "rad" and offset == 0
+              and math.isclose(scale * (1 << sig.length), 2.0 * math.pi, rel_tol=1e-15, abs_tol=0.0))
+    if cyclic and (raw_min, raw_max) != (0, type_max):
+        raise DbcError(f"{where}: an angle covering one turn must declare [0|{type_max * scale!r}] "
+                       f"(raw 0..{type_max}), got raw {raw_min}..{raw_max}")
     return SignalSpec(
         message=msg.name, name=sig.name, start_bit=sig.start, length_bits=sig.length,
         is_signed=bool(sig.is_signed), is_float=bool(sig.is_float), scale=scale, offset=offset,
         minimum=minimum, maximum=maximum, unit=sig.unit or "", comment=sig.comment or "",
         choices=choices, type_min=type_min, type_max=type_max, raw_min=raw_min, raw_max=raw_max,
+        dbc_minimum=minimum if dbc_min is None else dbc_min,
+        dbc_maximum=maximum if dbc_max is None else dbc_max, is_cyclic=cyclic,
     )
 
 
 def _attr(db: cantools.database.can.Database, msg: cantools.database.can.Message, name: str, default):
+    """A message attribute; ENUM attributes by their value name (the DBC stores the index)."""
+    definition = db.dbc.attribute_definitions.get(name) if db.dbc is not None else None
     if msg.dbc is not None and name in msg.dbc.attributes:
-        return msg.dbc.attributes[name].value
-    if db.dbc is not None and name in db.dbc.attribute_definitions:
-        d = db.dbc.attribute_definitions[name].default_value
-        return default if d is None else d
+        value = msg.dbc.attributes[name].value
+        if definition is not None and definition.type_name == "ENUM" and isinstance(value, int):
+            return definition.choices[value]
+        return value
+    if definition is not None:
+        return default if definition.default_value is None else definition.default_value
     return default
+
+
+def bus_type() -> str:
+    """The DBC's ``BusType`` attribute ("CAN")."""
+    db = database()
+    attr = db.dbc.attributes.get("BusType") if db.dbc is not None else None
+    return str(attr.value) if attr is not None else ""
 
 
 @functools.lru_cache(maxsize=None)
@@ -307,7 +396,11 @@ def specs_from_database(db: cantools.database.can.Database) -> tuple[MessageSpec
             comment=msg.comment or "", sender=(msg.senders or [""])[0],
             send_type=str(_attr(db, msg, "GenMsgSendType", "")),
             cycle_time_ms=int(_attr(db, msg, "GenMsgCycleTime", 0) or 0),
+            sent=str(_attr(db, msg, SENT_ATTRIBUTE, "OnEvent")),
         ))
+        if specs[-1].sent not in SENT_WORDING:
+            raise DbcError(f"{DBC_PATH.name}: {msg.name}: {SENT_ATTRIBUTE} {specs[-1].sent!r} is not one of "
+                           f"{sorted(SENT_WORDING)}")
     specs.sort(key=lambda m: m.frame_id)
     names = [m.name for m in specs]
     if len(set(names)) != len(names) or len({m.frame_id for m in specs}) != len(specs):
@@ -335,7 +428,10 @@ def sentinels() -> tuple[Sentinel, ...]:
             if len(found) != 1 or len(s.choices) != 1:
                 raise DbcError(f"{DBC_PATH.name}: {s.qualified_name}: expected exactly the choice {choice!r}")
             if s.raw_min <= found[0] <= s.raw_max:
-                raise DbcError(f"{DBC_PATH.name}: {s.qualified_name}: {choice} lies inside the signal range")
+                raise DbcError(f"{DBC_PATH.name}: {s.qualified_name}: {choice} lies inside the valid range")
+            if not s.dbc_minimum <= s.physical_of(found[0]) <= s.dbc_maximum:
+                raise DbcError(f"{DBC_PATH.name}: {s.qualified_name}: {choice} (raw {found[0]}) lies outside "
+                               f"the declared DBC range [{s.dbc_minimum}, {s.dbc_maximum}]")
             raws.add(found[0])
         if len(raws) != 1:
             raise DbcError(f"{DBC_PATH.name}: {msg_name}: {choice} differs between {sig_names}")
@@ -366,9 +462,46 @@ def value_tables() -> tuple[ValueTable, ...]:
         tables.append(ValueTable(py_name, c_prefix, c_type, sigs, values or {}))
     for sen in sentinels():
         covered.update((sen.message, s) for s in sen.signals)
+    covered.update((f.message, f.signal) for f in flag_tables())
     for m in message_specs():
         for s in m.signals:
             if s.choices and (m.name, s.name) not in covered:
                 raise DbcError(f"{DBC_PATH.name}: {s.qualified_name} has a value table that protocol/dbc.py "
                                "does not name: add it to _VALUE_TABLE_NAMING or _SENTINEL_NAMING")
     return tuple(tables)
+
+
+@functools.lru_cache(maxsize=None)
+def flag_tables() -> tuple[FlagTable, ...]:
+    """The flag bytes. Their DBC value table must name every combination of the bits: 0 "NONE", each
+    single bit by its name, and every other value by the names of its bits joined with "+", low bit first
+    (what CAN tools then show for any flags value). The single-bit entries are the bits."""
+    out = []
+    for py_name, c_prefix, (msg_name, sig_name), meanings in _FLAG_TABLE_NAMING:
+        s = message_spec(msg_name).signal(sig_name)
+        where = f"{DBC_PATH.name}: {s.qualified_name}"
+        single = {raw: name for raw, name in s.choices.items() if raw and raw & (raw - 1) == 0}
+        bits = tuple(FlagBit(name, raw.bit_length() - 1, meanings.get(name, ""))
+                     for raw, name in sorted(single.items()))
+        if set(meanings) != {b.name for b in bits}:
+            raise DbcError(f"{where}: flag bits {sorted(b.name for b in bits)} differ from the meanings "
+                           f"protocol/dbc.py documents {sorted(meanings)}")
+        expected = {}
+        for value in range(1 << len(bits)):
+            names = [b.name for i, b in enumerate(bits) if value >> i & 1]
+            raw = sum(b.mask for i, b in enumerate(bits) if value >> i & 1)
+            expected[raw] = "+".join(names) or "NONE"
+        if dict(s.choices) != expected:
+            raise DbcError(f"{where}: the value table must name every combination of the bits: expected "
+                           f"{expected}, got {dict(s.choices)}")
+        if any(b.bit >= s.length_bits for b in bits):
+            raise DbcError(f"{where}: a flag bit lies outside the signal")
+        out.append(FlagTable(py_name, c_prefix, msg_name, sig_name, bits))
+    return tuple(out)
+
+
+def flag_table(py_name: str) -> FlagTable:
+    for f in flag_tables():
+        if f.py_name == py_name:
+            return f
+    raise KeyError(py_name)

@@ -96,15 +96,21 @@ def _signal_comment(s: SignalSpec) -> str:
     else:
         off = f" + {s.offset}" if s.offset else ""
         conv = f"physical = raw * {s.scale}{off}{unit}"
-    text = f"{conv}; DBC [{s.minimum}, {s.maximum}] = raw {s.raw_min}..{s.raw_max}"
+    if s.is_cyclic:
+        text = f"{conv}; an angle: raw = round(value / scale) mod {s.type_max + 1} (wraps at 2 pi)"
+    elif (s.dbc_minimum, s.dbc_maximum) != (s.minimum, s.maximum):
+        text = (f"{conv}; valid [{s.minimum}, {s.maximum}] = raw {s.raw_min}..{s.raw_max} "
+                f"(DBC declares [{s.dbc_minimum}, {s.dbc_maximum}])")
+    else:
+        text = f"{conv}; DBC [{s.minimum}, {s.maximum}] = raw {s.raw_min}..{s.raw_max}"
     if s.choices:
         text += "; " + ", ".join(f"{raw} = {name}" for raw, name in sorted(s.choices.items()))
     return text
 
 
 def _uses_s32(s: SignalSpec) -> bool:
-    """Integer signals whose raw range fits int32 are rounded with the signed helper."""
-    return not s.is_float and (s.is_signed or s.length_bits < 32)
+    """Integer signals whose raw range fits int32 are rounded with the signed helper (angles: their own)."""
+    return not s.is_float and not s.is_cyclic and (s.is_signed or s.length_bits < 32)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -200,8 +206,10 @@ def _header(msgs: tuple[MessageSpec, ...]) -> str:
            " * encode: physical -> raw = (value - offset) / scale rounded to nearest, ties away from zero,",
            " *         evaluated in double (float if HIL_MSGS_CALC_FLOAT is defined; where double is",
            " *         binary32, e.g. TI C28x COFF ABI, both agree and may differ by 1 LSB next to a tie from",
-           " *         the binary64 reference), saturated to the DBC range; NaN encodes as 0 clamped into",
-           " *         that range. Float signals: clamped to [min, max], NaN -> 0.",
+           " *         the binary64 reference), saturated to the valid range (the DBC range, or up to the",
+           " *         attribute HilValidMax); NaN encodes as 0 clamped into that range. Angles (rad, one",
+           " *         turn over the raw range) wrap: raw = round(value / scale) mod 2^bits; NaN and",
+           " *         infinities encode as 0. Float signals: clamped to [min, max], NaN -> 0.",
            " * decode: raw -> physical = raw * scale + offset (sentinels such as HIL_DUTY_RAW_OFF are not",
            " *         decoded: test the raw value first).",
            " * pack returns the message length or -1 (NULL pointer, size too small); unpack returns 0 or -1.",
@@ -226,8 +234,8 @@ def _header(msgs: tuple[MessageSpec, ...]) -> str:
         out.append(f"/* {sen.message}.{{{sigs}}} raw {sen.raw} = {sen.name} (outside the DBC range). */")
         out.append(f"#define {name(sen.c_macro)} {sen.raw}u")
     out.append("")
-    for prefix, flags, where in (("HIL_HELLO_FLAG", dbc.HELLO_FLAGS, "HELLO.flags"),
-                                 ("HIL_SENSE_AUX_FLAG", dbc.SENSE_AUX_FLAGS, "SENSE_AUX.flags")):
+    for table in dbc.flag_tables():
+        prefix, flags, where = table.c_prefix, table.bits, f"{table.message}.{table.signal}"
         out.append(f"/* {where} bits */")
         for f in flags:
             out.append(f"#define {name(f'{prefix}_{f.name}')} 0x{f.mask:02X}u /* bit{f.bit}: {f.meaning} */")
@@ -267,8 +275,10 @@ typedef char hil_float_is_binary32[(sizeof(float) == sizeof(uint32_t) && FLT_MAN
 
 #if defined(HIL_MSGS_CALC_FLOAT)
 typedef float hil_calc_t;  /* cheaper on an FPU without double; may differ by 1 LSB next to a tie */
+#define HIL_CALC_FMOD fmodf
 #else
 typedef double hil_calc_t; /* the reference: identical to protocol/messages.py */
+#define HIL_CALC_FMOD fmod
 #endif
 """
 
@@ -366,8 +376,44 @@ static uint32_t hil_round_sat_u32(hil_calc_t q, uint32_t lo, uint32_t hi)
 """
 
 
+_HELPER_TURN = r"""
+/* Raw value of an angle whose raw range is one turn (2^bits values, bits <= 24): q rounded to nearest,
+ * ties away from zero, modulo 2^bits, for any finite q. fmod is exact and keeps the sign of q, so the
+ * tie rule is that of q itself. NaN and infinities encode as 0. */
+static uint32_t hil_round_turn(hil_calc_t q, uint32_t bits)
+{
+    int32_t n = (int32_t)((uint32_t)1u << bits);
+    int32_t r;
+    hil_calc_t frac;
+    if (isnan(q) || isinf(q)) {
+        return 0u;
+    }
+    q = HIL_CALC_FMOD(q, (hil_calc_t)n);
+    r = (int32_t)q;
+    frac = q - (hil_calc_t)r;
+    if (frac >= (hil_calc_t)0.5) {
+        r++;
+    } else if (frac <= (hil_calc_t)-0.5) {
+        r--;
+    }
+    if (r < 0) {
+        r += n;
+    }
+    if (r >= n) {
+        r -= n;
+    }
+    return (uint32_t)r;
+}
+"""
+
+
 def _encode_body(s: SignalSpec) -> list[str]:
     t = c_type(s)
+    if s.is_cyclic:
+        if s.length_bits > 24:
+            raise dbc.DbcError(f"{s.qualified_name}: angles of more than 24 bits are not supported")
+        return [f"    return ({t})hil_round_turn((hil_calc_t)value / (hil_calc_t){c_double(s.scale)}, "
+                f"{s.length_bits}u);"]
     if s.is_float:
         return [f"    return hil_f32_clamp(value, {c_float(s.minimum)}, {c_float(s.maximum)});"]
     q = "(hil_calc_t)value"
@@ -421,8 +467,10 @@ def _source(msgs: tuple[MessageSpec, ...]) -> str:
         out.append(_HELPER_SEXT.rstrip("\n"))
     if any(_uses_s32(s) for s in signals):
         out.append(_HELPER_S32.rstrip("\n"))
-    if any(not s.is_float and not _uses_s32(s) for s in signals):
+    if any(not s.is_float and not s.is_cyclic and not _uses_s32(s) for s in signals):
         out.append(_HELPER_U32.rstrip("\n"))
+    if any(s.is_cyclic for s in signals):
+        out.append(_HELPER_TURN.rstrip("\n"))
     out.append("")
     for msg in msgs:
         p, mac = c_prefix(msg), c_macro(msg)
@@ -474,6 +522,7 @@ typedef struct {
     double raw_max;
     double type_min;  /* range of the raw field type */
     double type_max;
+    int cyclic;       /* an angle: encode wraps modulo one turn instead of saturating */
 } hil_signal_info_t;
 
 typedef struct {
@@ -516,7 +565,7 @@ def _reflect_source(msgs: tuple[MessageSpec, ...]) -> str:
             k = "HIL_SIG_FLOAT" if s.is_float else kind[(s.is_signed, False)]
             nums = [s.scale, s.offset, s.minimum, s.maximum, s.raw_min, s.raw_max, s.type_min, s.type_max]
             out.append(f'    {{"{s.name}", {k}, {s.start_bit}u, {s.length_bits}u, '
-                       + ", ".join(c_double(x) for x in nums) + "},")
+                       + ", ".join(c_double(x) for x in nums) + f", {int(s.is_cyclic)}}},")
         out.append("};")
     out.append("")
     out.append("const hil_message_info_t hil_messages[] = {")

@@ -88,9 +88,11 @@ def _meaning(s: dbc.SignalSpec) -> str:
 
 
 def section_messages() -> str:
-    out = ["| message | id hex | id dec | length | sender | sent | meaning |", "|---|---|---|---|---|---|---|"]
+    out = [f"Bus type (DBC attribute `BusType`): {dbc.bus_type()}. Column *sent* is the DBC attribute "
+           "`HilSent` (with `GenMsgCycleTime` for the heartbeats).", "",
+           "| message | id hex | id dec | length | sender | sent | meaning |", "|---|---|---|---|---|---|---|"]
     for m in dbc.message_specs():
-        sent = m.send_type + (f", {m.cycle_time_ms} ms" if m.cycle_time_ms else "")
+        sent = m.sent_text
         out.append(f"| [{m.name}](#{m.name.lower()}) | 0x{m.frame_id:03X} | {m.frame_id} | {m.length} | "
                    f"{m.sender} | {sent} | {m.comment} |")
     out.append("")
@@ -104,8 +106,13 @@ def section_messages() -> str:
         for s in m.signals:
             kind = "float32" if s.is_float else ("yes" if s.is_signed else "no")
             raw_range = "IEEE binary32" if s.is_float else f"{s.raw_min} .. {s.raw_max}"
+            rng = f"[{_num(s.minimum)}, {_num(s.maximum)}]"
+            if s.is_cyclic:
+                raw_range += ", wraps"
+            if (s.dbc_minimum, s.dbc_maximum) != (s.minimum, s.maximum):
+                rng += f" (DBC [{_num(s.dbc_minimum)}, {_num(s.dbc_maximum)}])"
             out.append(f"| {s.name} | {s.start_bit} | {s.length_bits} | {kind} | {_num(s.scale)} | "
-                       f"{_num(s.offset)} | {s.unit} | [{_num(s.minimum)}, {_num(s.maximum)}] | {raw_range} | "
+                       f"{_num(s.offset)} | {s.unit} | {rng} | {raw_range} | "
                        f"{_meaning(s)} |")
         out.append("")
     return "\n".join(out)
@@ -126,9 +133,11 @@ def section_value_tables() -> str:
         out.append(f"**{sen.message} {sen.name}**: raw {sen.raw} in {', '.join(sen.signals)} "
                    f"(C `{sen.c_macro}`, Python `DUTY_RAW_OFF`).")
         out.append("")
-    for title, prefix, flags in (("HELLO.flags", "HIL_HELLO_FLAG", dbc.HELLO_FLAGS),
-                                 ("SENSE_AUX.flags", "HIL_SENSE_AUX_FLAG", dbc.SENSE_AUX_FLAGS)):
-        out.append(f"**{title}** bits (C `{prefix}_<NAME>`)")
+    for table in dbc.flag_tables():
+        title, prefix, flags = f"{table.message}.{table.signal}", table.c_prefix, table.bits
+        out.append(f"**{title}** bits (C `{prefix}_<NAME>`, Python `{table.py_name}`; the DBC value table "
+                   f"names every combination, e.g. {(1 << len(flags)) - 1} = "
+                   f"`{'+'.join(f.name for f in flags)}`; other bits are 0)")
         out.append("")
         out.append("| bit | mask | name | meaning |")
         out.append("|---|---|---|---|")
@@ -138,7 +147,14 @@ def section_value_tables() -> str:
     return "\n".join(out)
 
 
+def section_params() -> str:
+    from protocol import params
+
+    return params.markdown_table()
+
+
 SECTIONS = {
+    "params": section_params,
     "example": section_example,
     "messages": section_messages,
     "value_tables": section_value_tables,

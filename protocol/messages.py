@@ -14,6 +14,9 @@ outside raises ``SignalRangeError`` naming ``MESSAGE.signal``, unless ``saturate
 to the range). NaN always raises. IEEE float signals are checked against [min|max] and sent as binary32.
 cantools rounds half to even; the two differ only on exact ties (q = n + 0.5 in binary64).
 
+Angles (cyclic signals: ``rad``, one turn over the raw range) wrap instead of raising:
+``raw = round_half_away(angle / scale) mod 65536`` for any finite angle (2 pi and -2 pi encode as 0).
+
 Decoding: ``physical = raw * scale + offset`` exactly as cantools computes it (integers stay ``int`` for
 scale 1 / offset 0). Signals whose table names a raw value outside the range (DUTY raw 65535 = ``OFF``)
 decode to the plain number (``1.99997`` for OFF): test the raw value (``unpack_raw``, ``DUTY_RAW_OFF``).
@@ -76,6 +79,10 @@ def _checked_encoder(s: SignalSpec) -> Encoder:
                 return float(min(max(v, s.minimum), s.maximum))
             raise SignalRangeError(f"{qname} = {value!r} is outside [{s.minimum}, {s.maximum}]")
         q = (v - s.offset) / s.scale
+        if s.is_cyclic:
+            if not math.isfinite(q):
+                raise SignalRangeError(f"{qname}: an angle must be finite, got {value!r}")
+            return dbc.wrap_raw(q, s.length_bits)
         r = round_half_away(q) if math.isfinite(q) else (math.inf if q > 0 else -math.inf)
         if s.raw_min <= r <= s.raw_max:
             return r
@@ -387,9 +394,9 @@ def _flags(name: str, bits: Iterable[dbc.FlagBit]) -> type[IntFlag]:
 
 
 #: HELLO.flags bits (DUAL_SAMPLING = SENSE_DUAL every cycle, TELEM_EMF, ENCODER_VALID).
-HelloFlag = _flags("HelloFlag", dbc.HELLO_FLAGS)
-#: SENSE_AUX.flags bits.
-SenseAuxFlag = _flags("SenseAuxFlag", dbc.SENSE_AUX_FLAGS)
+HelloFlag = _flags("HelloFlag", dbc.flag_table("HelloFlag").bits)
+#: SENSE_AUX.flags bits (DUAL_FOLLOWS, THETA_ENC_VALID).
+SenseAuxFlag = _flags("SenseAuxFlag", dbc.flag_table("SenseAuxFlag").bits)
 
 _OFF = {(s.message, s.name): s.raw for s in dbc.sentinels()}
 #: DUTY raw value of a disabled leg (both switches off), from the DBC value table of d_a/d_b/d_c.

@@ -76,3 +76,111 @@ def test_bad_scenarios_name_field(tmp_path, edit, field):
 def test_missing_file_names_path():
     with pytest.raises(ScenarioError, match="no such scenario file"):
         load_scenario("/nonexistent/dir/x.toml")
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Issue 9, item 13: every value checked against its physical and wire range at load, with file, line,
+# field and the allowed range, before any process or device is touched.
+# ---------------------------------------------------------------------------------------------------------
+
+G2 = (SCENARIO_DIR / "gong_g2_500rpm.toml").read_text()
+
+
+def _line(text: str, needle: str) -> int:
+    return next(n for n, line in enumerate(text.splitlines(), 1) if needle in line)
+
+
+@pytest.mark.parametrize("edit, needle, expect", [
+    (lambda t: t.replace("duration_s = 1.5", "duration_s = 1e9"), "duration_s =",
+     "scenario.duration_s: 1e+09 s is outside [0, 3600] s"),
+    (lambda t: t.replace("duration_s = 1.5", "duration_s = 1e-9").replace("[1.0, 1.5]", "[0.0, 1e-9]"),
+     "duration_s =", "scenario.duration_s: 1e-09 s is shorter than one control period (Ts = 100 us"),
+    (lambda t: t.replace("speed_ref_rpm = 500", "speed_ref_rpm = 1e40"), "speed_ref_rpm =",
+     "controller.speed_ref_rpm: 1e+40 rpm (1.047e+39 rad/s) does not fit the binary32 CMD.value"),
+    (lambda t: t.replace("speed_ref_rpm = 500", "speed_ref_rpm = 9000"), "speed_ref_rpm =",
+     "controller.speed_ref_rpm: 9000 rpm is outside the range the protocol carries (|speed| <= 7823 rpm: "
+     "TELEM.omega_hat"),
+    (lambda t: t + "\n[[events]]\nt_s = 0.5\nload_torque_nm = 0.1\n[[events]]\nt_s = 0.2\n"
+                   "speed_ref_rpm = 1e40\n", "speed_ref_rpm = 1e40", "events[1].speed_ref_rpm: 1e+40 rpm"),
+    (lambda t: t + "\n[[events]]\nt_s = 0.6\nspeed_ref_rpm = -8000\n", "speed_ref_rpm = -8000",
+     "events[0].speed_ref_rpm: -8000 rpm is outside the range the protocol carries"),
+    (lambda t: t + "\n[[events]]\nt_s = 0.6\niq_ref_a = 40\n", "iq_ref_a = 40",
+     "events[0].iq_ref_a: 40 A is outside [-32.768, 32.767] A (the range SENSE.i_a..i_c can report"),
+    (lambda t: t.replace('claims = ["G2"]', 'claims = ["G99"]'), "claims =",
+     "scenario.claims: unknown claim 'G99'; known: G2"),
+    (lambda t: t.replace("IQ_MAX_A = 6.0", "IQ_MAX_A = 6.0\nPOLE_PAIRS = 4.5"), "POLE_PAIRS",
+     "controller.params.POLE_PAIRS: is an integer parameter: must be a whole number, got 4.5"),
+    (lambda t: t.replace("SMO_K_V = 25.0", "SMO_K_V = 1e39"), "SMO_K_V =",
+     "controller.params.SMO_K_V: 1e+39 does not fit a binary32 CONFIG value"),
+    (lambda t: t.replace('name = "gong_g2_500rpm"', 'name = "../../escaped"'), "name =",
+     "scenario.name: '../../escaped' must be 1-100 letters"),
+    (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\nts_s = 1.23456e-4"),
+     "ts_s =", "plant.ts_s: Ts = 123.456 us: HELLO.period_us carries 0.1 .. 6553.5 us in steps of 0.1 us"),
+    (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\ndead_time_s = -1"),
+     "dead_time_s =", "plant.dead_time_s"),
+    (lambda t: t.replace('profile = "gong2020"', 'profile = "nosuchmotor"'), "profile =",
+     "scenario.profile: "),
+    (lambda t: t + "\n[link]\nallow = {crc_errors = 5, crc = 3}\n", "allow =",
+     "link.allow.crc: not a link counter; known: crc_errors"),
+    (lambda t: t + "\n[link]\nmax_retries = 1.5\n", "max_retries", "link.max_retries: must be a whole number"),
+    (lambda t: t + "\n[link]\nretry_timeout_s = 0\n", "retry_timeout_s", "link.retry_timeout_s: 0 s is outside"),
+    (lambda t: t + "\n[realtime]\nduty_update = \"on_arrival\"\n", "[realtime]",
+     "realtime: the [realtime] table needs scenario.mode = \"realtime\""),
+    (lambda t: t.replace('claims = ["G2"]', 'claims = ["G2"]\nmode = "realtime"') + "\n[realtime]\n"
+                                                                                     "duty_update = \"now\"\n",
+     "duty_update", "realtime.duty_update: must be one of on_arrival, next_period"),
+    (lambda t: t.replace('estimator = "SMO_SIGN"', 'estimator = "ENCODER"\nsend_encoder_angle = false'),
+     "send_encoder_angle", "controller.send_encoder_angle: the ENCODER estimator needs the encoder angle"),
+])
+def test_bad_values_name_file_line_field_and_range(tmp_path, edit, needle, expect):
+    text = edit(G2)
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(write(tmp_path, text))
+    msg = str(exc.value)
+    assert expect in msg
+    assert msg.startswith(f"{tmp_path / 's.toml'}:{_line(text, needle)}: ") or \
+        msg.startswith(f"s.toml:{_line(text, needle)}: "), msg
+
+
+def test_binary_garbage_names_the_file(tmp_path):
+    p = tmp_path / "garbage.toml"
+    p.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(ScenarioError, match=r"garbage.toml:2: not a scenario file: octet 0x80 at offset 128 "
+                                            r"is not UTF-8 text"):
+        load_scenario(p)
+
+
+def test_new_keys_and_their_defaults(tmp_path):
+    scn = load_scenario(write(tmp_path, G2))
+    assert (scn.mode, scn.send_encoder_angle, scn.encoder_angle_sent) == ("lockstep", False, False)
+    assert (scn.link.retry_timeout_s, scn.link.max_retries, scn.link.allow) == (0.05, 3, {})
+    assert (scn.realtime.duty_update, scn.realtime.max_consecutive_misses, scn.realtime.cpu) == (
+        "on_arrival", 10, None)
+    assert scn.hello_flags(dual_sampling=False) == 0x02          # TELEM_EMF only: no encoder angle
+    text = G2.replace('claims = ["G2"]', 'claims = ["G2"]\nmode = "realtime"').replace(
+        'speed_ref_rpm = 500', 'speed_ref_rpm = 500\nsend_encoder_angle = true')
+    text += ("\n[realtime]\nduty_update = \"next_period\"\nmax_consecutive_misses = 4\ncpu = 1\n"
+             "[link]\nretry_timeout_s = 0.02\nmax_retries = 5\nallow = {crc_errors = 5, retries = 10}\n")
+    scn = load_scenario(write(tmp_path, text))
+    assert scn.mode == "realtime" and scn.encoder_angle_sent
+    assert scn.realtime == scn.realtime.__class__("next_period", 4, 1)
+    assert (scn.link.retry_timeout_s, scn.link.max_retries, scn.link.allow) == (0.02, 5, {"crc_errors": 5,
+                                                                                          "retries": 10})
+    assert scn.hello_flags(dual_sampling=True) == 0x07
+    enc = load_scenario(write(tmp_path, G2.replace('estimator = "SMO_SIGN"', 'estimator = "ENCODER"')))
+    assert enc.encoder_angle_sent and enc.hello_flags(False) & 0x04
+
+
+def test_bench_run_refuses_a_bad_scenario_before_touching_a_process(tmp_path, monkeypatch, capsys):
+    from bench import cli
+    from bench.links import stub
+
+    def touched(*a, **k):
+        raise AssertionError("a process was started for a bad scenario")
+
+    monkeypatch.setattr(stub.StubProcess, "__init__", touched)
+    for bad in ("duration_s = 1e9", "duration_s = 1e-9"):
+        p = write(tmp_path, G2.replace("duration_s = 1.5", bad).replace("[1.0, 1.5]", "[0.0, 1e-9]"))
+        assert cli.main(["run", str(p), "--no-progress", "--out", str(tmp_path / "x.mcap")]) == 2
+        assert "scenario.duration_s" in capsys.readouterr().err
+    assert not (tmp_path / "x.mcap").exists()

@@ -37,7 +37,8 @@ def test_message_set_matches_the_dbc():
 
 def test_proto_version_comes_from_the_dbc_version_string():
     assert PROTO_VERSION == 1
-    assert DB.version.endswith(f"protocol {PROTO_VERSION}")
+    assert DB.version.endswith(f"protocol {PROTO_VERSION}.0")
+    assert dbc.proto_version_text() == "1.0"
 
 
 def test_value_table_enums():
@@ -64,7 +65,8 @@ def test_value_table_enums():
 def test_dbc_comments_describe_the_flag_bits():
     hello = DB.get_message_by_name("HELLO").get_signal_by_name("flags").comment
     aux = DB.get_message_by_name("SENSE_AUX").get_signal_by_name("flags").comment
-    for flags, comment in ((dbc.HELLO_FLAGS, hello), (dbc.SENSE_AUX_FLAGS, aux)):
+    for flags, comment in ((dbc.flag_table("HelloFlag").bits, hello),
+                           (dbc.flag_table("SenseAuxFlag").bits, aux)):
         for f in flags:
             assert f"bit{f.bit}" in comment
 

@@ -3,8 +3,6 @@
 #include "ctrl_params.h"
 
 #define HIL_FW_VERSION 0x0100u
-#define HELLO_FLAG_DUAL 0x01u
-#define HELLO_FLAG_TELEM_EMF 0x02u
 
 /* The controller's enums are the protocol's value tables: fail the build if they drift. */
 typedef char check_state_fault[((int)CTRL_STATE_FAULT == (int)HIL_STATE_FAULT) ? 1 : -1];
@@ -30,8 +28,11 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->session_id = 0u;
     s->flags = 0u;
     s->mode = 0u;
+    s->modes = HIL_SESSION_MODES_DEFAULT;
     s->aux_seq = 0u;
     s->aux_valid = 0;
+    s->aux_flags = 0u;
+    s->aux_theta_raw = 0u;
     s->v_dc_v = 0.0f;
     s->theta_enc_rad = 0.0f;
     s->dual_seq = 0u;
@@ -39,6 +40,9 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->i2_abc_a[0] = s->i2_abc_a[1] = s->i2_abc_a[2] = 0.0f;
     s->last_seq = 0u;
     s->have_seq = 0;
+    s->cache_n = 0u;
+    s->last_cmd_seq = 0u;
+    s->have_cmd_seq = 0;
     s->hb_counter = 0u;
     s->stats.frames_rx = 0u;
     s->stats.cycles = 0u;
@@ -47,6 +51,8 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->stats.seq_errors = 0u;
     s->stats.config_rejected = 0u;
     s->stats.not_ready = 0u;
+    s->stats.repeats = 0u;
+    s->stats.cmd_seq_gaps = 0u;
 }
 
 static void send_fault(hil_session_t *s, uint16_t code, uint16_t seq, int32_t detail)
@@ -77,10 +83,15 @@ static void on_hello(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
     a.estimators = hil_session_estimators();
     a.session = h.session;
     a.status = HIL_HELLO_STATUS_OK;
+    /* checked in the order of docs/protocol.md 6.1 */
     if (h.proto_version != HIL_PROTO_VERSION) {
         a.status = HIL_HELLO_STATUS_VERSION_MISMATCH;
+    } else if (h.mode >= 16u || (((unsigned)s->modes >> (unsigned)h.mode) & 1u) == 0u) {
+        a.status = HIL_HELLO_STATUS_MODE_UNSUPPORTED;
     } else if (h.estimator >= 16u || (((unsigned)hil_session_estimators() >> (unsigned)h.estimator) & 1u) == 0u) {
         a.status = HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED;
+    } else if (h.estimator == HIL_EST_ENCODER && (h.flags & HIL_HELLO_FLAG_ENCODER_VALID) == 0u) {
+        a.status = HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED; /* no angle will come (6.8) */
     } else if (!(period_us >= 10.0f)) {
         a.status = HIL_HELLO_STATUS_PERIOD_UNSUPPORTED;
     }
@@ -94,7 +105,10 @@ static void on_hello(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         s->flags = h.flags;
         s->mode = h.mode;
         s->have_seq = 0;
+        s->cache_n = 0u;
         s->aux_valid = 0;
+        s->theta_enc_rad = 0.0f;
+        s->have_cmd_seq = 0;
     }
     if (hil_hello_ack_pack(buf, &a, sizeof buf) > 0) {
         s->port.send(s->port.ctx, HIL_HELLO_ACK_FRAME_ID, buf, HIL_HELLO_ACK_LENGTH);
@@ -138,6 +152,12 @@ static void on_cmd(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         s->stats.length_errors++;
         return;
     }
+    /* executed whatever its seq; a gap means a CMD was lost (6.3) */
+    if (s->have_cmd_seq && c.seq != (uint16_t)(s->last_cmd_seq + 1u)) {
+        s->stats.cmd_seq_gaps++;
+    }
+    s->have_cmd_seq = 1;
+    s->last_cmd_seq = c.seq;
     switch (c.command) {
     case HIL_CMD_RUN:
         if (ctrl_start(&s->ctrl) != 0) {
@@ -176,8 +196,9 @@ static void on_sense_aux(hil_session_t *s, const hil_octet_t *data, uint16_t dlc
     }
     s->aux_seq = m.seq;
     s->aux_valid = 1;
+    s->aux_flags = m.flags;
+    s->aux_theta_raw = m.theta_enc;
     s->v_dc_v = hil_sense_aux_v_dc_decode(m.v_dc);
-    s->theta_enc_rad = hil_sense_aux_theta_enc_decode(m.theta_enc);
 }
 
 static void on_sense_dual(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
@@ -202,6 +223,21 @@ static uint16_t duty_raw(float d)
     return hil_duty_d_a_encode(d);
 }
 
+/* Send one frame of the answer to SENSE last_seq and keep it in the cache. */
+static void answer(hil_session_t *s, uint16_t id, const hil_octet_t *buf, uint16_t dlc)
+{
+    if (s->cache_n < HIL_SESSION_CACHE_FRAMES && dlc <= 8u) {
+        hil_cached_frame_t *c = &s->cache[s->cache_n++];
+        uint16_t i;
+        c->id = id;
+        c->dlc = dlc;
+        for (i = 0u; i < dlc; i++) {
+            c->data[i] = buf[i];
+        }
+    }
+    s->port.send(s->port.ctx, id, buf, dlc);
+}
+
 static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
 {
     hil_sense_t m;
@@ -209,6 +245,7 @@ static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
     const ctrl_output_t *o;
     ctrl_fault_t fault_before;
     hil_octet_t buf[8];
+    uint16_t k;
     if (hil_sense_unpack(&m, data, dlc) != 0) {
         s->stats.length_errors++;
         return;
@@ -217,13 +254,27 @@ static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         s->stats.not_ready++;
         return;
     }
+    if (s->have_seq && m.seq == s->last_seq) {
+        /* a retry of the last cycle (6.5): the same answer, the ISR does not run again */
+        s->stats.repeats++;
+        for (k = 0u; k < s->cache_n; k++) {
+            s->port.send(s->port.ctx, s->cache[k].id, s->cache[k].data, s->cache[k].dlc);
+        }
+        return;
+    }
     if (s->have_seq && m.seq != (uint16_t)(s->last_seq + 1u)) {
         s->stats.seq_errors++;
     }
     s->have_seq = 1;
     s->last_seq = m.seq;
+    s->cache_n = 0u;
     s->stats.cycles++;
 
+    /* the encoder angle counts only if this cycle's SENSE_AUX says it is valid (6.8) */
+    if ((s->flags & HIL_HELLO_FLAG_ENCODER_VALID) != 0u && s->aux_valid && s->aux_seq == m.seq &&
+        (s->aux_flags & HIL_SENSE_AUX_FLAG_THETA_ENC_VALID) != 0u) {
+        s->theta_enc_rad = hil_sense_aux_theta_enc_decode(s->aux_theta_raw);
+    }
     smp.i_a_a = hil_sense_i_a_decode(m.i_a);
     smp.i_b_a = hil_sense_i_b_decode(m.i_b);
     smp.i_c_a = hil_sense_i_c_decode(m.i_c);
@@ -249,17 +300,17 @@ static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         t.state = (uint16_t)o->state;
         t.estimator = (uint16_t)s->ctrl.cfg.estimator;
         if (hil_telem_pack(buf, &t, sizeof buf) > 0) {
-            s->port.send(s->port.ctx, HIL_TELEM_FRAME_ID, buf, HIL_TELEM_LENGTH);
+            answer(s, HIL_TELEM_FRAME_ID, buf, HIL_TELEM_LENGTH);
         }
     }
-    if (s->flags & HELLO_FLAG_TELEM_EMF) {
+    if (s->flags & HIL_HELLO_FLAG_TELEM_EMF) {
         hil_telem_emf_t e;
         e.seq = m.seq;
         e.e_alpha = hil_telem_emf_e_alpha_encode(o->e_alpha_v);
         e.e_beta = hil_telem_emf_e_beta_encode(o->e_beta_v);
         e.i_q_ref = hil_telem_emf_i_q_ref_encode(o->i_q_ref_a);
         if (hil_telem_emf_pack(buf, &e, sizeof buf) > 0) {
-            s->port.send(s->port.ctx, HIL_TELEM_EMF_FRAME_ID, buf, HIL_TELEM_EMF_LENGTH);
+            answer(s, HIL_TELEM_EMF_FRAME_ID, buf, HIL_TELEM_EMF_LENGTH);
         }
     }
     {
@@ -269,7 +320,7 @@ static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         d.d_b = duty_raw(o->duty_abc[1]);
         d.d_c = duty_raw(o->duty_abc[2]);
         if (hil_duty_pack(buf, &d, sizeof buf) > 0) {
-            s->port.send(s->port.ctx, HIL_DUTY_FRAME_ID, buf, HIL_DUTY_LENGTH);
+            answer(s, HIL_DUTY_FRAME_ID, buf, HIL_DUTY_LENGTH);
         }
     }
 }

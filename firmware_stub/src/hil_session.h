@@ -5,6 +5,10 @@
  *
  * Portable: frames come in through hil_session_on_frame() and go out through the port's send
  * hook, so the same code runs behind a serial deframer, a CAN driver or a test harness.
+ *
+ * Retries (docs/protocol.md 6.5): the session keeps the TELEM, TELEM_EMF and DUTY frames it sent for
+ * the last SENSE it ran. A SENSE repeating that seq is answered from this cache, byte for byte, and
+ * the control ISR does not run again. An accepted HELLO empties the cache.
  */
 #ifndef HIL_SESSION_H
 #define HIL_SESSION_H
@@ -24,13 +28,27 @@ typedef struct {
 /** Counters kept by the session; exposed in HEARTBEAT_CTRL and by the Linux port at exit. */
 typedef struct {
     uint32_t frames_rx;
-    uint32_t cycles;
+    uint32_t cycles;         /**< SENSE frames that ran the control ISR */
     uint32_t unknown_ids;
     uint32_t length_errors;
-    uint32_t seq_errors;     /**< SENSE seq not previous + 1 */
+    uint32_t seq_errors;     /**< SENSE seq neither previous + 1 nor a repeat of the previous */
     uint32_t config_rejected;
     uint32_t not_ready;      /**< SENSE before a completed handshake */
+    uint32_t repeats;        /**< SENSE retries answered from the cache (the ISR did not run) */
+    uint32_t cmd_seq_gaps;   /**< CMD seq not previous + 1 (a CMD was lost) */
 } hil_session_stats_t;
+
+/** One frame of the answer cache. */
+typedef struct {
+    uint16_t id;
+    uint16_t dlc;
+    hil_octet_t data[8];
+} hil_cached_frame_t;
+
+#define HIL_SESSION_CACHE_FRAMES 3u /* TELEM, TELEM_EMF, DUTY */
+
+/** HELLO modes this firmware runs (bit n = mode value n): both by default. */
+#define HIL_SESSION_MODES_DEFAULT ((uint16_t)((1u << HIL_MODE_LOCKSTEP) | (1u << HIL_MODE_REALTIME)))
 
 typedef struct {
     hil_port_t port;
@@ -39,16 +57,23 @@ typedef struct {
     uint16_t session_id;
     uint16_t flags;   /**< HELLO flags */
     uint16_t mode;    /**< HELLO mode */
+    uint16_t modes;   /**< HELLO modes accepted (bit n = mode n); a port may narrow it after init */
     /* per-cycle auxiliary data latched before SENSE */
     uint16_t aux_seq;
     int aux_valid;
+    uint16_t aux_flags;      /**< SENSE_AUX.flags of aux_seq */
+    uint16_t aux_theta_raw;  /**< SENSE_AUX.theta_enc of aux_seq */
     float v_dc_v;
-    float theta_enc_rad;
+    float theta_enc_rad;     /**< last valid encoder angle (THETA_ENC_VALID in the SENSE_AUX of the cycle) */
     uint16_t dual_seq;   /**< seq of the latched SENSE_DUAL */
     int dual_valid;
     float i2_abc_a[3];   /**< SENSE_DUAL(k): second sample of period k-1 */
     uint16_t last_seq;
     int have_seq;
+    hil_cached_frame_t cache[HIL_SESSION_CACHE_FRAMES]; /**< answer to SENSE last_seq */
+    uint16_t cache_n;
+    uint16_t last_cmd_seq;
+    int have_cmd_seq;
     uint16_t hb_counter;
     hil_session_stats_t stats;
 } hil_session_t;

@@ -12,8 +12,10 @@ typedef char hil_float_is_binary32[(sizeof(float) == sizeof(uint32_t) && FLT_MAN
 
 #if defined(HIL_MSGS_CALC_FLOAT)
 typedef float hil_calc_t;  /* cheaper on an FPU without double; may differ by 1 LSB next to a tie */
+#define HIL_CALC_FMOD fmodf
 #else
 typedef double hil_calc_t; /* the reference: identical to protocol/messages.py */
+#define HIL_CALC_FMOD fmod
 #endif
 
 static uint32_t hil_f32_to_bits(float value)
@@ -79,6 +81,34 @@ static int32_t hil_round_sat_s32(hil_calc_t q, int32_t lo, int32_t hi)
         r--;
     }
     return r;
+}
+
+/* Raw value of an angle whose raw range is one turn (2^bits values, bits <= 24): q rounded to nearest,
+ * ties away from zero, modulo 2^bits, for any finite q. fmod is exact and keeps the sign of q, so the
+ * tie rule is that of q itself. NaN and infinities encode as 0. */
+static uint32_t hil_round_turn(hil_calc_t q, uint32_t bits)
+{
+    int32_t n = (int32_t)((uint32_t)1u << bits);
+    int32_t r;
+    hil_calc_t frac;
+    if (isnan(q) || isinf(q)) {
+        return 0u;
+    }
+    q = HIL_CALC_FMOD(q, (hil_calc_t)n);
+    r = (int32_t)q;
+    frac = q - (hil_calc_t)r;
+    if (frac >= (hil_calc_t)0.5) {
+        r++;
+    } else if (frac <= (hil_calc_t)-0.5) {
+        r--;
+    }
+    if (r < 0) {
+        r += n;
+    }
+    if (r >= n) {
+        r -= n;
+    }
+    return (uint32_t)r;
 }
 
 /* ---- FAULT_PLANT ---- */
@@ -1173,7 +1203,7 @@ int hil_sense_aux_v_dc_is_in_range(uint16_t raw)
 
 uint16_t hil_sense_aux_theta_enc_encode(float value)
 {
-    return (uint16_t)hil_round_sat_s32((hil_calc_t)value / (hil_calc_t)9.587379924285257e-05, INT32_C(0), INT32_C(65535));
+    return (uint16_t)hil_round_turn((hil_calc_t)value / (hil_calc_t)9.587379924285257e-05, 16u);
 }
 
 float hil_sense_aux_theta_enc_decode(uint16_t raw)
@@ -1476,7 +1506,7 @@ int hil_telem_seq_is_in_range(uint16_t raw)
 
 uint16_t hil_telem_theta_hat_encode(float value)
 {
-    return (uint16_t)hil_round_sat_s32((hil_calc_t)value / (hil_calc_t)9.587379924285257e-05, INT32_C(0), INT32_C(65535));
+    return (uint16_t)hil_round_turn((hil_calc_t)value / (hil_calc_t)9.587379924285257e-05, 16u);
 }
 
 float hil_telem_theta_hat_decode(uint16_t raw)

@@ -11,13 +11,15 @@
 extern "C" {
 #endif
 
-/* hil-bench protocol 1: message set of the hil-bench HIL link.
+/* hil-bench protocol 1.0: message set of the hil-bench HIL link.
  * Structs hold RAW wire integers (IEEE float signals: float). Signals are little-endian.
  * encode: physical -> raw = (value - offset) / scale rounded to nearest, ties away from zero,
  *         evaluated in double (float if HIL_MSGS_CALC_FLOAT is defined; where double is
  *         binary32, e.g. TI C28x COFF ABI, both agree and may differ by 1 LSB next to a tie from
- *         the binary64 reference), saturated to the DBC range; NaN encodes as 0 clamped into
- *         that range. Float signals: clamped to [min, max], NaN -> 0.
+ *         the binary64 reference), saturated to the valid range (the DBC range, or up to the
+ *         attribute HilValidMax); NaN encodes as 0 clamped into that range. Angles (rad, one
+ *         turn over the raw range) wrap: raw = round(value / scale) mod 2^bits; NaN and
+ *         infinities encode as 0. Float signals: clamped to [min, max], NaN -> 0.
  * decode: raw -> physical = raw * scale + offset (sentinels such as HIL_DUTY_RAW_OFF are not
  *         decoded: test the raw value first).
  * pack returns the message length or -1 (NULL pointer, size too small); unpack returns 0 or -1.
@@ -136,7 +138,8 @@ typedef enum {
     HIL_HELLO_STATUS_VERSION_MISMATCH = 1,
     HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED = 2,
     HIL_HELLO_STATUS_BUSY = 3,
-    HIL_HELLO_STATUS_PERIOD_UNSUPPORTED = 4
+    HIL_HELLO_STATUS_PERIOD_UNSUPPORTED = 4,
+    HIL_HELLO_STATUS_MODE_UNSUPPORTED = 5
 } hil_hello_status_t;
 
 /* CONFIG_ACK.status */
@@ -159,11 +162,11 @@ typedef enum {
 /* HELLO.flags bits */
 #define HIL_HELLO_FLAG_DUAL_SAMPLING 0x01u /* bit0: dual sampling: the host sends SENSE_DUAL every cycle */
 #define HIL_HELLO_FLAG_TELEM_EMF 0x02u /* bit1: the controller sends TELEM_EMF every cycle */
-#define HIL_HELLO_FLAG_ENCODER_VALID 0x04u /* bit2: SENSE_AUX.theta_enc carries the true encoder angle */
+#define HIL_HELLO_FLAG_ENCODER_VALID 0x04u /* bit2: SENSE_AUX.theta_enc carries the plant's angle every cycle (only when the estimator is ENCODER or the scenario asks for it) */
 
 /* SENSE_AUX.flags bits */
-#define HIL_SENSE_AUX_FLAG_DUAL_FOLLOWS 0x01u /* bit0: SENSE_DUAL follows for this seq */
-#define HIL_SENSE_AUX_FLAG_THETA_ENC_VALID 0x02u /* bit1: theta_enc is valid */
+#define HIL_SENSE_AUX_FLAG_DUAL_FOLLOWS 0x01u /* bit0: SENSE_DUAL of this seq was sent before SENSE */
+#define HIL_SENSE_AUX_FLAG_THETA_ENC_VALID 0x02u /* bit1: theta_enc carries the plant's angle (set every cycle exactly when HELLO flag ENCODER_VALID was) */
 
 /* ---- FAULT_PLANT: 0x010, 8 octets, sent by PLANT ---- */
 /* Fault raised by the plant side (host). code: see value table. */
@@ -193,7 +196,7 @@ float hil_fault_plant_detail_decode(int32_t raw);
 int hil_fault_plant_detail_is_in_range(int32_t raw);
 
 /* ---- FAULT_CTRL: 0x011, 8 octets, sent by CTRL ---- */
-/* Fault raised by the controller. code: see value table. */
+/* Fault raised by the controller; ends the run. code: see value table. */
 #define HIL_FAULT_CTRL_FRAME_ID 0x011u
 #define HIL_FAULT_CTRL_LENGTH 8u
 typedef struct {
@@ -220,7 +223,7 @@ float hil_fault_ctrl_detail_decode(int32_t raw);
 int hil_fault_ctrl_detail_is_in_range(int32_t raw);
 
 /* ---- HELLO: 0x020, 8 octets, sent by PLANT ---- */
-/* Handshake request. Host sends it until HELLO_ACK arrives. */
+/* Handshake request. Host sends it every 100 ms until the HELLO_ACK echoing its session arrives. */
 #define HIL_HELLO_FRAME_ID 0x020u
 #define HIL_HELLO_LENGTH 8u
 typedef struct {
@@ -228,7 +231,7 @@ typedef struct {
     uint16_t mode; /* physical = raw; DBC [0, 1] = raw 0..1; 0 = LOCKSTEP, 1 = REALTIME */
     uint16_t period_us; /* physical = raw * 0.1 us; DBC [0, 6553.5] = raw 0..65535 */
     uint16_t estimator; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = SMO_SIGN, 2 = SMO_SIGMOID, 3 = SMO_TANH, 4 = HFI_SDFT, 5 = ENCODER */
-    uint16_t flags; /* physical = raw; DBC [0, 255] = raw 0..255 */
+    uint16_t flags; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = DUAL_SAMPLING, 2 = TELEM_EMF, 3 = DUAL_SAMPLING+TELEM_EMF, 4 = ENCODER_VALID, 5 = DUAL_SAMPLING+ENCODER_VALID, 6 = TELEM_EMF+ENCODER_VALID, 7 = DUAL_SAMPLING+TELEM_EMF+ENCODER_VALID */
     uint16_t session; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
 } hil_hello_t;
 int hil_hello_pack(hil_octet_t *dst, const hil_hello_t *src, size_t size);
@@ -265,12 +268,12 @@ float hil_hello_session_decode(uint16_t raw);
 int hil_hello_session_is_in_range(uint16_t raw);
 
 /* ---- HELLO_ACK: 0x021, 8 octets, sent by CTRL ---- */
-/* Handshake answer. status 0 = accepted. */
+/* Handshake answer to every HELLO. status 0 = accepted. */
 #define HIL_HELLO_ACK_FRAME_ID 0x021u
 #define HIL_HELLO_ACK_LENGTH 8u
 typedef struct {
     uint16_t proto_version; /* physical = raw; DBC [0, 255] = raw 0..255 */
-    uint16_t status; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = OK, 1 = VERSION_MISMATCH, 2 = ESTIMATOR_UNSUPPORTED, 3 = BUSY, 4 = PERIOD_UNSUPPORTED */
+    uint16_t status; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = OK, 1 = VERSION_MISMATCH, 2 = ESTIMATOR_UNSUPPORTED, 3 = BUSY, 4 = PERIOD_UNSUPPORTED, 5 = MODE_UNSUPPORTED */
     uint16_t fw_version; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     uint16_t estimators; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     uint16_t session; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
@@ -304,7 +307,7 @@ float hil_hello_ack_session_decode(uint16_t raw);
 int hil_hello_ack_session_is_in_range(uint16_t raw);
 
 /* ---- CONFIG: 0x030, 8 octets, sent by PLANT ---- */
-/* Set one controller parameter (SI units, see param_id table). Only accepted while the controller is IDLE or STOPPED (otherwise CONFIG_ACK status LOCKED). */
+/* Set one controller parameter (SI units, see param_id table). Only accepted while the controller is IDLE, STOPPED or FAULT (otherwise CONFIG_ACK status LOCKED). */
 #define HIL_CONFIG_FRAME_ID 0x030u
 #define HIL_CONFIG_LENGTH 8u
 typedef struct {
@@ -329,7 +332,7 @@ float hil_config_value_decode(float raw);
 int hil_config_value_is_in_range(float raw);
 
 /* ---- CONFIG_ACK: 0x031, 8 octets, sent by CTRL ---- */
-/* Answer to CONFIG. status 0 = stored. */
+/* Answer to every CONFIG, also for parameters the controller does not use. status 0 = stored. */
 #define HIL_CONFIG_ACK_FRAME_ID 0x031u
 #define HIL_CONFIG_ACK_LENGTH 8u
 typedef struct {
@@ -356,7 +359,7 @@ float hil_config_ack_status_decode(uint16_t raw);
 int hil_config_ack_status_is_in_range(uint16_t raw);
 
 /* ---- CMD: 0x040, 8 octets, sent by PLANT ---- */
-/* Command to the controller (run, stop, set reference); value in SI units. */
+/* Command to the controller (run, stop, set reference); value in SI units. No acknowledgement. */
 #define HIL_CMD_FRAME_ID 0x040u
 #define HIL_CMD_LENGTH 8u
 typedef struct {
@@ -381,7 +384,7 @@ float hil_cmd_value_decode(float raw);
 int hil_cmd_value_is_in_range(float raw);
 
 /* ---- HEARTBEAT_PLANT: 0x050, 8 octets, sent by PLANT ---- */
-/* Host heartbeat, sent periodically while the link is idle or running. */
+/* Host heartbeat: every 100 ms while no control cycles flow (handshake, configuration). A controller may ignore it. */
 #define HIL_HEARTBEAT_PLANT_FRAME_ID 0x050u
 #define HIL_HEARTBEAT_PLANT_LENGTH 8u
 typedef struct {
@@ -414,7 +417,7 @@ float hil_heartbeat_plant_rx_frames_decode(uint16_t raw);
 int hil_heartbeat_plant_rx_frames_is_in_range(uint16_t raw);
 
 /* ---- HEARTBEAT_CTRL: 0x051, 8 octets, sent by CTRL ---- */
-/* Controller heartbeat. */
+/* Controller heartbeat: every 100 ms while no control cycles flow. */
 #define HIL_HEARTBEAT_CTRL_FRAME_ID 0x051u
 #define HIL_HEARTBEAT_CTRL_LENGTH 8u
 typedef struct {
@@ -447,7 +450,7 @@ float hil_heartbeat_ctrl_rx_frames_decode(uint16_t raw);
 int hil_heartbeat_ctrl_rx_frames_is_in_range(uint16_t raw);
 
 /* ---- SENSE: 0x100, 8 octets, sent by PLANT ---- */
-/* Phase currents sampled at the start of PWM period seq. Sent last of the cycle's uplink frames: its arrival triggers the control ISR. */
+/* Phase currents sampled at the start of PWM period seq. Sent last of the cycle's uplink frames: its arrival triggers the control ISR. A SENSE repeating the seq of the last SENSE run is a retry: answered from the cache, the ISR does not run again. */
 #define HIL_SENSE_FRAME_ID 0x100u
 #define HIL_SENSE_LENGTH 8u
 typedef struct {
@@ -480,14 +483,14 @@ float hil_sense_i_c_decode(int16_t raw);
 int hil_sense_i_c_is_in_range(int16_t raw);
 
 /* ---- SENSE_AUX: 0x101, 8 octets, sent by PLANT ---- */
-/* Bus voltage and encoder angle of cycle seq, sent before SENSE. */
+/* Bus voltage and encoder angle of cycle seq, sent before SENSE every cycle. */
 #define HIL_SENSE_AUX_FRAME_ID 0x101u
 #define HIL_SENSE_AUX_LENGTH 8u
 typedef struct {
     uint16_t seq; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     uint16_t v_dc; /* physical = raw * 0.01 V; DBC [0, 655.35] = raw 0..65535 */
-    uint16_t theta_enc; /* physical = raw * 9.587379924285257e-05 rad; DBC [0, 6.283089] = raw 0..65535 */
-    uint16_t flags; /* physical = raw; DBC [0, 255] = raw 0..255 */
+    uint16_t theta_enc; /* physical = raw * 9.587379924285257e-05 rad; an angle: raw = round(value / scale) mod 65536 (wraps at 2 pi) */
+    uint16_t flags; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = DUAL_FOLLOWS, 2 = THETA_ENC_VALID, 3 = DUAL_FOLLOWS+THETA_ENC_VALID */
 } hil_sense_aux_t;
 int hil_sense_aux_pack(hil_octet_t *dst, const hil_sense_aux_t *src, size_t size);
 int hil_sense_aux_unpack(hil_sense_aux_t *dst, const hil_octet_t *src, size_t size);
@@ -513,7 +516,7 @@ float hil_sense_aux_flags_decode(uint16_t raw);
 int hil_sense_aux_flags_is_in_range(uint16_t raw);
 
 /* ---- SENSE_DUAL: 0x102, 8 octets, sent by PLANT ---- */
-/* Second current sample of cycle seq, taken at the actuation instant (dual sampling). Sent before SENSE when enabled. */
+/* Second current sample, taken at the actuation instant of the previous period (dual sampling). Sent before SENSE every cycle when HELLO flag DUAL_SAMPLING is set. */
 #define HIL_SENSE_DUAL_FRAME_ID 0x102u
 #define HIL_SENSE_DUAL_LENGTH 8u
 typedef struct {
@@ -546,14 +549,14 @@ float hil_sense_dual_i_c2_decode(int16_t raw);
 int hil_sense_dual_i_c2_is_in_range(int16_t raw);
 
 /* ---- DUTY: 0x180, 8 octets, sent by CTRL ---- */
-/* Duties for the period after SENSE seq (0 = low side on, 1 = high side on). Sent last of the cycle's downlink frames: its arrival completes the cycle. */
+/* Duties computed from SENSE seq (0 = low side on, 1 = high side on). The plant applies them at the sampling instant of seq plus the computation delay t_d, inside period seq, until the next duties take effect. Sent last of the cycle's downlink frames: its arrival completes the cycle. */
 #define HIL_DUTY_FRAME_ID 0x180u
 #define HIL_DUTY_LENGTH 8u
 typedef struct {
     uint16_t seq; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
-    uint16_t d_a; /* physical = raw * 3.0517578125e-05; DBC [0, 1] = raw 0..32768; 65535 = OFF */
-    uint16_t d_b; /* physical = raw * 3.0517578125e-05; DBC [0, 1] = raw 0..32768; 65535 = OFF */
-    uint16_t d_c; /* physical = raw * 3.0517578125e-05; DBC [0, 1] = raw 0..32768; 65535 = OFF */
+    uint16_t d_a; /* physical = raw * 3.0517578125e-05; valid [0, 1] = raw 0..32768 (DBC declares [0, 1.999969482421875]); 65535 = OFF */
+    uint16_t d_b; /* physical = raw * 3.0517578125e-05; valid [0, 1] = raw 0..32768 (DBC declares [0, 1.999969482421875]); 65535 = OFF */
+    uint16_t d_c; /* physical = raw * 3.0517578125e-05; valid [0, 1] = raw 0..32768 (DBC declares [0, 1.999969482421875]); 65535 = OFF */
 } hil_duty_t;
 int hil_duty_pack(hil_octet_t *dst, const hil_duty_t *src, size_t size);
 int hil_duty_unpack(hil_duty_t *dst, const hil_octet_t *src, size_t size);
@@ -579,12 +582,12 @@ float hil_duty_d_c_decode(uint16_t raw);
 int hil_duty_d_c_is_in_range(uint16_t raw);
 
 /* ---- TELEM: 0x181, 8 octets, sent by CTRL ---- */
-/* Controller telemetry of cycle seq: estimated electrical angle and speed, controller state, active estimator. Sent before DUTY. */
+/* Controller telemetry of cycle seq: estimated electrical angle and speed, controller state, active estimator. Mandatory every cycle, before DUTY. */
 #define HIL_TELEM_FRAME_ID 0x181u
 #define HIL_TELEM_LENGTH 8u
 typedef struct {
     uint16_t seq; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
-    uint16_t theta_hat; /* physical = raw * 9.587379924285257e-05 rad; DBC [0, 6.283089] = raw 0..65535 */
+    uint16_t theta_hat; /* physical = raw * 9.587379924285257e-05 rad; an angle: raw = round(value / scale) mod 65536 (wraps at 2 pi) */
     int16_t omega_hat; /* physical = raw * 0.1 rad/s; DBC [-3276.8, 3276.7] = raw -32768..32767 */
     uint16_t state; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = IDLE, 1 = ALIGN, 2 = OPEN_LOOP, 3 = CLOSED_LOOP, 4 = FAULT, 5 = INITIAL_POSITION, 6 = STOPPED */
     uint16_t estimator; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = SMO_SIGN, 2 = SMO_SIGMOID, 3 = SMO_TANH, 4 = HFI_SDFT, 5 = ENCODER */
@@ -618,7 +621,7 @@ float hil_telem_estimator_decode(uint16_t raw);
 int hil_telem_estimator_is_in_range(uint16_t raw);
 
 /* ---- TELEM_EMF: 0x182, 8 octets, sent by CTRL ---- */
-/* Optional telemetry: estimated back EMF in alpha-beta and q-axis current reference. Sent before DUTY when HELLO flags bit 1 is set. */
+/* Estimated back EMF in alpha-beta and q-axis current reference of cycle seq. Sent every cycle before DUTY when HELLO flag TELEM_EMF is set, never otherwise. */
 #define HIL_TELEM_EMF_FRAME_ID 0x182u
 #define HIL_TELEM_EMF_LENGTH 8u
 typedef struct {

@@ -27,6 +27,7 @@ typedef struct {
     double raw_max;
     double type_min;  /* range of the raw field type */
     double type_max;
+    int cyclic;       /* an angle: encode wraps modulo one turn instead of saturating */
 } hil_signal_info_t;
 
 typedef struct {

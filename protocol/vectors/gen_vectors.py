@@ -3,7 +3,8 @@
 
 Message cases (``msg_<message>_<case>``): ``.bin`` = the payload; ``.json`` = kind "message", name,
 frame_id, payload_hex, physical and raw values per signal, ``ties`` (signals whose value is an exact tie
-of the rounding rule: cantools rounds those half-to-even, we round half away from zero).
+of the rounding rule: cantools rounds those half-to-even, we round half away from zero), ``wraps`` (angles
+outside [0, 2 pi) once rounded: raw = round(angle / scale) mod 65536; they decode to the wrapped angle).
 Physical values of scaled and float signals are binary32 numbers, so that the C encoder (which takes a
 ``float``) sees exactly the value Python encoded.
 
@@ -102,7 +103,8 @@ def _special_cases() -> dict[str, dict[str, dict[str, float | int | str]]]:
                   "rounding": {"seq": 4, "i_a": 1.2345, "i_b": -0.0005, "i_c": 0.0004999},
                   "ties": {"seq": 5, "i_a": 0.0625, "i_b": -0.0625, "i_c": 2.5625}},
         "SENSE_AUX": {"typical": {"seq": 7, "v_dc": 48.0, "theta_enc": 3.14159265, "flags": 2},
-                      "ties": {"seq": 8, "v_dc": 0.125, "theta_enc": 0.0001, "flags": 0}},
+                      "ties": {"seq": 8, "v_dc": 0.125, "theta_enc": 0.0001, "flags": 0},
+                      "wrap": {"seq": 19, "v_dc": 24.0, "theta_enc": 2 * math.pi - 1e-5, "flags": 3}},
         "SENSE_DUAL": {"negative": {"seq": 9, "i_a2": -10.0, "i_b2": 5.0009, "i_c2": 5.0},
                        "ties": {"seq": 10, "i_a2": -2.5625, "i_b2": 0.0625, "i_c2": 0.1875}},
         "DUTY": {"off_one": {"seq": 11, "d_a": "OFF", "d_b": 0.5, "d_c": 1.0},
@@ -110,11 +112,18 @@ def _special_cases() -> dict[str, dict[str, dict[str, float | int | str]]]:
                  "ties": {"seq": 13, "d_a": 100.5 * lsb, "d_b": 16383.5 * lsb, "d_c": 0.5 * lsb},
                  "rounding": {"seq": 14, "d_a": 0.333333, "d_b": 0.666667, "d_c": 0.999999}},
         "TELEM": {"running": {"seq": 15, "theta_hat": 1.0, "omega_hat": -523.6, "state": 3, "estimator": 1},
-                  "ties": {"seq": 16, "theta_hat": 6.0, "omega_hat": -0.25, "state": 6, "estimator": 0}},
+                  "ties": {"seq": 16, "theta_hat": 6.0, "omega_hat": -0.25, "state": 6, "estimator": 0},
+                  "wrap": {"seq": 20, "theta_hat": -0.5, "omega_hat": 0.0, "state": 3, "estimator": 5}},
         "TELEM_EMF": {"typical": {"seq": 17, "e_alpha": -12.34, "e_beta": 24.68, "i_q_ref": 3.3},
                       "ties": {"seq": 18, "e_alpha": -0.125, "e_beta": 0.375, "i_q_ref": -0.0625}},
     }
 
+
+#: Raw values of the angles above that wrap at 2 pi (raw 65536 = 0), written by hand.
+EXPECTED_WRAPS: dict[tuple[str, str], dict[str, int]] = {
+    ("SENSE_AUX", "wrap"): {"theta_enc": 0},       # 2 pi - 1e-5 rounds to raw 65536 = 0
+    ("TELEM", "wrap"): {"theta_hat": 60321},       # -0.5 rad = 2 pi - 0.5 = raw 60320.8 -> 60321
+}
 
 #: Raw values the rounding rule must give on the exact ties above (half away from zero), written by hand.
 EXPECTED_TIES: dict[tuple[str, str], dict[str, int]] = {
@@ -128,6 +137,13 @@ EXPECTED_TIES: dict[tuple[str, str], dict[str, int]] = {
     ("TELEM", "ties"): {"omega_hat": -3},
     ("TELEM_EMF", "ties"): {"e_alpha": -13, "e_beta": 38, "i_q_ref": -63},
 }
+
+
+def _wraps(s: dbc.SignalSpec, value: float | int | str) -> bool:
+    """An angle outside [0, 2 pi) once rounded: its raw value is taken modulo one turn."""
+    if not s.is_cyclic or isinstance(value, str):
+        return False
+    return not -0.5 <= value / s.scale < s.type_max + 0.5
 
 
 def _is_tie(s: dbc.SignalSpec, value: float | int | str) -> bool:
@@ -153,6 +169,11 @@ def message_cases() -> dict[str, dict]:
             payload = msg.pack(**physical)
             raw = dict(zip(msg.signal_names, msg.unpack_raw(payload)))
             ties = [s.name for s in msg.signals if _is_tie(s, physical[s.name])]
+            wraps = [s.name for s in msg.signals if _wraps(s, physical[s.name])]
+            want_wraps = EXPECTED_WRAPS.get((msg.name, tag), {})
+            if set(wraps) != set(want_wraps) or any(raw[n] != v for n, v in want_wraps.items()):
+                raise SystemExit(f"gen_vectors: {msg.name}.{tag}: wrapped angles {wraps} raw "
+                                 f"{ {n: raw[n] for n in wraps} }, expected {want_wraps}")
             expected = EXPECTED_TIES.get((msg.name, tag), {})
             for name, want in expected.items():
                 if raw[name] != want:
@@ -164,7 +185,7 @@ def message_cases() -> dict[str, dict]:
                 "kind": "message", "name": msg.name, "case": tag,
                 "frame_id": msg.frame_id, "frame_id_hex": f"0x{msg.frame_id:03X}", "length": msg.length,
                 "payload_hex": payload.hex(), "signals": list(msg.signal_names),
-                "physical": physical, "raw": raw, "ties": ties,
+                "physical": physical, "raw": raw, "ties": ties, "wraps": wraps,
                 "bin": payload,
             }
     return out

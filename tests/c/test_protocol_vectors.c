@@ -251,7 +251,14 @@ static void check_message_case(const char *js, const json_tok_t *t, const hil_oc
             CHECK(float_bits_equal(dec, (float)phys), "decode %s: %.9g != %.9g", s->name, (double)dec, phys);
         } else {
             double tol = fabs(s->scale) * 0.5 + fabs(phys) * 1.2e-7; /* half an LSB + binary32 rounding */
-            CHECK(fabs((double)dec - phys) <= tol, "decode %s: %.9g, physical %.17g", s->name, (double)dec, phys);
+            double diff = fabs((double)dec - phys);
+            if (s->cyclic) { /* an angle: equal modulo one turn (the vector's "wraps") */
+                double turn = s->scale * (s->type_max + 1.0);
+                diff = fmod(diff, turn);
+                diff = diff > 0.5 * turn ? turn - diff : diff;
+                tol += 4.0 * 1.2e-7 * turn;
+            }
+            CHECK(diff <= tol, "decode %s: %.9g, physical %.17g", s->name, (double)dec, phys);
         }
         CHECK(hil_reflect_is_in_range(m, i, raw[i], &in_range) == 0 && in_range == 1, "%s not in range", s->name);
     }
@@ -493,6 +500,19 @@ static void properties_of_signals(void)
                 CHECK(in_range == 0, "%s: inf is not in range", s->name);
                 continue;
             }
+            if (s->cyclic) { /* angles wrap: every finite value lands in the raw range, inf/NaN at 0 */
+                hil_reflect_encode(m, i, huge, &raw);
+                CHECK(raw >= 0.0 && raw <= s->type_max, "%s: +huge wraps into the range", s->name);
+                hil_reflect_encode(m, i, -huge, &raw);
+                CHECK(raw >= 0.0 && raw <= s->type_max, "%s: -huge wraps into the range", s->name);
+                hil_reflect_encode(m, i, (float)INFINITY, &raw);
+                CHECK(same_bits(raw, 0.0), "%s: +inf encodes as 0", s->name);
+                hil_reflect_encode(m, i, (float)NAN, &raw);
+                CHECK(same_bits(raw, 0.0), "%s: NaN encodes as 0", s->name);
+                CHECK(s->raw_min <= 0.0 && s->raw_max >= s->type_max, "%s: one turn is the whole raw range",
+                      s->name);
+                continue;
+            }
             hil_reflect_encode(m, i, huge, &raw);
             CHECK(same_bits(raw, s->scale > 0.0 ? s->raw_max : s->raw_min), "%s: +huge saturates", s->name);
             hil_reflect_encode(m, i, -huge, &raw);
@@ -539,6 +559,13 @@ static void direct_api(void)
     CHECK(hil_duty_d_a_encode(1.5f) == HIL_DUTY_D_A_RAW_MAX && hil_duty_d_a_encode(-0.1f) == 0u, "duty saturation");
     CHECK(hil_duty_d_a_is_in_range(HIL_DUTY_RAW_OFF) == 0 && hil_duty_d_a_is_in_range(32769u) == 0, "duty range");
     CHECK(hil_hello_proto_version_is_in_range(256u) == 0, "an 8-bit signal in a 16-bit field: 256 is out");
+    /* angles wrap at 2 pi (raw 65536 is raw 0), also from below */
+    CHECK(hil_telem_theta_hat_encode(6.2831853f) == 0u, "2 pi encodes as 0");
+    CHECK(hil_telem_theta_hat_encode(6.28317f) == 0u, "2 pi - 1.5e-5 rounds to 65536 = 0");
+    CHECK(hil_sense_aux_theta_enc_encode(-0.5f) == 60321u, "-0.5 rad = 2 pi - 0.5: raw 60321, got %u",
+          (unsigned)hil_sense_aux_theta_enc_encode(-0.5f));
+    CHECK(hil_telem_theta_hat_encode(3.14159265f) == 32768u, "pi = raw 32768");
+    CHECK(hil_telem_theta_hat_encode(6.2830894f) == 65535u, "the largest angle = raw 65535");
     CHECK(hil_hello_mode_is_in_range(HIL_MODE_REALTIME) == 1 && hil_hello_mode_is_in_range(2u) == 0, "mode");
     s.seq = 65535u;
     s.i_a = -1;

@@ -1,0 +1,208 @@
+"""Run integrity: is a recording a complete, undamaged run over a clean link? (docs/protocol.md 6.9)
+
+``check_integrity(rec, allow, requested_estimator)`` returns an :class:`Integrity`: the problems found,
+each allowed by the scenario or not (``[link] allow = {crc_errors = 5}``: up to 5 allowed). An incomplete
+or damaged run never passes: ``bench check --strict`` fails on any problem not allowed, and the claims
+of such a run are INVALID (neither PASS nor FAIL), as are those of a run whose controller reported another
+estimator than the one asked for.
+
+It reads only what ``bench.recording.load_recording`` gives (metadata, topics as numpy columns, the
+truncation note, ``unreadable_chunks`` once the reader counts them), never the MCAP itself:
+
+* completeness: the ``run_result`` metadata record exists (it is written last: a bench that was killed
+  leaves none), ``cycles_done == cycles_planned``, no ``error``, not ``interrupted``; the file is not
+  truncated and has no unreadable chunk; every cycle that ran has its row in ``/plant/state``;
+* link integrity: the last ``/link/stats`` counters of ``LINK_COUNTERS`` (absent counters read as 0);
+* the estimator under test: ``estimator_mismatch`` on ``/link/stats`` (the host's per-cycle count) and the
+  recount from ``/controller/telemetry.estimator`` against the run's requested estimator, whichever is
+  larger.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from protocol.messages import Estimator
+
+from . import channels as ch
+
+#: Link counters of /link/stats that are problems when non-zero (docs/protocol.md 6.5, 6.9). The first
+#: eight are counted today; the others by the host's cycle engine (absent counters read as 0).
+LINK_COUNTERS: tuple[str, ...] = (
+    "crc_errors", "cobs_errors", "length_errors", "overruns", "bytes_discarded", "seq_mismatch",
+    "telem_missing", "unknown_ids",
+    "duplicates", "retries", "rows_dropped", "late_duty", "missed_duty", "estimator_mismatch", "bad_duties",
+)
+#: what a scenario may allow: everything but an estimator mismatch, which invalidates the claims anyway
+ALLOWABLE_COUNTERS: tuple[str, ...] = tuple(c for c in LINK_COUNTERS if c != "estimator_mismatch")
+
+
+@dataclass(frozen=True)
+class Problem:
+    kind: str            # "completeness" or "link"
+    name: str            # run_result, cycles, error, interrupted, truncated, unreadable_chunks, rows, or a counter
+    text: str
+    value: float = 0.0
+    allowed: int = 0     # the scenario's allowance (link counters only)
+
+    @property
+    def is_allowed(self) -> bool:
+        return self.kind == "link" and self.value <= self.allowed
+
+
+@dataclass
+class Integrity:
+    problems: list[Problem] = field(default_factory=list)
+    counters: dict[str, int] = field(default_factory=dict)
+    cycles_done: int | None = None
+    cycles_planned: int | None = None
+    estimator_mismatch: int = 0
+    estimator_text: str = ""
+
+    @property
+    def unallowed(self) -> list[Problem]:
+        return [p for p in self.problems if not p.is_allowed]
+
+    @property
+    def allowed(self) -> list[Problem]:
+        return [p for p in self.problems if p.is_allowed]
+
+    @property
+    def ok(self) -> bool:
+        """No problem the scenario does not allow, and the estimator under test closed the loop."""
+        return not self.unallowed and self.estimator_mismatch == 0
+
+    @property
+    def invalid_note(self) -> str | None:
+        """A few words for the claims table (the full reason is printed with the integrity)."""
+        if self.estimator_mismatch:
+            return "estimator mismatch: see integrity"
+        bad = self.unallowed
+        return f"{bad[0].kind} problem: see integrity" if bad else None
+
+    @property
+    def invalid_reason(self) -> str | None:
+        """Why the claims of this run are INVALID, or None."""
+        if self.estimator_mismatch:
+            return self.estimator_text
+        bad = self.unallowed
+        if bad:
+            more = f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""
+            return bad[0].text + more
+        return None
+
+
+def _int(text: object) -> int | None:
+    try:
+        v = float(str(text))
+    except ValueError:
+        return None
+    return int(v) if math.isfinite(v) else None
+
+
+def _topic(rec, name: str) -> dict[str, np.ndarray] | None:
+    try:
+        return rec.topic(name)
+    except Exception:  # noqa: BLE001 - RecordingError: the topic is not in the file
+        return None
+
+
+def _last_counters(rec) -> dict[str, int]:
+    stats = _topic(rec, ch.LINK_STATS)
+    out = {c: 0 for c in LINK_COUNTERS}
+    if not stats:
+        return out
+    for c in LINK_COUNTERS:
+        col = stats.get(c)
+        if col is not None and len(col):
+            values = np.asarray(col, dtype=float)
+            finite = values[np.isfinite(values)]
+            out[c] = int(finite.max()) if len(finite) else 0   # cumulative counters: the largest is the last
+    return out
+
+
+def _estimator_recount(rec, requested: str | None) -> tuple[int, str]:
+    """Cycles whose TELEM.estimator differs from the requested estimator (missing telemetry excluded)."""
+    if not requested:
+        return 0, ""
+    try:
+        want = int(Estimator[requested])
+    except KeyError:
+        return 0, ""
+    telem = _topic(rec, ch.CONTROLLER_TELEMETRY)
+    if not telem or "estimator" not in telem:
+        return 0, ""
+    est = np.asarray(telem["estimator"], dtype=float)
+    valid = np.isfinite(est) & (est >= 0)
+    wrong = valid & (est != want)
+    n = int(wrong.sum())
+    if not n:
+        return 0, ""
+    values, counts = np.unique(est[wrong].astype(int), return_counts=True)
+    names = []
+    for v, c in zip(values, counts):
+        try:
+            name = Estimator(int(v)).name
+        except ValueError:
+            name = str(int(v))
+        names.append(f"{name} in {c} cycles")
+    return n, (f"the controller reported estimator {', '.join(names)} while {requested} was asked for: the "
+               f"loop was not closed by the estimator under test (docs/protocol.md 6.8)")
+
+
+def check_integrity(rec, allow: Mapping[str, int] | None = None,
+                    requested_estimator: str | None = None) -> Integrity:
+    """The integrity problems of a recording (see the module docstring)."""
+    allow = dict(allow or {})
+    out = Integrity()
+    add = out.problems.append
+
+    # -- completeness ---------------------------------------------------------------------------------
+    result = rec.metadata.get("run_result")
+    planned_meta = _int(rec.metadata.get("run", {}).get("cycles_planned", ""))
+    if result is None:
+        add(Problem("completeness", "run_result",
+                    "no run_result record: the bench did not finish the run (killed or crashed before the end)"))
+        out.cycles_planned = planned_meta
+    else:
+        done, planned = _int(result.get("cycles_done", "")), _int(result.get("cycles_planned", ""))
+        out.cycles_done, out.cycles_planned = done, planned if planned is not None else planned_meta
+        if done is None or out.cycles_planned is None or done < out.cycles_planned:
+            add(Problem("completeness", "cycles", f"ran {done}/{out.cycles_planned} planned cycles",
+                        float(done or 0)))
+        if result.get("error"):
+            add(Problem("completeness", "error", f"the run ended with an error: {result['error']}"))
+        if str(result.get("interrupted", "")).lower() in ("true", "1"):
+            add(Problem("completeness", "interrupted", "the run was interrupted"))
+    if rec.truncated:
+        add(Problem("completeness", "truncated", f"the recording is truncated ({rec.truncated})"))
+    unreadable = int(getattr(rec, "unreadable_chunks", 0) or 0)
+    if unreadable:
+        add(Problem("completeness", "unreadable_chunks", f"{unreadable} unreadable chunk(s) in the recording",
+                    float(unreadable)))
+    state = _topic(rec, ch.PLANT_STATE)
+    rows = len(state["t_s"]) if state and "t_s" in state else 0
+    if out.cycles_done is not None and rows < out.cycles_done:
+        add(Problem("completeness", "rows", f"{out.cycles_done - rows} of {out.cycles_done} cycles have no "
+                                            f"row in {ch.PLANT_STATE}", float(out.cycles_done - rows)))
+
+    # -- link -------------------------------------------------------------------------------------------
+    out.counters = _last_counters(rec)
+    for name in LINK_COUNTERS:
+        value = out.counters[name]
+        if value and name != "estimator_mismatch":
+            limit = int(allow.get(name, 0))
+            text = f"{name} = {value}" + (f" (scenario allows {limit})" if limit else "")
+            add(Problem("link", name, text, float(value), limit))
+
+    # -- the estimator under test -------------------------------------------------------------------------
+    recount, text = _estimator_recount(rec, requested_estimator)
+    engine = out.counters.get("estimator_mismatch", 0)
+    out.estimator_mismatch = max(recount, engine)
+    if out.estimator_mismatch:
+        out.estimator_text = text or (f"estimator_mismatch = {engine}: the controller reported another "
+                                      f"estimator than {requested_estimator} (docs/protocol.md 6.8)")
+    return out

@@ -1,0 +1,328 @@
+/**
+ * @file test_fw_session.c
+ * @brief The portable HIL session against docs/protocol.md 1.0: the answer cache for repeated SENSE
+ * (6.5), HELLO statuses MODE_UNSUPPORTED / ESTIMATOR_UNSUPPORTED (6.1, 6.8), the encoder-angle rule
+ * (6.8), CMD seq gaps (6.3) and whole-number parameters (6.2). Driven frame by frame through a
+ * capturing port.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "ctrl_params.h"
+#include "hil_msgs.h"
+#include "hil_session.h"
+
+#include "check.h"
+
+#define MAX_CAPTURED 64
+
+typedef struct {
+    int n;
+    uint16_t id[MAX_CAPTURED];
+    uint16_t dlc[MAX_CAPTURED];
+    hil_octet_t data[MAX_CAPTURED][8];
+} capture_t;
+
+static void capture_send(void *ctx, uint16_t id, const hil_octet_t *data, uint16_t dlc)
+{
+    capture_t *c = (capture_t *)ctx;
+    if (c->n < MAX_CAPTURED && dlc <= 8u) {
+        c->id[c->n] = id;
+        c->dlc[c->n] = dlc;
+        memcpy(c->data[c->n], data, dlc);
+        c->n++;
+    }
+}
+
+static int find(const capture_t *c, uint16_t id)
+{
+    int k;
+    for (k = c->n - 1; k >= 0; --k) {
+        if (c->id[k] == id) {
+            return k;
+        }
+    }
+    return -1;
+}
+
+static void deliver(hil_session_t *s, uint16_t id, const hil_octet_t *data, uint16_t dlc)
+{
+    hil_frame_t f;
+    f.id = id;
+    f.dlc = dlc;
+    memcpy(f.data, data, dlc);
+    hil_session_on_frame(s, &f);
+}
+
+static uint16_t hello(hil_session_t *s, capture_t *cap, uint16_t mode, uint16_t estimator, uint16_t flags)
+{
+    hil_hello_t h;
+    hil_hello_ack_t a;
+    hil_octet_t b[8];
+    int k;
+    h.proto_version = HIL_PROTO_VERSION;
+    h.mode = mode;
+    h.period_us = hil_hello_period_us_encode(100.0f);
+    h.estimator = estimator;
+    h.flags = flags;
+    h.session = 0x4242u;
+    hil_hello_pack(b, &h, sizeof b);
+    deliver(s, HIL_HELLO_FRAME_ID, b, HIL_HELLO_LENGTH);
+    k = find(cap, HIL_HELLO_ACK_FRAME_ID);
+    if (k < 0) {
+        return 0xFFFFu;
+    }
+    hil_hello_ack_unpack(&a, cap->data[k], 8u);
+    return a.status;
+}
+
+static int config(hil_session_t *s, capture_t *cap, unsigned id, float value)
+{
+    hil_config_t c;
+    hil_config_ack_t a;
+    hil_octet_t b[8];
+    int k;
+    c.param_id = (uint16_t)id;
+    c.config_seq = 1u;
+    c.value = value;
+    hil_config_pack(b, &c, sizeof b);
+    deliver(s, HIL_CONFIG_FRAME_ID, b, HIL_CONFIG_LENGTH);
+    k = find(cap, HIL_CONFIG_ACK_FRAME_ID);
+    if (k < 0) {
+        return -1;
+    }
+    hil_config_ack_unpack(&a, cap->data[k], 8u);
+    return (int)a.status;
+}
+
+static void cmd(hil_session_t *s, unsigned command, uint16_t seq, float value)
+{
+    hil_cmd_t c;
+    hil_octet_t b[8];
+    c.command = (uint16_t)command;
+    c.seq = seq;
+    c.value = value;
+    hil_cmd_pack(b, &c, sizeof b);
+    deliver(s, HIL_CMD_FRAME_ID, b, HIL_CMD_LENGTH);
+}
+
+static void sense_aux(hil_session_t *s, uint16_t seq, float theta, uint16_t flags)
+{
+    hil_sense_aux_t a;
+    hil_octet_t b[8];
+    a.seq = seq;
+    a.v_dc = hil_sense_aux_v_dc_encode(310.0f);
+    a.theta_enc = hil_sense_aux_theta_enc_encode(theta);
+    a.flags = flags;
+    hil_sense_aux_pack(b, &a, sizeof b);
+    deliver(s, HIL_SENSE_AUX_FRAME_ID, b, HIL_SENSE_AUX_LENGTH);
+}
+
+static void sense(hil_session_t *s, uint16_t seq, float ia, float ib)
+{
+    hil_sense_t m;
+    hil_octet_t b[8];
+    m.seq = seq;
+    m.i_a = hil_sense_i_a_encode(ia);
+    m.i_b = hil_sense_i_b_encode(ib);
+    m.i_c = hil_sense_i_c_encode(-ia - ib);
+    hil_sense_pack(b, &m, sizeof b);
+    deliver(s, HIL_SENSE_FRAME_ID, b, HIL_SENSE_LENGTH);
+}
+
+static void configure_motor(hil_session_t *s, capture_t *cap)
+{
+    const struct { unsigned id; float v; } motor[] = {
+        {HIL_PARAM_RS_OHM, 0.6383f}, {HIL_PARAM_LD_H, 2e-3f}, {HIL_PARAM_LQ_H, 2e-3f},
+        {HIL_PARAM_PSI_F_WB, 0.085f}, {HIL_PARAM_POLE_PAIRS, 4.0f}, {HIL_PARAM_J_KGM2, 0.013f},
+        {HIL_PARAM_B_NMS, 0.0035f}, {HIL_PARAM_V_DC_NOM_V, 310.0f}, {HIL_PARAM_ALIGN_TIME_S, 0.001f}};
+    size_t k;
+    for (k = 0u; k < sizeof motor / sizeof motor[0]; ++k) {
+        CHECK(config(s, cap, motor[k].id, motor[k].v) == HIL_CONFIG_STATUS_OK, "config %u", motor[k].id);
+    }
+}
+
+/* 6.5: a repeated SENSE is answered from the cache, byte for byte, and the ISR does not run. */
+static void test_retry_is_answered_from_the_cache(void)
+{
+    static hil_session_t s;
+    static controller_t before;
+    capture_t cap;
+    hil_port_t port;
+    capture_t first;
+    int k, j;
+    uint16_t seq;
+
+    memset(&cap, 0, sizeof cap);
+    port.ctx = &cap;
+    port.send = capture_send;
+    hil_session_init(&s, &port);
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, HIL_HELLO_FLAG_TELEM_EMF) ==
+          HIL_HELLO_STATUS_OK, "HELLO accepted");
+    configure_motor(&s, &cap);
+    cmd(&s, HIL_CMD_SET_SPEED_REF, 1u, 50.0f);
+    cmd(&s, HIL_CMD_RUN, 2u, 0.0f);
+    CHECK(s.ctrl.state == CTRL_STATE_ALIGN, "running");
+
+    for (seq = 0u; seq < 40u; seq++) { /* through the alignment into the open-loop ramp */
+        sense_aux(&s, seq, 0.0f, 0u);
+        sense(&s, seq, 0.3f * sinf((float)seq * 0.1f), 0.2f);
+    }
+    CHECK(s.stats.cycles == 40u && s.stats.repeats == 0u && s.stats.seq_errors == 0u, "40 cycles");
+
+    cap.n = 0;
+    sense_aux(&s, 40u, 0.0f, 0u);
+    sense(&s, 40u, 1.0f, -0.5f);
+    CHECK(cap.n == 3 && cap.id[0] == HIL_TELEM_FRAME_ID && cap.id[1] == HIL_TELEM_EMF_FRAME_ID &&
+              cap.id[2] == HIL_DUTY_FRAME_ID, "TELEM, TELEM_EMF, DUTY: %d frames", cap.n);
+    first = cap;
+    before = s.ctrl;
+
+    for (j = 1; j <= 3; j++) { /* the host retries three times (same frames, same seq) */
+        cap.n = 0;
+        sense_aux(&s, 40u, 0.0f, 0u);
+        sense(&s, 40u, 1.0f, -0.5f);
+        CHECK(cap.n == first.n, "retry %d: %d frames, expected %d", j, cap.n, first.n);
+        for (k = 0; k < cap.n && k < first.n; k++) {
+            CHECK(cap.id[k] == first.id[k] && cap.dlc[k] == first.dlc[k] &&
+                      memcmp(cap.data[k], first.data[k], first.dlc[k]) == 0,
+                  "retry %d frame %d is the cached one byte for byte", j, k);
+        }
+        CHECK(memcmp(&before, &s.ctrl, sizeof before) == 0, "retry %d: the ISR did not run (state unchanged)", j);
+    }
+    CHECK(s.stats.cycles == 41u && s.stats.repeats == 3u, "cycles %u repeats %u", (unsigned)s.stats.cycles,
+          (unsigned)s.stats.repeats);
+
+    /* even different currents in a repeated seq are not a new cycle */
+    cap.n = 0;
+    sense(&s, 40u, 5.0f, 5.0f);
+    CHECK(cap.n == 3 && memcmp(cap.data[2], first.data[2], 8u) == 0, "a repeated seq is the cache, whatever it holds");
+
+    /* the next seq runs the ISR again, no seq error */
+    cap.n = 0;
+    sense_aux(&s, 41u, 0.0f, 0u);
+    sense(&s, 41u, 1.0f, -0.5f);
+    CHECK(s.stats.cycles == 42u && s.stats.seq_errors == 0u, "next cycle runs");
+    CHECK(memcmp(&before, &s.ctrl, sizeof before) != 0, "and changes the controller");
+    {
+        hil_duty_t d;
+        hil_duty_unpack(&d, cap.data[find(&cap, HIL_DUTY_FRAME_ID)], 8u);
+        CHECK(d.seq == 41u, "DUTY 41");
+    }
+
+    /* a jump is counted (not a repeat) */
+    sense(&s, 45u, 0.0f, 0.0f);
+    CHECK(s.stats.seq_errors == 1u && s.stats.cycles == 43u, "jump counted and run");
+
+    /* wrap: 65535 then 0 is +1 */
+    sense(&s, 65535u, 0.0f, 0.0f);
+    sense(&s, 0u, 0.0f, 0.0f);
+    CHECK(s.stats.seq_errors == 2u, "65535 -> 0 is not an error (only 45 -> 65535 is)");
+
+    /* an accepted HELLO empties the cache: the same seq then runs the ISR */
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_OK, "new session");
+    k = (int)s.stats.cycles;
+    cap.n = 0;
+    sense(&s, 0u, 0.0f, 0.0f);
+    CHECK((int)s.stats.cycles == k + 1 && cap.n == 2, "first SENSE of a session runs (TELEM, DUTY: %d)", cap.n);
+    cap.n = 0;
+    sense(&s, 0u, 0.0f, 0.0f);
+    CHECK((int)s.stats.cycles == k + 1 && cap.n == 2 && find(&cap, HIL_TELEM_EMF_FRAME_ID) < 0,
+          "its retry is cached, without TELEM_EMF (not asked for in this session)");
+}
+
+/* 6.1: statuses in order; real-time mode can be switched off by a port. */
+static void test_hello_statuses(void)
+{
+    static hil_session_t s;
+    capture_t cap;
+    hil_port_t port;
+    memset(&cap, 0, sizeof cap);
+    port.ctx = &cap;
+    port.send = capture_send;
+    hil_session_init(&s, &port);
+    CHECK(hello(&s, &cap, 2u, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_MODE_UNSUPPORTED,
+          "mode 2 is not in the Mode table");
+    CHECK(hello(&s, &cap, HIL_MODE_REALTIME, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_OK, "real time accepted");
+    s.modes = (uint16_t)(1u << HIL_MODE_LOCKSTEP);
+    CHECK(hello(&s, &cap, HIL_MODE_REALTIME, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_MODE_UNSUPPORTED,
+          "a lockstep-only drive refuses real time");
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_OK, "lockstep still OK");
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_ENCODER, 0u) == HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED,
+          "ENCODER without ENCODER_VALID: no angle will come");
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_ENCODER, HIL_HELLO_FLAG_ENCODER_VALID) ==
+          HIL_HELLO_STATUS_OK, "ENCODER with ENCODER_VALID");
+    CHECK(hello(&s, &cap, 7u, 99u, 0u) == HIL_HELLO_STATUS_MODE_UNSUPPORTED, "mode is checked before the estimator");
+}
+
+/* 6.8: theta_enc counts only with THETA_ENC_VALID in the SENSE_AUX of the same seq. */
+static void test_encoder_angle_rule(void)
+{
+    static hil_session_t s;
+    capture_t cap;
+    hil_port_t port;
+    memset(&cap, 0, sizeof cap);
+    port.ctx = &cap;
+    port.send = capture_send;
+    hil_session_init(&s, &port);
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_ENCODER, HIL_HELLO_FLAG_ENCODER_VALID) ==
+          HIL_HELLO_STATUS_OK, "ENCODER session");
+    sense_aux(&s, 0u, 1.0f, HIL_SENSE_AUX_FLAG_THETA_ENC_VALID);
+    sense(&s, 0u, 0.0f, 0.0f);
+    CHECK(fabsf(s.theta_enc_rad - 1.0f) < 1e-4f, "valid angle taken: %f", (double)s.theta_enc_rad);
+    sense_aux(&s, 1u, 2.0f, 0u);
+    sense(&s, 1u, 0.0f, 0.0f);
+    CHECK(fabsf(s.theta_enc_rad - 1.0f) < 1e-4f, "THETA_ENC_VALID clear: last valid angle held");
+    sense_aux(&s, 7u, 3.0f, HIL_SENSE_AUX_FLAG_THETA_ENC_VALID);
+    sense(&s, 2u, 0.0f, 0.0f);
+    CHECK(fabsf(s.theta_enc_rad - 1.0f) < 1e-4f, "SENSE_AUX of another seq: held");
+    sense_aux(&s, 3u, 3.0f, HIL_SENSE_AUX_FLAG_THETA_ENC_VALID);
+    sense(&s, 3u, 0.0f, 0.0f);
+    CHECK(fabsf(s.theta_enc_rad - 3.0f) < 1e-4f, "valid again");
+
+    /* a sensorless session never takes the angle, even if a SENSE_AUX claims it is valid */
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_OK, "SMO session");
+    CHECK(s.theta_enc_rad < 1e-6f && s.theta_enc_rad > -1e-6f, "HELLO resets the held angle");
+    sense_aux(&s, 0u, 2.5f, HIL_SENSE_AUX_FLAG_THETA_ENC_VALID);
+    sense(&s, 0u, 0.0f, 0.0f);
+    CHECK(s.theta_enc_rad < 1e-6f && s.theta_enc_rad > -1e-6f, "HELLO had no ENCODER_VALID: angle ignored");
+}
+
+/* 6.3 and 6.2 */
+static void test_cmd_seq_and_whole_parameters(void)
+{
+    static hil_session_t s;
+    capture_t cap;
+    hil_port_t port;
+    memset(&cap, 0, sizeof cap);
+    port.ctx = &cap;
+    port.send = capture_send;
+    hil_session_init(&s, &port);
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_OK, "session");
+    cmd(&s, HIL_CMD_NOP, 1u, 0.0f);
+    cmd(&s, HIL_CMD_NOP, 2u, 0.0f);
+    CHECK(s.stats.cmd_seq_gaps == 0u, "1, 2: no gap");
+    cmd(&s, HIL_CMD_SET_SPEED_REF, 4u, 12.0f);
+    CHECK(s.stats.cmd_seq_gaps == 1u, "2 -> 4: one gap");
+    CHECK(fabsf(s.ctrl.speed_ref_rad_s - 12.0f) < 1e-6f, "a CMD after a gap is still executed");
+    CHECK(config(&s, &cap, HIL_PARAM_POLE_PAIRS, 4.5f) == HIL_CONFIG_STATUS_OUT_OF_RANGE, "4.5 pole pairs");
+    CHECK(config(&s, &cap, HIL_PARAM_POLE_PAIRS, 4.0f) == HIL_CONFIG_STATUS_OK, "4 pole pairs");
+    CHECK(config(&s, &cap, HIL_PARAM_HARM_COMP_ENABLE, 0.5f) == HIL_CONFIG_STATUS_OUT_OF_RANGE, "boolean 0.5");
+    CHECK(config(&s, &cap, HIL_PARAM_HARM_COMP_ENABLE, 1.0f) == HIL_CONFIG_STATUS_OK, "boolean 1");
+    CHECK(config(&s, &cap, HIL_PARAM_DELAY_COMP_ENABLE, 2.0f) == HIL_CONFIG_STATUS_OK, "enum 2");
+    CHECK(config(&s, &cap, HIL_PARAM_DELAY_COMP_ENABLE, 1.25f) == HIL_CONFIG_STATUS_OUT_OF_RANGE, "enum 1.25");
+    CHECK(config(&s, &cap, HIL_PARAM_SPEED_LOOP_DIV, 10.0f) == HIL_CONFIG_STATUS_OK, "integer 10");
+    CHECK(config(&s, &cap, HIL_PARAM_RS_OHM, 0.123f) == HIL_CONFIG_STATUS_OK, "a real parameter takes fractions");
+    CHECK(config(&s, &cap, HIL_PARAM_HFI_U_V, 3.0f) == HIL_CONFIG_STATUS_OK, "a parameter SMO does not use: OK");
+    CHECK(config(&s, &cap, 999u, 1.0f) == HIL_CONFIG_STATUS_UNKNOWN_PARAM, "an id outside the table");
+}
+
+int main(void)
+{
+    test_retry_is_answered_from_the_cache();
+    test_hello_statuses();
+    test_encoder_angle_rule();
+    test_cmd_seq_and_whole_parameters();
+    return check_summary("test_fw_session");
+}
