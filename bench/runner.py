@@ -367,8 +367,9 @@ class Runner:
             rpm_per_rad_s=RPM_PER_RAD_S,
             dual_sampling=int(bool(self.plant.params.dual_sampling)),
             send_encoder=int(scn.encoder_angle_sent),
+            telem_emf=int(scn.telemetry_emf),
             estimator_expected=int(scn.estimator),
-            cmd_seq_start=int(getattr(self.session, "cmd_seq", 0)) & 0xFFFF,
+            cmd_seq_start=self.session.next_cmd_seq(),   # the engine numbers the run's CMDs on
             retry_timeout_s=scn.link.retry_timeout_s,
             max_retries=scn.link.max_retries,
             max_consecutive_bad_duties=MAX_CONSECUTIVE_BAD_DUTIES,
@@ -488,7 +489,7 @@ class Runner:
         stopped = False
         if e is not None and hasattr(self, "session"):
             # STOP through the engine's link, counted with the run's frames
-            stopped = e.send(*self.session.command_frame(Command.STOP, 0.0))
+            stopped = e.send(*self.session.command_frame(Command.STOP, 0.0, seq=e.cmd_seq))
             if link is not None:
                 link.settle()
         extra = link.extra_counters() if link is not None else {}

@@ -216,7 +216,7 @@ typedef struct {
 } engine_replay_cycle_t;
 typedef struct {
     int mode; int duty_update; long n_cycles; double ts_s; double t_delay_s;
-    int pole_pairs; double rpm_per_rad_s; int dual_sampling; int send_encoder;
+    int pole_pairs; double rpm_per_rad_s; int dual_sampling; int send_encoder; int telem_emf;
     int estimator_expected; uint16_t cmd_seq_start;
     int link_kind; int link_fd; int can_brs; double retry_timeout_s; int max_retries;
     int max_consecutive_bad_duties; int max_consecutive_misses; double guard_s;

@@ -124,8 +124,8 @@ def _line(text: str, needle: str) -> int:
      "link.allow.crc: not a link counter; known: crc_errors"),
     (lambda t: t + "\n[link]\nmax_retries = 1.5\n", "max_retries", "link.max_retries: must be a whole number"),
     (lambda t: t + "\n[link]\nretry_timeout_s = 0\n", "retry_timeout_s", "link.retry_timeout_s: 0 s is outside"),
-    (lambda t: t + "\n[realtime]\nduty_update = \"on_arrival\"\n", "[realtime]",
-     "realtime: the [realtime] table needs scenario.mode = \"realtime\""),
+        (lambda t: t + "\n[realtime]\nstub_isr = \"interrupt\"\n", "stub_isr",
+         "realtime.stub_isr: must be 'sense' or 'timer'"),
     (lambda t: t.replace('claims = ["G2"]', 'claims = ["G2"]\nmode = "realtime"') + "\n[realtime]\n"
                                                                                      "duty_update = \"now\"\n",
      "duty_update", "realtime.duty_update: must be one of on_arrival, next_period"),

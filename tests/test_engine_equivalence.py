@@ -1,7 +1,7 @@
 """The C cycle engine reproduces the Python lockstep loop it replaced (issue 8, item 3).
 
 The golden (tests/golden/g2_python_loop.npz) was recorded by the Python loop
-(``bench/runner.py: LockstepRunner._loop`` at commit f6614b9, the last with it) on a frozen copy of
+(``bench/runner.py: Runner._loop`` at commit f6614b9, the last with it) on a frozen copy of
 ``gong_g2_500rpm`` (tests/golden/g2_equivalence.toml) with tests/golden/make_g2_golden.py. It
 holds the SHA-256 of every recorded numeric column (plant state, what the controller was sent,
 telemetry and duties, the host reference SMO) and full copies of the key ones.

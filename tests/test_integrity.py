@@ -17,8 +17,9 @@ from bench import channels as ch
 from bench.check import check_recording
 from bench.cli import main as cli_main
 from bench.integrity import LINK_COUNTERS, check_integrity
+from bench.recorder import partial_path
 from bench.recording import Recording, load_recording
-from bench.runner import LockstepRunner, run_scenario
+from bench.runner import Runner, run_scenario
 from bench.scenario import load_scenario, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
@@ -82,7 +83,8 @@ def test_a_bench_killed_mid_run_leaves_a_recording_that_never_passes(tmp_path):
                              "--out", str(out)], cwd=REPO, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 30
-    while time.monotonic() < deadline and (not out.exists() or out.stat().st_size < 300_000):
+    part = partial_path(out)                      # the recording's name until it is final
+    while time.monotonic() < deadline and (not part.exists() or part.stat().st_size < 300_000):
         time.sleep(0.05)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
@@ -128,7 +130,7 @@ window_s = [0.0, 0.2]
 def test_link_errors_are_problems_unless_the_scenario_allows_them(tmp_path, link, ok):
     scn = parse_scenario(SHORT.format(link=link), tmp_path / "noisy.toml")
     out = tmp_path / "noisy.mcap"
-    result = LockstepRunner(scn, out_path=out, progress=False, stub_args=("--inject", "garbage@100")).run()
+    result = Runner(scn, out_path=out, progress=False, stub_args=("--inject", "garbage@100")).run()
     assert result.ok, result.error
     report = check_recording(out)
     integ = report.integrity

@@ -98,9 +98,6 @@ window_s = [0.0, 0.05]
 """
 
 
-@pytest.mark.xfail(strict=True, reason="bench/runner.py still sends SENSE_AUX.theta_enc (and HELLO "
-                   "ENCODER_VALID) to every controller; the host's cycle engine sends it only for the ENCODER "
-                   "estimator or send_encoder_angle (docs/protocol.md 6.8). Remove this marker when it lands.")
 def test_a_sensorless_run_does_not_send_the_encoder_angle(tmp_path):
     """The drive that lies (uses the angle, reports SMO_SIGN) can only be stopped by not sending it."""
     scenario = tmp_path / "short.toml"

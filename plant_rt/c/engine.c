@@ -577,6 +577,22 @@ static int build_sense(engine_t *e, cycle_t *c)
     return 0;
 }
 
+/** TELEM / TELEM_EMF that is not this cycle's first (docs/protocol.md 6.6): a second one of
+ *  this cycle is a duplicate, one of the cycle before is stale (ignored, counted apart), any
+ *  other seq is a sequence mismatch. */
+static void telem_other_seq(engine_t *e, cycle_t *c, uint16_t seq)
+{
+    if (seq == c->seq) {
+        e->n.duplicates++;
+    } else if (seq == (uint16_t)(c->seq - 1u)) {
+        e->n.stale_frames++;
+        c->stale++;
+    } else {
+        e->n.seq_mismatch++;
+        c->seq_bad++;
+    }
+}
+
 /** A cycle frame of the wrong length: counted, never decoded, said once per id. */
 static void length_error(engine_t *e, cycle_t *c, const eng_frame_t *f, const char *name,
                          unsigned expected)
@@ -642,11 +658,8 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
             c->w_hat = (double)t.omega_hat * e->cfg.scale_omega_hat;
             c->st = (int)t.state;
             c->est = (int)t.estimator;
-        } else if (t.seq == c->seq) {
-            e->n.duplicates++;
         } else {
-            e->n.stale_frames++;
-            c->stale++;
+            telem_other_seq(e, c, t.seq);
         }
         return 0;
     }
@@ -661,11 +674,8 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
             c->e_a = (double)m.e_alpha * e->cfg.scale_e;
             c->e_b = (double)m.e_beta * e->cfg.scale_e;
             c->iq_ref = (double)m.i_q_ref * e->cfg.scale_iq_ref;
-        } else if (m.seq == c->seq) {
-            e->n.duplicates++;
         } else {
-            e->n.stale_frames++;
-            c->stale++;
+            telem_other_seq(e, c, m.seq);
         }
         return 0;
     }
@@ -941,9 +951,10 @@ static void begin_cycle(engine_t *e, cycle_t *c, long k)
 
 static void after_telemetry(engine_t *e, const cycle_t *c)
 {
-    if (!c->have_telem) {
-        e->n.telem_missing++;
-    } else if (e->cfg.estimator_expected >= 0 && c->est != e->cfg.estimator_expected) {
+    if (!c->have_telem || (e->cfg.telem_emf && !c->have_emf)) {
+        e->n.telem_missing++; /* at most once a cycle: TELEM, or the TELEM_EMF HELLO asked for */
+    }
+    if (c->have_telem && e->cfg.estimator_expected >= 0 && c->est != e->cfg.estimator_expected) {
         e->n.estimator_mismatch++;
     }
 }

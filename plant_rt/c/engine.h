@@ -37,8 +37,10 @@
  * Frame rules, both modes (docs/protocol.md section 6): frames are handled in arrival order, one
  * at a time, so the outcome never depends on how reads were batched. The first valid DUTY(k)
  * completes cycle k; frames behind it wait for the next cycle. A DUTY for an already completed
- * cycle is a duplicate; for any other seq a seq mismatch. TELEM/TELEM_EMF of another seq are
- * stale. A frame of a cycle message with the wrong length is never decoded (length error).
+ * cycle is a duplicate; for any other seq a seq mismatch. A second TELEM/TELEM_EMF of the cycle
+ * is a duplicate, one of the cycle before is stale (ignored), any other seq a seq mismatch; a
+ * cycle without its TELEM (or the TELEM_EMF HELLO asked for) counts once in telem_missing. A
+ * frame of a cycle message with the wrong length is never decoded (length error).
  * TELEM.estimator other than the requested estimator is counted every cycle. FAULT_CTRL ends
  * the run. An out-of-range DUTY is never applied (bad duty: previous duties held); after
  * max_consecutive_bad_duties in a row the run ends.
@@ -156,6 +158,7 @@ typedef struct {
     double rpm_per_rad_s;
     int dual_sampling;         /* send SENSE_DUAL */
     int send_encoder;          /* theta_enc and THETA_ENC_VALID in SENSE_AUX */
+    int telem_emf;             /* HELLO asked for TELEM_EMF every cycle */
     int estimator_expected;    /* TELEM.estimator the scenario asked for */
     uint16_t cmd_seq_start;    /* CMD.seq continues from the handshake's */
     /* the link */

@@ -1,7 +1,7 @@
 """Record the golden of the engine-equivalence test (tests/test_engine_equivalence.py).
 
 Run once, at commit f6614b9 (the last commit with the Python lockstep loop,
-``bench/runner.py: LockstepRunner._loop``), from the repository root:
+``bench/runner.py: Runner._loop``), from the repository root:
 
     .venv/bin/python tests/golden/make_g2_golden.py
 
