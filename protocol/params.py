@@ -104,6 +104,22 @@ PARAMS: tuple[ParamInfo, ...] = (
     _p("HARM_GSDFT_M", "-", "integer", "GSDFT window length (samples)"),
     _p("HARM_COMP_GAIN", "-", "real", "harmonic compensation gain"),
     _p("HARM_EXTRACTOR", "-", "enum", "harmonic extractor", ((0, "GSDFT"), (1, "SDFT"))),
+    # protection (firmware_stub/src/ctrl_protect.h, docs/faults.md); 0 switches a check off
+    _p("PROT_OPEN_I_MIN_A", "A", "real", "open phase: a phase reference at least this large must "
+       "show current"),
+    _p("PROT_OPEN_RATIO", "-", "real", "open phase: measured below this fraction of the reference "
+       "magnitude counts as open"),
+    _p("PROT_OPEN_TIME_S", "s", "real", "open phase: for this long"),
+    _p("PROT_SUM_MAX_A", "A", "real", "sensor plausibility: |i_a + i_b + i_c| low-passed above this"),
+    _p("PROT_SUM_TAU_S", "s", "real", "sensor plausibility: time constant of that low-pass"),
+    _p("PROT_STUCK_TIME_S", "s", "real", "stuck sensor: a reading that moves less than "
+       "PROT_STUCK_DELTA_A for this long while the loop asks for current"),
+    _p("PROT_STUCK_DELTA_A", "A", "real", "stuck sensor: the movement that counts as alive"),
+    _p("PROT_VDC_UV_RATIO", "-", "real", "bus under-voltage below this fraction of V_DC_NOM_V"),
+    _p("PROT_VDC_OV_RATIO", "-", "real", "bus over-voltage above this multiple of V_DC_NOM_V"),
+    _p("PROT_VDC_TIME_S", "s", "real", "bus faults: for this long"),
+    _p("PROT_LINK_TIMEOUT_PERIODS", "periods", "integer", "free-running ISR: no SENSE for this many "
+       "periods is a LINK_TIMEOUT"),
 )
 
 BY_NAME: dict[str, ParamInfo] = {p.name: p for p in PARAMS}

@@ -65,17 +65,17 @@ static const param_entry_t k_params[] = {
     P(HIL_PARAM_HARM_COMP_GAIN, harm_k_comp, 0.0f, 10.0f),
     W(HIL_PARAM_HARM_EXTRACTOR, harm_extractor, 0.0f, 1.0f),
     /* protection (ctrl_protect.h); 0 switches a check off */
-    P(CTRL_PARAM_PROT_OPEN_I_MIN_A, prot.open_i_min_a, 0.0f, 1e3f),
-    P(CTRL_PARAM_PROT_OPEN_RATIO, prot.open_ratio, 0.0f, 1.0f),
-    P(CTRL_PARAM_PROT_OPEN_TIME_S, prot.open_time_s, 0.0f, 100.0f),
-    P(CTRL_PARAM_PROT_SUM_MAX_A, prot.sum_max_a, 0.0f, 1e3f),
-    P(CTRL_PARAM_PROT_SUM_TAU_S, prot.sum_tau_s, 0.0f, 10.0f),
-    P(CTRL_PARAM_PROT_STUCK_TIME_S, prot.stuck_time_s, 0.0f, 100.0f),
-    P(CTRL_PARAM_PROT_STUCK_DELTA_A, prot.stuck_delta_a, 0.0f, 1e3f),
-    P(CTRL_PARAM_PROT_VDC_UV_RATIO, prot.vdc_uv_ratio, 0.0f, 1.0f),
-    P(CTRL_PARAM_PROT_VDC_OV_RATIO, prot.vdc_ov_ratio, 0.0f, 10.0f),
-    P(CTRL_PARAM_PROT_VDC_TIME_S, prot.vdc_time_s, 0.0f, 10.0f),
-    W(CTRL_PARAM_PROT_LINK_TIMEOUT_PERIODS, prot.link_timeout_periods, 0.0f, 1e6f),
+    P(HIL_PARAM_PROT_OPEN_I_MIN_A, prot.open_i_min_a, 0.0f, 1e3f),
+    P(HIL_PARAM_PROT_OPEN_RATIO, prot.open_ratio, 0.0f, 1.0f),
+    P(HIL_PARAM_PROT_OPEN_TIME_S, prot.open_time_s, 0.0f, 100.0f),
+    P(HIL_PARAM_PROT_SUM_MAX_A, prot.sum_max_a, 0.0f, 1e3f),
+    P(HIL_PARAM_PROT_SUM_TAU_S, prot.sum_tau_s, 0.0f, 10.0f),
+    P(HIL_PARAM_PROT_STUCK_TIME_S, prot.stuck_time_s, 0.0f, 100.0f),
+    P(HIL_PARAM_PROT_STUCK_DELTA_A, prot.stuck_delta_a, 0.0f, 1e3f),
+    P(HIL_PARAM_PROT_VDC_UV_RATIO, prot.vdc_uv_ratio, 0.0f, 1.0f),
+    P(HIL_PARAM_PROT_VDC_OV_RATIO, prot.vdc_ov_ratio, 0.0f, 10.0f),
+    P(HIL_PARAM_PROT_VDC_TIME_S, prot.vdc_time_s, 0.0f, 10.0f),
+    W(HIL_PARAM_PROT_LINK_TIMEOUT_PERIODS, prot.link_timeout_periods, 0.0f, 1e6f),
 };
 
 int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value)

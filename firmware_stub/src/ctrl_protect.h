@@ -36,8 +36,8 @@
 
 #include <stdint.h>
 
-/** Fault codes (the protocol's FAULT_CTRL `code` value table, protocol/hil.dbc VAL_ 17).
- *  OPEN_PHASE, UNDERVOLTAGE and SENSOR_FAULT are not in the DBC yet: proposed values. */
+/** Fault codes: the protocol's FAULT_CTRL `code` value table (protocol/hil.dbc VAL_ 17). This
+ *  module does not depend on the protocol; hil_session.c fails the build if they drift. */
 #define CTRL_PROTECT_NONE 0
 #define CTRL_PROTECT_LINK_TIMEOUT 1
 #define CTRL_PROTECT_OVERCURRENT 4

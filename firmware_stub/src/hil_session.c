@@ -12,6 +12,11 @@ typedef char check_est_smo[((int)CTRL_EST_SMO_SIGN == (int)HIL_EST_SMO_SIGN) ? 1
 typedef char check_est_enc[((int)CTRL_EST_ENCODER == (int)HIL_EST_ENCODER) ? 1 : -1];
 typedef char check_fault_oc[((int)CTRL_FAULT_OVERCURRENT == (int)HIL_FAULT_OVERCURRENT) ? 1 : -1];
 typedef char check_fault_cfg[((int)CTRL_FAULT_CONFIG_INVALID == (int)HIL_FAULT_CONFIG_INVALID) ? 1 : -1];
+typedef char check_fault_open[((int)CTRL_FAULT_OPEN_PHASE == (int)HIL_FAULT_OPEN_PHASE) ? 1 : -1];
+typedef char check_fault_uv[((int)CTRL_FAULT_UNDERVOLTAGE == (int)HIL_FAULT_UNDERVOLTAGE) ? 1 : -1];
+typedef char check_fault_sensor[((int)CTRL_FAULT_SENSOR_FAULT == (int)HIL_FAULT_SENSOR_FAULT) ? 1 : -1];
+typedef char check_fault_ov[((int)CTRL_PROTECT_OVERVOLTAGE == (int)HIL_FAULT_OVERVOLTAGE) ? 1 : -1];
+typedef char check_fault_link[((int)CTRL_PROTECT_LINK_TIMEOUT == (int)HIL_FAULT_LINK_TIMEOUT) ? 1 : -1];
 
 uint16_t hil_session_estimators(void)
 {
@@ -289,7 +294,7 @@ static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
     fault_before = s->ctrl.fault;
     o = ctrl_step(&s->ctrl, &smp);
     if (o->fault != CTRL_FAULT_NONE && fault_before == CTRL_FAULT_NONE) {
-        send_fault(s, (uint16_t)o->fault, m.seq, 0);
+        send_fault(s, (uint16_t)o->fault, m.seq, (int32_t)o->fault_detail);
     }
 
     {

@@ -233,10 +233,10 @@ static void test_config_and_params(void)
     cfg.vdc_ov_ratio = 0.9f;
     CHECK(ctrl_protect_init(&p, &cfg, TS, VDC) == -1, "ov below nominal refused");
     ctrl_config_defaults(&cc);
-    CHECK(ctrl_param_set(&cc, CTRL_PARAM_PROT_OPEN_TIME_S, 0.05f) == HIL_CONFIG_STATUS_OK &&
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_OPEN_TIME_S, 0.05f) == HIL_CONFIG_STATUS_OK &&
           fabsf(cc.prot.open_time_s - 0.05f) < 1e-9f, "param stored");
-    CHECK(ctrl_param_set(&cc, CTRL_PARAM_PROT_OPEN_RATIO, 1.5f) == HIL_CONFIG_STATUS_OUT_OF_RANGE, "range");
-    CHECK(ctrl_param_set(&cc, CTRL_PARAM_PROT_LINK_TIMEOUT_PERIODS, 4.0f) == HIL_CONFIG_STATUS_OK &&
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_OPEN_RATIO, 1.5f) == HIL_CONFIG_STATUS_OUT_OF_RANGE, "range");
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_LINK_TIMEOUT_PERIODS, 4.0f) == HIL_CONFIG_STATUS_OK &&
           fabsf(cc.prot.link_timeout_periods - 4.0f) < 1e-9f, "link periods");
 }
 
