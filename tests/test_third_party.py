@@ -76,8 +76,17 @@ def test_the_independent_drive_passes_the_conformance_kit(tmp_path):
 
 
 def test_a_drive_closing_its_loop_on_the_encoder_angle_is_not_a_pass(tmp_path):
-    """It reports TELEM.estimator = ENCODER while SMO_SIGN was asked for: every claim INVALID."""
-    rc, seen, out = run_g2(tmp_path, "encoder")
+    """Given the angle (a scenario may send it for a drive that logs it), this drive closes its
+    loop on it and reports TELEM.estimator = ENCODER while SMO_SIGN was asked for: the engine
+    counts the mismatch every cycle and every claim is INVALID."""
+    from bench.scenario import SCENARIO_DIR
+
+    text = (SCENARIO_DIR / "gong_g2_500rpm.toml").read_text()
+    scenario = tmp_path / "gong_g2_500rpm.toml"
+    scenario.write_text(text.replace('estimator = "SMO_SIGN"',
+                                     'estimator = "SMO_SIGN"\nsend_encoder_angle = true', 1))
+    rc, seen, out = run_g2(tmp_path, "encoder", str(scenario))
+    assert seen["encoder_valid_cycles"] > 0
     report = check_recording(out)
     assert report.integrity.estimator_mismatch > 0
     assert report.results and all(r.verdict == "INVALID" for r in report.results)

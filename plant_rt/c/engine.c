@@ -508,11 +508,10 @@ static int build_sense(engine_t *e, cycle_t *c)
     hil_sense_aux_t aux;
     hil_sense_t sense;
     long raw[3], r;
-    double theta, theta_max;
+    double theta_max;
     int k;
     plant_sample(e->plant, &c->smp);
     plant_snapshot(e->plant, &c->snap);
-    theta = c->snap.theta_e_rad;
     /* SENSE_AUX: bus voltage and (only when asked) the encoder angle, which wraps at 2 pi */
     aux.seq = c->seq;
     if (encode_signal(&cfg->sig_vdc, c->smp.v_dc_v, 0, &r) != 0) {
@@ -526,12 +525,15 @@ static int build_sense(engine_t *e, cycle_t *c)
     aux.flags = 0u;
     aux.theta_enc = 0u;
     c->theta_enc = (double)NAN;
-    if (cfg->send_encoder) {
+    if (cfg->send_encoder && c->smp.enc_valid) {
+        /* the plant's encoder (theta_e, unless an encoder fault holds or drops it); the 16-bit
+         * angle wraps at 2 pi (docs/protocol.md 3) */
         theta_max = TWO_PI - 0.5 * cfg->sig_theta.scale;
-        c->theta_enc = (theta < theta_max) ? theta : 0.0;
+        c->theta_enc = (c->smp.theta_enc_rad < theta_max) ? c->smp.theta_enc_rad : 0.0;
         if (encode_signal(&cfg->sig_theta, c->theta_enc, 0, &r) != 0) {
             e->end = ENGINE_END_PLANT;
-            set_message(e, "at cycle %ld: plant angle %g rad is not finite", c->k, theta);
+            set_message(e, "at cycle %ld: encoder angle %g rad is not finite", c->k,
+                        c->smp.theta_enc_rad);
             return -1;
         }
         aux.theta_enc = (uint16_t)r;
