@@ -126,6 +126,40 @@ def check_recording(path: str | Path) -> CheckReport:
     return report
 
 
+def timing_of(rec: Recording) -> dict[str, float]:
+    """The run's timing from the last /link/stats row (the engine's percentiles over the whole
+    run): cycle time, and in real time the period start error and the deadline misses."""
+    stats = rec.topics.get(ch.LINK_STATS, {})
+    if not stats or not len(stats.get("t_s", ())):
+        return {}
+    last = {k: float(v[-1]) for k, v in stats.items() if len(v)}
+    out = {k: last[k] for k in ("cycle_wall_p50_us", "cycle_wall_p99_us", "cycle_wall_max_us")
+           if k in last}
+    if rec.run.get("mode") == "realtime":
+        for k in ("jitter_p50_us", "jitter_p99_us", "jitter_p999_us", "jitter_max_us",
+                  "missed_duty", "late_duty", "rt_overruns", "cycles"):
+            if k in last:
+                out[k] = last[k]
+    return out
+
+
+def print_timing(rec: Recording, console: Console) -> None:
+    t = timing_of(rec)
+    if not t:
+        return
+    if "jitter_p99_us" in t:
+        cycles = max(t.get("cycles", 0.0), 1.0)
+        console.print(f"real time: period start error p50 {t['jitter_p50_us']:.1f} us, p99 "
+                      f"{t['jitter_p99_us']:.1f} us, p99.9 {t['jitter_p999_us']:.1f} us, max "
+                      f"{t['jitter_max_us']:.1f} us; SENSE->DUTY p50 {t['cycle_wall_p50_us']:.1f} us,"
+                      f" p99 {t['cycle_wall_p99_us']:.1f} us; {t.get('missed_duty', 0):.0f} missed "
+                      f"(rate {t.get('missed_duty', 0) / cycles:.2e}), {t.get('late_duty', 0):.0f} "
+                      f"late, {t.get('rt_overruns', 0):.0f} overruns")
+    elif "cycle_wall_p50_us" in t:
+        console.print(f"cycle time (lockstep, wall clock): p50 {t['cycle_wall_p50_us']:.1f} us, "
+                      f"p99 {t['cycle_wall_p99_us']:.1f} us, max {t['cycle_wall_max_us']:.1f} us")
+
+
 def print_integrity(integrity: Integrity | None, console: Console) -> None:
     """One line when the run is intact, else one line per problem (allowed ones marked)."""
     if integrity is None:
@@ -170,6 +204,7 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
                       + f". `bench recover {rec.path} -o FIXED.mcap` copies every intact chunk, also "
                         "those after the damage.")
     print_integrity(report.integrity, console)
+    print_timing(rec, console)
     w0, w1 = ctx.window_s
     console.print(f"window {w0:g}..{w1:g} s, speed reference {ctx.speed_ref_rpm:g} rpm")
     s = report.summary

@@ -242,7 +242,22 @@ static void isr_tick(app_t *a)
     }
     a->isr.ticks += expirations;
     if (!a->isr.have_sense) {
+        /* no SENSE since the last tick: the PWM keeps its duties; the controller's link timer
+         * (ctrl_protect) decides when that is a LINK_TIMEOUT fault */
         a->isr.stale += expirations;
+        if (ctrl_link_tick(&a->session.ctrl, a->session.ctrl.cfg.ts_s * (float)expirations) ==
+            CTRL_FAULT_LINK_TIMEOUT) {
+            hil_fault_ctrl_t m;
+            hil_octet_t buf[HIL_FAULT_CTRL_LENGTH];
+            m.code = (uint16_t)HIL_FAULT_LINK_TIMEOUT;
+            m.seq = a->session.last_seq;
+            m.detail = a->session.ctrl.out.fault_detail;
+            if (hil_fault_ctrl_pack(buf, &m, sizeof buf) > 0) {
+                a->link->ops->queue(a->link, HIL_FAULT_CTRL_FRAME_ID, buf, HIL_FAULT_CTRL_LENGTH);
+            }
+            fprintf(stderr, "hil_stub: LINK_TIMEOUT: no SENSE for %lu timer ticks\n",
+                    (unsigned long)expirations);
+        }
         return;
     }
     a->isr.stale += expirations - 1u; /* ticks the stub slept through */
@@ -507,13 +522,15 @@ int main(int argc, char **argv)
     if (!quiet) {
         fprintf(stderr,
                 "hil_stub: exit (%s): cycles=%lu unknown_ids=%lu length_errors=%lu seq_errors=%lu "
-                "config_rejected=%lu tx_overflows=%lu echoed=%lu isr_ticks=%lu isr_stale=%lu; %s: ",
+                "config_rejected=%lu repeats=%lu cmd_seq_gaps=%lu tx_overflows=%lu echoed=%lu "
+                "isr_ticks=%lu isr_stale=%lu; %s: ",
                 exit_reason, (unsigned long)app.session.stats.cycles,
                 (unsigned long)app.session.stats.unknown_ids,
                 (unsigned long)app.session.stats.length_errors,
                 (unsigned long)app.session.stats.seq_errors,
-                (unsigned long)app.session.stats.config_rejected, t->tx_overflows, app.echoed,
-                app.isr.ticks, app.isr.stale, t->kind);
+                (unsigned long)app.session.stats.config_rejected,
+                (unsigned long)app.session.stats.repeats, (unsigned long)app.session.stats.cmd_seq_gaps,
+                t->tx_overflows, app.echoed, app.isr.ticks, app.isr.stale, t->kind);
         t->ops->print_stats(t, stderr);
         fputc('\n', stderr);
     }
