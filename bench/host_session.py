@@ -248,35 +248,3 @@ class HostSession:
         self.send([self.command_frame(command, value, seq)])
 
 
-#: what each per-cycle counter means in the end-of-run message of docs/protocol.md 6.5 (singular, plural)
-_CYCLE_WORDS = {
-    "crc_errors": ("frame with a bad CRC", "frames with a bad CRC"),
-    "cobs_errors": ("chunk that is not valid COBS", "chunks that are not valid COBS"),
-    "length_errors": ("frame of the wrong length", "frames of the wrong length"),
-    "overruns": ("overrun (more than 70 octets without a delimiter)", "overruns (more than 70 octets without a "
-                 "delimiter)"),
-    "unknown_ids": ("frame with an id outside the DBC", "frames with an id outside the DBC"),
-    "duplicates": ("duplicate DUTY of an earlier cycle", "duplicate DUTYs of earlier cycles"),
-    "telem_only": ("TELEM without its DUTY", "TELEMs without their DUTY"),
-}
-
-
-def describe_missing_duty(cycle: int, retries: int, waited_s: float, counts: dict[str, int],
-                          wrong_seqs: list[int] | None = None) -> str:
-    """The message that ends a lockstep run when no valid DUTY(k) came after the retries (docs/protocol.md
-    6.5): what did arrive during the cycle, from the counters' increase over the cycle (``counts``: the
-    /link/stats names, plus ``telem_only``) and the ``seq`` of any DUTY of another cycle.
-
-    >>> describe_missing_duty(1234, 3, 0.2, {"crc_errors": 2}, [1233])
-    'cycle 1234: no valid DUTY after 3 retries (0.2 s): 2 frames with a bad CRC, 1 DUTY with seq 1233'
-    """
-    parts = []
-    for key, (one, many) in _CYCLE_WORDS.items():
-        n = int(counts.get(key, 0))
-        if n:
-            parts.append(f"{n} {one if n == 1 else many}")
-    for seq in sorted(set(wrong_seqs or [])):
-        n = (wrong_seqs or []).count(seq)
-        parts.append(f"{n} DUTY with seq {seq}" if n == 1 else f"{n} DUTYs with seq {seq}")
-    what = ", ".join(parts) if parts else "nothing at all"
-    return f"cycle {cycle}: no valid DUTY after {retries} retries ({waited_s:g} s): {what}"

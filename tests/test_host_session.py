@@ -247,14 +247,3 @@ def test_bench_run_against_a_bad_hello_ack_exits_non_zero_with_a_clear_message(t
     rec = load_recording(out)   # finalised and readable, and says why the run ended
     assert "HELLO_ACK" in rec.metadata["run_result"]["error"]
     assert Path(out).stat().st_size > 0
-
-
-def test_the_message_that_ends_a_run_without_duty_names_what_arrived():
-    from bench.host_session import describe_missing_duty
-
-    assert describe_missing_duty(1234, 3, 0.2, {"crc_errors": 2}, [1233]) == \
-        "cycle 1234: no valid DUTY after 3 retries (0.2 s): 2 frames with a bad CRC, 1 DUTY with seq 1233"
-    assert describe_missing_duty(7, 3, 0.2, {}) == "cycle 7: no valid DUTY after 3 retries (0.2 s): nothing at all"
-    text = describe_missing_duty(9, 1, 0.1, {"length_errors": 1, "cobs_errors": 3, "telem_only": 2}, [3, 3])
-    assert text == ("cycle 9: no valid DUTY after 1 retries (0.1 s): 3 chunks that are not valid COBS, "
-                    "1 frame of the wrong length, 2 TELEMs without their DUTY, 2 DUTYs with seq 3")

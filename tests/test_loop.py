@@ -131,7 +131,7 @@ def short_scenario(duration: float = 0.3):
 
 
 @pytest.mark.parametrize("inject, expect", [
-    ("silent@500", "no valid DUTY(seq 500) from the controller after 3 re-send(s)"),
+    ("silent@500", "no valid DUTY after 3 retries (0.2 s): nothing at all"),
     ("crash@500", "controller stub killed by signal"),
 ])
 def test_dead_or_silent_stub_ends_the_run_within_a_second(tmp_path, inject, expect):

@@ -426,6 +426,7 @@ typedef struct {
     int retries;
     /* what went wrong while waiting (for the message when nothing valid comes) */
     uint64_t crc0, cobs0, len0, over0, seq_bad, len_bad, stale;
+    uint16_t bad_seq;      /* the last wrong seq seen */
     /* the frames of the SENSE group, for re-sending */
     uint8_t aux[8], dual[8], sense[8];
     int have_dual;
@@ -592,6 +593,7 @@ static void telem_other_seq(engine_t *e, cycle_t *c, uint16_t seq)
     } else {
         e->n.seq_mismatch++;
         c->seq_bad++;
+        c->bad_seq = seq;
     }
 }
 
@@ -645,6 +647,7 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
         } else {
             e->n.seq_mismatch++;
             c->seq_bad++;
+            c->bad_seq = d.seq;
         }
         return 0;
     }
@@ -725,42 +728,41 @@ static void append(char *buf, size_t cap, int *n, const char *fmt, ...)
     }
 }
 
-/** Lockstep: why no valid DUTY came, from what arrived during the cycle. */
+/** Lockstep: why no valid DUTY came, from what arrived during the cycle (docs/protocol.md 6.5:
+ *  "cycle 1234: no valid DUTY after 3 retries (0.2 s): 2 frames with a bad CRC, ..."). */
 static void describe_no_duty(engine_t *e, const cycle_t *c)
 {
     const hil_deframer_t *d = &e->link.deframer;
     char what[384];
     int n = 0;
+    unsigned long k;
     what[0] = '\0';
-    if (d->crc_errors > c->crc0) {
-        append(what, sizeof what, &n, "%lu frame(s) with a bad CRC",
-               (unsigned long)(d->crc_errors - c->crc0));
+    if ((k = (unsigned long)(d->crc_errors - c->crc0)) > 0u) {
+        append(what, sizeof what, &n, "%lu %s with a bad CRC", k, k == 1u ? "frame" : "frames");
     }
-    if (d->cobs_errors > c->cobs0) {
-        append(what, sizeof what, &n, "%lu undecodable COBS chunk(s)",
-               (unsigned long)(d->cobs_errors - c->cobs0));
+    if ((k = (unsigned long)(d->cobs_errors - c->cobs0)) > 0u) {
+        append(what, sizeof what, &n, "%lu %s not valid COBS", k,
+               k == 1u ? "chunk that is" : "chunks that are");
     }
-    if (d->length_errors + c->len_bad > c->len0) {
-        append(what, sizeof what, &n, "%lu frame(s) of the wrong length",
-               (unsigned long)(d->length_errors + c->len_bad - c->len0));
+    if ((k = (unsigned long)(d->length_errors + c->len_bad - c->len0)) > 0u) {
+        append(what, sizeof what, &n, "%lu %s of the wrong length", k, k == 1u ? "frame" : "frames");
     }
-    if (d->overruns > c->over0) {
-        append(what, sizeof what, &n, "%lu overrun(s) (line noise)",
-               (unsigned long)(d->overruns - c->over0));
+    if ((k = (unsigned long)(d->overruns - c->over0)) > 0u) {
+        append(what, sizeof what, &n, "%lu %s (more than 70 octets without a delimiter)", k,
+               k == 1u ? "overrun" : "overruns");
     }
     if (c->seq_bad > 0u) {
-        append(what, sizeof what, &n, "%lu DUTY frame(s) with a wrong sequence number",
-               (unsigned long)c->seq_bad);
+        append(what, sizeof what, &n, "%lu %s with seq %u", (unsigned long)c->seq_bad,
+               c->seq_bad == 1u ? "DUTY or TELEM" : "DUTY or TELEM frames", (unsigned)c->bad_seq);
     }
     if (c->stale > 0u) {
-        append(what, sizeof what, &n, "%lu TELEM frame(s) of another cycle",
-               (unsigned long)c->stale);
+        append(what, sizeof what, &n, "%lu TELEM of the cycle before", (unsigned long)c->stale);
     }
     e->end = ENGINE_END_NO_DUTY;
-    set_message(e, "at cycle %ld (t = %.4f s): no valid DUTY(seq %u) from the controller after "
-                "%d re-send(s) of SENSE, %.3g s each: %s", c->k, c->t_s, (unsigned)c->seq,
-                c->retries, e->cfg.retry_timeout_s,
-                n ? what : "nothing at all arrived (the controller is silent)");
+    set_message(e, "at cycle %ld (t = %.4f s): no valid DUTY after %d retries (%.3g s): %s",
+                c->k, c->t_s, c->retries,
+                (double)(c->retries + 1) * e->cfg.retry_timeout_s,
+                n ? what : "nothing at all (the controller is silent)");
 }
 
 /** Validate DUTY(k): 1 applied, 0 held (bad duty, counted), -1 too many bad in a row. */

@@ -195,13 +195,13 @@ static void *ctrl_main(void *arg)
             hil_frame_t f;
             if (hil_deframer_push(&d, buf[i], &f) == 1) {
                 const long cycle = (long)c->session.stats.cycles;
-                if (f.id == HIL_SENSE_FRAME_ID && c->silent_from >= 0 && cycle >= c->silent_from) {
-                    continue;
-                }
                 if (f.id == HIL_SENSE_FRAME_ID && c->noisy_from >= 0 && cycle >= c->noisy_from) {
                     static const uint8_t noise[] = {0x13u, 0x37u, 0xFFu, 0x02u, 0x00u};
                     memcpy(c->tx + c->tx_len, noise, sizeof noise);
                     c->tx_len += sizeof noise;
+                }
+                if (f.id == HIL_SENSE_FRAME_ID && c->silent_from >= 0 && cycle >= c->silent_from) {
+                    continue;
                 }
                 hil_session_on_frame(&c->session, &f);
             }
@@ -359,7 +359,17 @@ static void test_silent_controller_is_named(void)
     CHECK(r.cycles == 300, "cycles %ld", r.cycles);
     CHECK(r.n.retries == 3u, "the SENSE of cycle 300 re-sent 3 times: %llu",
           (unsigned long long)r.n.retries);
-    CHECK(strstr(r.message, "nothing at all arrived") != NULL, "%s", r.message);
+    CHECK(strstr(r.message, "no valid DUTY after 3 retries (0.2 s): nothing at all") != NULL, "%s",
+          r.message);
+}
+
+static void test_what_arrived_instead_is_named(void)
+{
+    /* line noise answers the SENSE of cycle 300 and its 3 re-sends, and no DUTY comes */
+    loop_result_t r = closed_loop(ENGINE_LOCKSTEP, 2000, 300, 290);
+    CHECK(r.end == ENGINE_END_NO_DUTY, "end %d", r.end);
+    CHECK(strstr(r.message, "no valid DUTY after 3 retries (0.2 s): 4 chunks that are not valid COBS")
+              != NULL, "%s", r.message);
 }
 
 static void test_line_noise_is_counted_and_survived(void)
@@ -385,6 +395,7 @@ int main(void)
     test_schema();
     test_lockstep_closed_loop();
     test_silent_controller_is_named();
+    test_what_arrived_instead_is_named();
     test_line_noise_is_counted_and_survived();
     test_realtime_closed_loop();
     return check_summary("engine");
