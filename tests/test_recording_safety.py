@@ -74,7 +74,15 @@ def test_out_that_is_a_directory_is_refused_naming_it(tmp_path):
 
 
 def test_a_scenario_name_cannot_place_a_file_outside_the_recordings_folder():
-    path = default_recording_path(scenario(name="../../escaped"))
+    """Refused when the scenario is loaded; and the path builder makes any name safe anyway."""
+    import dataclasses
+
+    from bench.scenario import ScenarioError
+
+    with pytest.raises(ScenarioError, match="scenario.name: '../../escaped' must be"):
+        scenario(name="../../escaped")
+    sneaky = dataclasses.replace(scenario(), name="../../escaped")
+    path = default_recording_path(sneaky)
     assert path.parent == Path("recordings") and ".." not in path.name and "/" not in path.name
 
 

@@ -53,7 +53,9 @@ def test_eight_flipped_bytes_at_half_lose_one_chunk_not_the_second_half(recordin
     damaged = tmp_path / "damaged.mcap"
     damaged.write_bytes(bytes(data))
     before = load_recording(damaged)
-    assert before.truncated and before.messages < 0.55 * sum(original.values())   # the reader stops there
+    # the reader skips the damaged chunk, reads on and says so (or stops there if the damage hit
+    # a record's framing): either way the check points to `bench recover`
+    assert before.damaged and before.messages < sum(original.values())
 
     fixed = tmp_path / "fixed.mcap"
     assert cli_main(["recover", str(damaged), "-o", str(fixed)]) == 0
@@ -62,7 +64,8 @@ def test_eight_flipped_bytes_at_half_lose_one_chunk_not_the_second_half(recordin
     counts = _valid_mcap(fixed)
     assert set(counts) == set(original)
     lost = sum(original.values()) - sum(counts.values())
-    assert 0 < lost < 0.02 * sum(original.values())        # one chunk of ~97
+    n_chunks = len(_chunk_offsets(recording))
+    assert 0 < lost < 2.0 * sum(original.values()) / n_chunks   # about one chunk's messages
     after = load_recording(fixed)
     assert after.truncated is None and after.messages == sum(counts.values())
     assert set(after.metadata) == {"run", "run_result"}     # the run_result written at the end survives
