@@ -1160,6 +1160,54 @@ static void replay_timing_row(engine_t *e, const cycle_t *c, int64_t c0, int64_t
     RECORD(e, e->cfg.ch_timing, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
 }
 
+/** Start replayed cycle k: stop request, pacing, the cycle with the row's time, seq, samples
+ *  and angle. 0, or -1 with e->end set (stopped). */
+static int replay_begin(engine_t *e, cycle_t *c, long k, int64_t *c0, int64_t *start_err)
+{
+    const engine_replay_cycle_t *row = &e->cfg.replay_cycles[k];
+    if (stop_asked(e)) {
+        e->end = ENGINE_END_STOPPED;
+        set_message(e, "stopped at replayed cycle %ld", k);
+        return -1;
+    }
+    *c0 = replay_pace(e, k, start_err);
+    begin_cycle(e, c, k);
+    c->t_s = row->t_s;
+    c->seq = (uint16_t)row->seq;
+    c->s_i[0] = row->i_abc_a[0];
+    c->s_i[1] = row->i_abc_a[1];
+    c->s_i[2] = row->i_abc_a[2];
+    c->smp.v_dc_v = row->v_dc_v;
+    c->snap.theta_e_rad = row->has_theta ? row->theta_rad : (double)NAN;
+    c->theta_enc = (double)NAN;
+    return 0;
+}
+
+/** The recorded DUTY of a row, validated as a live one; without one the last duties hold. */
+static int take_recorded_duties(engine_t *e, cycle_t *c, const engine_replay_cycle_t *row)
+{
+    if (!row->has_duty) {
+        e->n.missed_duty++;
+        return 0;
+    }
+    c->have_duty = 1;
+    c->duty_raw[0] = row->duty_raw[0];
+    c->duty_raw[1] = row->duty_raw[1];
+    c->duty_raw[2] = row->duty_raw[2];
+    return take_duties(e, c) < 0 ? -1 : 0;
+}
+
+/** End replayed cycle k: its timing row, progress, statistics. */
+static void replay_end(engine_t *e, const cycle_t *c, long k, int64_t c0, int64_t sent_ns,
+                       int64_t start_err)
+{
+    replay_timing_row(e, c, c0, sent_ns, start_err);
+    __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
+    if (e->cfg.stats_every_cycles > 0 && (k + 1) % e->cfg.stats_every_cycles == 0) {
+        engine_write_stats(e, c->t_s, NULL);
+    }
+}
+
 /** The recorded frames of each cycle to a live controller; its answers beside the recorded. */
 static int run_replay_controller(engine_t *e)
 {
@@ -1170,22 +1218,10 @@ static int run_replay_controller(engine_t *e)
         cycle_t c;
         int64_t start_err, c0, sent_ns = 0;
         uint32_t i;
-        if (stop_asked(e)) {
-            e->end = ENGINE_END_STOPPED;
-            set_message(e, "stopped at replayed cycle %ld", k);
+        if (replay_begin(e, &c, k, &c0, &start_err) != 0) {
             return e->end;
         }
-        c0 = replay_pace(e, k, &start_err);
-        begin_cycle(e, &c, k);
-        c.t_s = row->t_s;
-        c.seq = (uint16_t)row->seq;
         c.replay = row;
-        c.snap.theta_e_rad = row->has_theta ? row->theta_rad : (double)NAN;
-        c.smp.v_dc_v = row->v_dc_v;
-        c.s_i[0] = row->i_abc_a[0];
-        c.s_i[1] = row->i_abc_a[1];
-        c.s_i[2] = row->i_abc_a[2];
-        c.theta_enc = (double)NAN;
         for (i = 0u; i < row->n_frames; ++i) {
             const engine_replay_frame_t *f = &cfg->replay_frames[row->first_frame + i];
             (void)eng_link_queue(&e->link, f->id, f->data, f->dlc);
@@ -1193,10 +1229,7 @@ static int run_replay_controller(engine_t *e)
                 text_frame(e->tx_text, &e->tx_len, f->id, f->data, f->dlc);
             }
         }
-        if (exchange_lockstep(e, &c, c0, &sent_ns) != 0) {
-            return e->end;
-        }
-        if (take_duties(e, &c) < 0) {
+        if (exchange_lockstep(e, &c, c0, &sent_ns) != 0 || take_duties(e, &c) < 0) {
             return e->end;
         }
         after_telemetry(e, &c);
@@ -1218,11 +1251,7 @@ static int run_replay_controller(engine_t *e)
             RECORD(e, cfg->ch_replay, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_replay_controller, &r);
         }
         e->prev_had_duty = 1;
-        replay_timing_row(e, &c, c0, sent_ns, start_err);
-        __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
-        if (cfg->stats_every_cycles > 0 && (k + 1) % cfg->stats_every_cycles == 0) {
-            engine_write_stats(e, c.t_s, NULL);
-        }
+        replay_end(e, &c, k, c0, sent_ns, start_err);
     }
     return ENGINE_END_DONE;
 }
@@ -1241,30 +1270,14 @@ static int run_replay_plant(engine_t *e)
         const engine_replay_cycle_t *row = &cfg->replay_cycles[k];
         cycle_t c;
         int64_t start_err, c0;
-        if (stop_asked(e)) {
-            e->end = ENGINE_END_STOPPED;
-            set_message(e, "stopped at replayed cycle %ld", k);
+        if (replay_begin(e, &c, k, &c0, &start_err) != 0) {
             return e->end;
         }
-        c0 = replay_pace(e, k, &start_err);
-        begin_cycle(e, &c, k);
-        c.seq = (uint16_t)row->seq;
+        c.t_s = (double)k * cfg->ts_s;           /* the plant's own time */
         apply_events(e, &next_event, &c);
-        if (build_sense(e, &c) != 0) {
+        if (build_sense(e, &c) != 0 || take_recorded_duties(e, &c, row) != 0) {
             return e->end;
         }
-        if (row->has_duty) {
-            c.have_duty = 1;
-            c.duty_raw[0] = row->duty_raw[0];
-            c.duty_raw[1] = row->duty_raw[1];
-            c.duty_raw[2] = row->duty_raw[2];
-            if (take_duties(e, &c) < 0) {
-                return e->end;
-            }
-        } else {
-            e->n.missed_duty++;   /* no DUTY in the capture for this cycle: the last duties held */
-        }
-        c.have_telem = 0;
         record_cycle(e, &c);
         if (e->have_ring) {
             rec_replay_plant_t r;
@@ -1280,12 +1293,8 @@ static int run_replay_plant(engine_t *e)
         }
         step_references(e, &c, &rv, 1);
         plant_step(e->plant, e->duties);
-        replay_timing_row(e, &c, c0, 0, start_err);
-        __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
         e->speed_rpm = e->plant->y[2] * cfg->rpm_per_rad_s;
-        if (cfg->stats_every_cycles > 0 && (k + 1) % cfg->stats_every_cycles == 0) {
-            engine_write_stats(e, (double)(k + 1) * cfg->ts_s, NULL);
-        }
+        replay_end(e, &c, k, c0, 0, start_err);
         if (!plant_finite(e, &c)) {
             return e->end;
         }
@@ -1304,35 +1313,14 @@ static int run_replay_estimators(engine_t *e)
     memset(&rv, 0, sizeof rv);
     rv.w_split = cfg->t_delay_s / cfg->ts_s;
     for (k = 0; k < cfg->n_cycles; ++k) {
-        const engine_replay_cycle_t *row = &cfg->replay_cycles[k];
         cycle_t c;
         int64_t start_err, c0;
-        if (stop_asked(e)) {
-            e->end = ENGINE_END_STOPPED;
-            set_message(e, "stopped at replayed cycle %ld", k);
+        if (replay_begin(e, &c, k, &c0, &start_err) != 0 ||
+            take_recorded_duties(e, &c, &cfg->replay_cycles[k]) != 0) {
             return e->end;
         }
-        c0 = replay_pace(e, k, &start_err);
-        begin_cycle(e, &c, k);
-        c.t_s = row->t_s;
-        c.seq = (uint16_t)row->seq;
-        c.s_i[0] = row->i_abc_a[0];
-        c.s_i[1] = row->i_abc_a[1];
-        c.s_i[2] = row->i_abc_a[2];
-        c.smp.v_dc_v = row->v_dc_v;
-        c.snap.theta_e_rad = row->has_theta ? row->theta_rad : (double)NAN;
-        if (row->has_duty) {
-            c.have_duty = 1;
-            c.duty_raw[0] = row->duty_raw[0];
-            c.duty_raw[1] = row->duty_raw[1];
-            c.duty_raw[2] = row->duty_raw[2];
-            if (take_duties(e, &c) < 0) {
-                return e->end;
-            }
-        }
         step_references(e, &c, &rv, 1);
-        replay_timing_row(e, &c, c0, 0, start_err);
-        __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
+        replay_end(e, &c, k, c0, 0, start_err);
     }
     return ENGINE_END_DONE;
 }
