@@ -59,6 +59,7 @@ _CMD = MESSAGES["CMD"]
 UPLINK_CYCLE = {_AUX.frame_id, _DUAL.frame_id, _SENSE.frame_id}
 DOWNLINK_CYCLE = {_TELEM.frame_id, _EMF.frame_id, _DUTY.frame_id}
 DUTY_RAW_FULL = int(round(1.0 / _DUTY.signal("d_a").scale))
+_VDC_DECIMALS = max(0, -int(math.floor(math.log10(float(_AUX.signal("v_dc").scale)) + 1e-9)))
 
 #: recorded controller answer per cycle (NaN / -1 where the capture has none)
 TELEM_FIELDS = ("theta_hat_rad", "omega_hat_rad_s", "state", "estimator", "e_alpha_v", "e_beta_v",
@@ -207,6 +208,7 @@ class CycleAssembler:
         self.an = anomalies
         self.cycles: list[_Cycle] = []
         self.pending_up: list[tuple[int, bytes, int | None]] = []   # fid, data, seq (None: CMD)
+        self.pending_down: list[tuple[int, bytes, float, str]] = []  # answers logged early
         self.setup: list[tuple[str, int, bytes]] = []
         self.hello: dict | None = None
         self.config: dict[Param, float] = {}
@@ -321,12 +323,15 @@ class CycleAssembler:
                                      f"followed by its SENSE", t_s)
         self.pending_up = []
         cyc = _Cycle(k=k, seq=seq, t_s=t_s, up=[(f, d) for f, d, _ in group] + [(fid, data)])
+        early, self.pending_down = self.pending_down, []
         raw = _SENSE.unpack_raw(data)
         cyc.sense = tuple(float(r) * _SENSE.signal("i_a").scale for r in raw[1:4])
         for f, d, _ in group:
             if f == _AUX.frame_id:
                 r = _AUX.unpack_raw(d)
-                cyc.aux = {"v_dc": float(r[1]) * _AUX.signal("v_dc").scale,
+                # the bus voltage in the decimal steps the DBC gives it (10 mV): the decimal the
+                # raw value stands for, not raw * 0.01 in binary (which is 1 ulp off 310.0)
+                cyc.aux = {"v_dc": round(float(r[1]) * _AUX.signal("v_dc").scale, _VDC_DECIMALS),
                            "theta": float(r[2]) * _AUX.signal("theta_enc").scale,
                            "flags": int(r[3])}
         if cyc.aux is None:
@@ -334,6 +339,12 @@ class CycleAssembler:
                                  f"held from the cycle before)", t_s)
         self.cycles.append(cyc)
         self._current = cyc
+        for f, d, t2, w2 in early:
+            if int(BY_ID[f].unpack_raw(d)[0]) == seq:
+                self._downlink(f, d, t2, w2)
+            else:
+                self.an.add("drops", f"{w2}: {BY_ID[f].name} answers a SENSE that is not in the "
+                                     f"capture; left out", t2)
 
     def _downlink(self, fid: int, data: bytes, t_s: float, where: str) -> None:
         name = BY_ID[fid].name
@@ -344,6 +355,13 @@ class CycleAssembler:
                         t_s)
             return
         delta = self._cycle_seq_delta(seq)
+        if delta == 1:
+            # an answer logged before the SENSE it answers (a logger that writes both directions
+            # from two threads does that): counted, and attached to its cycle when SENSE comes
+            self.an.add("out_of_order", f"{where}: {name}(seq {seq}) before its SENSE(seq {seq}) "
+                                        f"in the capture; attached to that cycle", t_s)
+            self.pending_down.append((fid, data, t_s, where))
+            return
         if delta != 0:
             if delta >= 0x8000:
                 self.an.add("out_of_order", f"{where}: {name}(seq {seq}) arrives during cycle "

@@ -118,7 +118,7 @@ def plant_overrides(cap: Capture, profile) -> dict:
         return {k: v for k, v in cap.plant_params.items() if k in PARAM_FIELDS}
     out = {"ts_s": cap.ts_s}
     if Param.CTRL_DELAY_S in cap.config:
-        out["t_delay_s"] = float(cap.config[Param.CTRL_DELAY_S])
+        out["t_delay_s"] = t_delay_of(cap, profile)
     if Param.V_DC_NOM_V in cap.config:
         out["v_dc_v"] = float(cap.config[Param.V_DC_NOM_V])
     return out
@@ -128,7 +128,11 @@ def t_delay_of(cap: Capture, profile) -> float:
     if cap.plant_params and "t_delay_s" in cap.plant_params:
         return float(cap.plant_params["t_delay_s"])
     if Param.CTRL_DELAY_S in cap.config:
-        return float(cap.config[Param.CTRL_DELAY_S])
+        told = float(cap.config[Param.CTRL_DELAY_S])
+        # CONFIG carries binary32: the profile's value when the two agree to that precision
+        if abs(told - profile.t_delay_s) <= 1e-6 * abs(profile.t_delay_s):
+            return float(profile.t_delay_s)
+        return told
     return float(profile.t_delay_s)
 
 
