@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 
@@ -104,22 +105,22 @@ def cmd_replay(args: argparse.Namespace) -> int:
         cap = read_capture(args.capture, ts_s=args.ts_us * 1e-6 if args.ts_us else None,
                            mapping=args.mapping, profile=profile)
     except (CaptureError, ValueError) as exc:
-        err.print(f"[red]error:[/red] {exc}")
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
-    out.print(cap.describe())
+    out.print(escape(cap.describe()))
     for p in cap.problems:
-        err.print(f"[yellow]damaged capture:[/yellow] {p}")
-    out.print(f"capture anomalies: {cap.anomalies.summary()}")
+        err.print(f"[yellow]damaged capture:[/yellow] {escape(p)}")
+    out.print(f"capture anomalies: {escape(cap.anomalies.summary())}")
     for n in cap.notes:
-        out.print(f"[dim]note: {n}[/dim]")
+        out.print(f"[dim]note: {escape(n)}[/dim]")
     if cap.resampling:
         rs = cap.resampling
         out.print(f"resampled {rs['samples']} samples at {rs['daq_rate_hz']:.6g} Hz onto "
-                  f"{rs['control_rate_hz']:.6g} Hz: {rs['method']}")
+                  f"{rs['control_rate_hz']:.6g} Hz: {escape(rs['method'])}")
     try:
         res = run_replay(cap, opts)
     except (ReplayError, RecorderError, CaptureError) as exc:
-        err.print(f"[red]error:[/red] {exc}")
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     print_result(res, out, err)
     if res.error:
@@ -150,13 +151,13 @@ def print_result(res, out: Console, err: Console) -> None:
                   f"{p['start_err_p50_us']:.1f} us, p99 {p['start_err_p99_us']:.1f} us, max "
                   f"{p['start_err_max_us']:.1f} us")
     for n in res.notes:
-        out.print(f"[dim]note: {n}[/dim]")
+        out.print(f"[dim]note: {escape(n)}[/dim]")
     if res.error:
-        err.print(f"[red]replay ended early:[/red] {res.error}")
+        err.print(f"[red]replay ended early:[/red] {escape(res.error)}")
     if res.metrics:
         w0, w1 = res.window_s
         t = Table(title=f"estimates over {w0:g}..{w1:g} s against the capture's angle "
-                        f"({res.capture.theta_source or 'none: no angle in the capture'})")
+                        f"({escape(res.capture.theta_source or 'none: no angle in the capture')})")
         for c in ("estimate", "PEE max", "PEE mean", "PEE RMS", "speed mean", "speed band"):
             t.add_column(c)
         for name, m in res.metrics.items():

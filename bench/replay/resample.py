@@ -1,28 +1,33 @@
 """A scope/DAQ export onto the control period (docs/replay.md "Resampling").
 
-The drive samples its currents once per PWM period, synchronously at the carrier's centre, where
-the switching ripple averages out: the control-rate samples are the period's mean current,
-band-limited below the control Nyquist frequency 1/(2 Ts). A DAQ at another rate is brought onto
-that grid in two steps:
+What the controller is given in cycle k is the current at the sampling instant t_k (the bench's
+sensor model, and a DSP sampling synchronously with its PWM). A DAQ at another rate, with its own
+time origin, is brought onto the grid t_k = t0 + k Ts by
 
-1. **Anti-alias, zero phase.** Only when the DAQ is faster than the control rate: a 4th-order
-   Butterworth low-pass at ``CUTOFF_PER_TS / Ts`` (0.4/Ts, 80 % of the control Nyquist) run
-   forwards and backwards (``scipy.signal.sosfiltfilt``: 8th order, no phase shift, -6 dB at the
-   cutoff). It removes the switching ripple and everything that would alias onto the grid; being
-   zero phase it does not delay the currents (a causal filter would, and the estimators would read
-   the delay as an angle error). Each stretch between gaps is filtered on its own.
-2. **Cubic interpolation** (``scipy.interpolate.make_interp_spline``, k = 3) of the filtered
-   samples at the grid instants t_k = t0 + k Ts. Its error for a sinusoid of frequency f sampled
-   at fs is of order (2 pi f / fs)^4 / 384 of the amplitude: 4e-8 for the 33 Hz of 500 rpm at
-   5 kHz.
+1. **cubic interpolation** (``scipy.interpolate.make_interp_spline``, k = 3) of the samples at
+   the instants t_k, stretch by stretch between gaps. No filter by default: a low-pass changes the
+   very values the controller saw. Measured on the example (tools/make_example_captures.py: a
+   5 kHz DAQ whose samples lie 100 us off the 1.667 kHz grid), the currents on the grid are
+   within 31-41 mA RMS (0.26 A at most, during the start-up's current steps) of the recorded
+   ones, and the duties equal; an 8th-order zero-phase low-pass at 0.4/Ts made the error 0.17 A
+   RMS on a 2.5 kHz export (within each period the current has content far above the control
+   Nyquist frequency, and the drive samples it, it does not average it). The DAQ must be fast
+   enough to follow the current within a period; a slower one is interpolated all the same and
+   its error is what a comparison with a recording shows (2.5 kHz unfiltered: 77 mA RMS).
+2. **optional anti-alias filter** ``[control] antialias_hz``: a 4th-order Butterworth run forwards
+   and backwards (``scipy.signal.sosfiltfilt``: 8th order, zero phase, -6 dB at the cutoff)
+   before the interpolation, for a DAQ whose signals carry switching ripple or noise that the
+   drive's synchronous sampling would not see. Zero phase because a causal filter delays the
+   currents and the estimators would read the delay as an angle error.
 
-Angles are unwrapped before and wrapped after. Duties are steps, not signals: row k takes the duty
-in force at t_k + delay + Ts/2 (zero-order hold; ``delay`` = the computation delay, [control]
-delay_s, default the profile's t_delay_s), the middle of the interval DUTY(k) acts on. Phase
-voltages are averaged over each period [t_k, t_k + Ts) (the integral of the trapezoid rule,
-which is the period-average filter the inverter's own averaging is), and become the duties
-(v_x - min(v_a, v_b, v_c)) / v_dc that give the same line voltages; the estimators then take
-them without a delay split (the average already is the voltage that acted over the period).
+Angles are unwrapped before and wrapped after. Duties are steps, not signals: row k takes the
+first sample in [t_k + delay, t_k+1 + delay), the interval DUTY(k) acts on (``delay`` = the
+computation delay, [control] delay_s, default the profile's t_delay_s); a period without a sample
+there holds the last duties (counted). Phase voltages are averaged over each period
+[t_k, t_k + Ts) (the trapezoid integral: the period average the inverter's own averaging is), and
+become the duties (v_x - min(v_a, v_b, v_c)) / v_dc that give the same line voltages; the
+estimators then take them without a delay split (the average already is the voltage that acted
+over the period).
 """
 from __future__ import annotations
 
@@ -35,7 +40,6 @@ from plant_rt.engine import REPLAY_CYCLE_DTYPE
 
 from .capture import Anomalies, Capture, CaptureError, duty_raw_of, empty_telem
 
-CUTOFF_PER_TS = 0.4       #: anti-alias cutoff [1/Ts]
 BUTTER_ORDER = 4          #: per pass (sosfiltfilt doubles it)
 GAP_FACTOR = 1.5          #: a sample interval above 1.5 x the median is a gap
 
@@ -46,13 +50,17 @@ def _segments(t: np.ndarray, gap_s: float) -> list[slice]:
     return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
 
-def _filtered(t: np.ndarray, x: np.ndarray, segs: list[slice], fs_hz: float, ts_s: float,
-              notes: list[str]) -> np.ndarray:
+def _filtered(t: np.ndarray, x: np.ndarray, segs: list[slice], fs_hz: float,
+              cutoff_hz: float | None, notes: list[str]) -> np.ndarray:
     from scipy import signal
 
-    cutoff = CUTOFF_PER_TS / ts_s
+    if cutoff_hz is None:
+        return x
+    cutoff = cutoff_hz
     if fs_hz <= 2.0 * cutoff * 1.05:
-        return x    # the DAQ is not faster than the grid needs: nothing to remove
+        notes.append(f"anti-alias cutoff {cutoff:g} Hz is at or above the DAQ's Nyquist "
+                     f"frequency ({fs_hz / 2:g} Hz): not applied")
+        return x
     sos = signal.butter(BUTTER_ORDER, cutoff, btype="low", fs=fs_hz, output="sos")
     y = x.astype(float).copy()
     for s in segs:
@@ -131,9 +139,12 @@ def resample_capture(path: Path, m: dict, arrays: dict[str, np.ndarray], line_no
     k, tk, seg_of_k = k[inside], tk[inside], seg_of_k[inside]
     notes: list[str] = []
     sig = m["signals"]
+    cutoff_hz = ctl.get("antialias_hz")
+    if cutoff_hz is not None:
+        cutoff_hz = float(cutoff_hz)
 
     def on_grid(name: str) -> np.ndarray:
-        return _interp(t, _filtered(t, arrays[name], segs, fs, ts, notes), segs, tk, seg_of_k)
+        return _interp(t, _filtered(t, arrays[name], segs, fs, cutoff_hz, notes), segs, tk, seg_of_k)
 
     cur = {n: on_grid(n) for n in ("i_a", "i_b", "i_c") if n in sig}
     if "i_c" not in cur:
@@ -158,23 +169,28 @@ def resample_capture(path: Path, m: dict, arrays: dict[str, np.ndarray], line_no
                 raise CaptureError(f"{sig['theta']['where']}.frame: a mechanical angle needs the "
                                    f"pole pairs: give --profile")
             th = th * int(profile.pole_pairs)
-        x = _interp(t, _filtered(t, th, segs, fs, ts, notes), segs, tk, seg_of_k)
+        x = _interp(t, _filtered(t, th, segs, fs, cutoff_hz, notes), segs, tk, seg_of_k)
         rows["theta_rad"] = np.mod(x, 2.0 * math.pi)
         rows["has_theta"] = 1
         theta_source = f"encoder (CSV column {sig['theta']['column']!r})"
     voltage_is_duty = "duty_a" in sig
     delay = float(ctl.get("delay_s", getattr(profile, "t_delay_s", 0.0) if profile else 0.0))
     if voltage_is_duty:
-        t_hold = tk + delay + 0.5 * ts
-        j = np.searchsorted(t, t_hold, side="right") - 1
-        ok = j >= 0
+        j = np.searchsorted(t, tk + delay, side="left")
+        ok = j < len(t)
+        ok[ok] &= t[j[ok]] < tk[ok] + delay + ts
         d = np.full((n, 3), np.nan)
         for c, name in enumerate(("duty_a", "duty_b", "duty_c")):
             d[ok, c] = arrays[name][j[ok]]
         good = ok & np.isfinite(d).all(axis=1)
         rows["duty_raw"][good] = duty_raw_of(d[good])
         rows["has_duty"][good] = 1
-        method_v = f"duties: zero-order hold at t_k + {delay * 1e6:g} us + Ts/2"
+        method_v = (f"duties: the first sample in [t_k + {delay * 1e6:g} us, t_k+1 + "
+                    f"{delay * 1e6:g} us), the interval DUTY(k) acts on")
+        if (~ok).any():
+            an.add("drops", f"{int((~ok).sum())} period(s) without a DAQ sample inside the interval "
+                            f"their duty acts on (the DAQ is slower than the PWM); the last duties "
+                            f"held", n=int((~ok).sum()))
     else:
         from scipy.integrate import cumulative_trapezoid
 
@@ -200,11 +216,12 @@ def resample_capture(path: Path, m: dict, arrays: dict[str, np.ndarray], line_no
     cap = Capture(path=path, kind="csv", ts_s=ts, ts_source=ts_source, rows=rows, telem=telem,
                   anomalies=an, problems=problems, theta_source=theta_source,
                   voltage_is_duty=voltage_is_duty)
-    filt = fs > 2.0 * CUTOFF_PER_TS / ts * 1.05
+    filt = cutoff_hz is not None and fs > 2.0 * cutoff_hz * 1.05
     cap.resampling = {
         "daq_rate_hz": fs, "control_rate_hz": 1.0 / ts, "samples": int(len(t)),
-        "method": (f"{'zero-phase Butterworth ' + str(2 * BUTTER_ORDER) + 'th order at ' + format(CUTOFF_PER_TS / ts, '.0f') + ' Hz (sosfiltfilt), then ' if filt else 'no anti-alias filter (the DAQ is not faster than the grid needs), '}"
-                   f"cubic spline at t_k = t0 + k Ts; {method_v}"),
+        "method": ((f"zero-phase Butterworth, {2 * BUTTER_ORDER}th order at {cutoff_hz:g} Hz "
+                    f"(sosfiltfilt), then " if filt else "no filter, ")
+                   + f"cubic spline at t_k = t0 + k Ts; {method_v}"),
     }
     cap.notes.extend(dict.fromkeys(notes))
     return cap
