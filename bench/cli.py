@@ -1,5 +1,5 @@
 """Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``, ``bench recover``,
-``bench conformance``."""
+``bench conformance``, ``bench replay`` (bench/replay/cli.py)."""
 from __future__ import annotations
 
 import argparse
@@ -168,6 +168,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_scenarios)
     k = sub.add_parser("claims", help="list the paper claims and their metrics")
     k.set_defaults(func=_cmd_claims)
+
+    from .replay.cli import add_parser as add_replay_parser
+
+    add_replay_parser(sub)
     return p
 
 

@@ -86,6 +86,7 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     buf = bytearray(READ_BATCH_BYTES)
     cbuf = ffi.from_buffer(buf)
     channel_ids: list[int] = []
+    raw_files: dict[int, object] = {}   # ring channel -> side file (serial byte capture)
     messages = 0
     error = None
     f = None
@@ -114,6 +115,12 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                     off += 16 + ((length + 7) & ~7)
                     if channel >= len(channel_ids):
                         continue   # a channel the bench never registered: cannot happen
+                    side = raw_files.get(channel)
+                    if side is not None:   # serial byte capture: direction octet, then octets
+                        from .replay.serial_capture import write_record
+
+                        write_record(side, t_ns, data[0], data[1:])
+                        continue
                     t = start_ns + t_ns
                     add(channel_id=channel_ids[channel], log_time=t, publish_time=t,
                         sequence=seqs[channel], data=data)
@@ -140,6 +147,15 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                         schema_id=schema_ids[schema_name]))
                     seqs.append(0)
                     conn.send(("channel_ok", len(channel_ids) - 1))
+                elif kind == "rawfile":
+                    from .replay.serial_capture import write_header
+
+                    side = open(msg[1], "wb")
+                    write_header(side)
+                    raw_files[len(channel_ids)] = side
+                    channel_ids.append(-1)
+                    seqs.append(0)
+                    conn.send(("channel_ok", len(channel_ids) - 1))
                 elif kind == "metadata":
                     drain()
                     writer.add_metadata(name=msg[1], data=msg[2])
@@ -159,6 +175,11 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     except Exception as exc:  # noqa: BLE001 - report, then finalise what we can
         error = f"recorder: {type(exc).__name__}: {exc} (writing {target})"
     finally:
+        for side in raw_files.values():
+            try:
+                side.close()
+            except OSError as exc:
+                error = error or f"recorder: cannot close {side.name}: {exc.strerror}"
         finished = False
         if writer is not None:
             try:
@@ -283,6 +304,26 @@ class ProcessRecorder:
         ch = ProcessChannel(self, len(self.channels), topic, kind)
         self.channels.append(ch)
         return ch
+
+    def raw_capture(self, path: Path) -> int:
+        """A ring channel whose records go to a serial byte capture beside the recording
+        (bench/replay/serial_capture.py: payload = direction octet + octets, time = the
+        record's t_ns as it is). Returns the channel index (engine ch_serial_raw)."""
+        if not self._send(("rawfile", str(path))) or not self._conn.poll(10.0):
+            raise RecorderError(f"recorder process for {self.path} does not answer")
+        reply = self._conn.recv()
+        if reply[0] != "channel_ok" or reply[1] != len(self.channels):
+            raise RecorderError(self._child_error(reply))
+        self.channels.append(ProcessChannel(self, len(self.channels), str(path), "RAW"))
+        return reply[1]
+
+    def write_raw(self, index: int, t_ns: int, data: bytes) -> None:
+        """One record with its time in ns as it is (a raw capture channel)."""
+        deadline = time.monotonic() + 5.0
+        while lib.rec_ring_write(self.ring, index, int(t_ns), data, len(data)) != 0:
+            if not self.alive() or time.monotonic() > deadline:
+                return
+            time.sleep(0.001)
 
     def write(self, index: int, t_s: float, data: bytes) -> None:
         """One message into the ring (only while no engine is writing)."""

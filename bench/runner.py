@@ -227,6 +227,7 @@ class Runner:
         engine_link = None
         try:
             self._open_channels(rec)
+            self._start_serial_capture(rec, opened)
             self._write_metadata(rec, opened)
             try:
                 self._start_controller(opened)
@@ -266,6 +267,19 @@ class Runner:
         self.ch_timing = rec.channel(ch.TIMING)
         self.ch_refs = [rec.channel(ch.REFERENCE_PREFIX + name, "REFERENCE")
                         for name, _, _ in self.references]
+
+    def _start_serial_capture(self, rec: ProcessRecorder, opened: OpenedLink) -> None:
+        """A serial link: every octet both ways into <recording>.serial.bin (docs/replay.md):
+        the handshake's from the Python link, the run's from the engine (capture_serial)."""
+        from .links.serial_link import SerialLink
+
+        self.ch_serial_raw = None
+        if not isinstance(opened.link, SerialLink):
+            return
+        self.serial_capture_path = self.out_path.with_suffix(".serial.bin")
+        index = self.ch_serial_raw = rec.raw_capture(self.serial_capture_path)
+        opened.link.tap = lambda direction, data: rec.write_raw(
+            index, time.monotonic_ns(), bytes((direction,)) + bytes(data))
 
     def _event(self, t_s: float, kind: str, text: str, value: float = 0.0) -> None:
         self.ch_events.write_values(t_s, (t_s, kind, text, value))
@@ -383,6 +397,8 @@ class Runner:
             stats_every_cycles=STATS_EVERY_CYCLES,
             can_brs=int(bool(getattr(getattr(opened.link, "spec", None), "data_bitrate", None))),
         )
+        if getattr(self, "ch_serial_raw", None) is not None and self.record:
+            options.update(capture_serial=1, ch_serial_raw=self.ch_serial_raw)
         channels = {"ch_state": self.ch_state.index, "ch_sense": self.ch_sense.index,
                     "ch_telem": self.ch_telem.index, "ch_frames": self.ch_frames.index,
                     "ch_events": self.ch_events.index, "ch_timing": self.ch_timing.index,

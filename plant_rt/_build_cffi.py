@@ -231,6 +231,7 @@ typedef struct {
     int source; const engine_replay_cycle_t *replay_cycles;
     const engine_replay_frame_t *replay_frames; long replay_n_frames; double pace_s;
     uint16_t ch_replay;
+    int capture_serial; uint16_t ch_serial_raw;
     ...;
 } engine_config_t;
 typedef struct {

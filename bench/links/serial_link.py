@@ -101,16 +101,22 @@ class SerialLink(Link):
         self.baud = baud
         self.description = transport.description
         self.deframer = Deframer()
+        #: tap(direction, octets): every octet written (0) or read (1), for a byte capture
+        self.tap = None
 
     def _write_frames(self, frames):
         data = b"".join(encode_frame(fid, payload) for fid, payload in frames)
         self.counters.bytes_tx += len(data)
         self.transport.write(data)
+        if self.tap is not None:
+            self.tap(0, data)
 
     def _read_frames(self, timeout_s):
         data = self.transport.read(timeout_s)
         if not data:
             return []
+        if self.tap is not None:
+            self.tap(1, data)
         self.counters.bytes_rx += len(data)
         return self.deframer.feed(data)
 

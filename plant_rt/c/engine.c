@@ -208,7 +208,7 @@ static uint8_t *ring_begin(engine_t *e, size_t max)
 
 #define RECORD(e, channel, t_s, max, encoder, row)                                             \
     do {                                                                                       \
-        uint8_t *p_ = ring_begin((e), (max));                                                  \
+        uint8_t *p_ = ((channel) == ENGINE_NO_CHANNEL) ? NULL : ring_begin((e), (max));        \
         if (p_ != NULL) {                                                                      \
             size_t n_ = encoder(p_, (max), (row));                                             \
             if (n_ > 0u) {                                                                     \
@@ -281,6 +281,18 @@ void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extr
     s.jitter_p999_us = engine_hist_percentile(&e->hist_jitter, 0.999);
     s.jitter_max_us = e->hist_jitter.max_us;
     RECORD(e, e->cfg.ch_stats, t_s, REC_MAX_FIXED_SIZE, rec_encode_link_stats, &s);
+}
+
+/** Link tap: the octets of a serial link into the ring (engine_config_t.capture_serial). */
+static void serial_tap(void *ctx, int direction, const uint8_t *data, size_t n, int64_t t_ns)
+{
+    engine_t *e = (engine_t *)ctx;
+    uint8_t *p = ring_begin(e, n + 1u);
+    if (p != NULL) {
+        p[0] = (uint8_t)direction;
+        memcpy(p + 1, data, n);
+        rec_ring_commit(&e->ring, e->cfg.ch_serial_raw, t_ns, n + 1u);
+    }
 }
 
 /* ---- set-up -------------------------------------------------------------------------------- */
@@ -358,6 +370,11 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
         e->link.fd = -1;
     }
     e->link.fd_brs = cfg->can_brs;
+    if (cfg->capture_serial && e->have_ring && cfg->link_fd >= 0 &&
+        cfg->link_kind == ENG_LINK_SERIAL) {
+        e->link.tap = serial_tap;
+        e->link.tap_ctx = e;
+    }
     e->duties[0] = e->duties[1] = e->duties[2] = 0.5;
     e->cmd_seq = cfg->cmd_seq_start;
     e->end = ENGINE_END_DONE;

@@ -58,6 +58,8 @@
 #include "rec_schema.h"
 
 #define ENGINE_MAX_REFS 8
+/** A channel index that records nothing (e.g. /plant/state in a replay without a plant). */
+#define ENGINE_NO_CHANNEL 0xFFFFu
 #define ENGINE_MAX_EVENTS 256
 #define ENGINE_EVENT_TEXT 96
 #define ENGINE_STATE_NAMES 16
@@ -196,6 +198,10 @@ typedef struct {
     long replay_n_frames;
     double pace_s;              /* replay: one row every pace_s of wall time (0: at once) */
     uint16_t ch_replay;         /* /replay/controller or /replay/plant */
+    /* serial byte capture (docs/replay.md): every octet of a serial link as a ring record on
+     * ch_serial_raw: payload = direction (0 written, 1 read) then the octets; time = eng_now_ns */
+    int capture_serial;
+    uint16_t ch_serial_raw;
 } engine_config_t;
 
 typedef struct {

@@ -128,6 +128,9 @@ int eng_link_flush(eng_link_t *l, int64_t deadline_ns)
         while (off < l->txlen) {
             ssize_t n = write(l->fd, l->txbuf + off, l->txlen - off);
             if (n > 0) {
+                if (l->tap != NULL) {
+                    l->tap(l->tap_ctx, 0, l->txbuf + off, (size_t)n, eng_now_ns());
+                }
                 off += (size_t)n;
                 continue;
             }
@@ -225,6 +228,9 @@ static int read_available(eng_link_t *l)
                 return -1;
             }
             now = eng_now_ns();
+            if (l->tap != NULL) {
+                l->tap(l->tap_ctx, 1, buf, (size_t)n, now);
+            }
             l->c.bytes_rx += (uint64_t)n;
             for (i = 0; i < n; ++i) {
                 hil_frame_t fr;

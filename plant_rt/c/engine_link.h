@@ -56,6 +56,10 @@ typedef struct {
     int bus_off;                /* CAN: the controller reported bus-off */
     int closed;                 /* the peer closed the link (EOF, EIO, hang-up) */
     char error[160];            /* why the link failed ("" while it works) */
+    /* serial capture (NULL: none): every octet written (direction 0) or read (direction 1),
+     * as it crossed the descriptor, with the time of the write/read (eng_now_ns) */
+    void (*tap)(void *ctx, int direction, const uint8_t *data, size_t n, int64_t t_ns);
+    void *tap_ctx;
 } eng_link_t;
 
 /** Wall clock of the engine: CLOCK_MONOTONIC in ns. */

@@ -1,0 +1,295 @@
+"""bench replay (docs/replay.md): every input kind, every mode, damaged captures.
+
+The example captures (examples/captures/, tools/make_example_captures.py) are one bench run of
+examples/captures/replay_example.toml recorded as MCAP, serial byte capture, candump log and a
+5 kHz DAQ CSV; replaying them must give back the recording's own numbers.
+"""
+from __future__ import annotations
+
+import gzip
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench.recording import load_recording
+from bench.replay import CaptureError, ReplayOptions, read_capture, run_replay
+from bench.replay.serial_capture import MAGIC, RECORD, read_records
+from plant_rt.profile import load_profile
+from protocol.messages import Param
+
+EX = Path(__file__).resolve().parents[1] / "examples" / "captures"
+REF = {"SMO_SIGN": {"k_v": 25.0, "wc_rad_s": 300.0}}   # the example scenario's [reference]
+
+
+def _opts(tmp_path, name, **kw):
+    kw.setdefault("estimators", list(REF))
+    kw.setdefault("est_config", REF)
+    kw.setdefault("profile", "gong2020")
+    return ReplayOptions(out=tmp_path / f"{name}.mcap", **kw)
+
+
+def _ref(path, name="SMO_SIGN"):
+    return load_recording(path, topics=[f"/reference/{name}"]).topics[f"/reference/{name}"]
+
+
+def _same(a, b, fields=("t_s", "seq", "theta_hat_rad", "omega_hat_rad_s", "e_alpha_v",
+                        "e_beta_v")):
+    return all(np.array_equal(a[f], b[f], equal_nan=True) for f in fields)
+
+
+# -- offline -------------------------------------------------------------------------------------
+
+def test_mcap_offline_is_bit_identical(tmp_path):
+    """A bench recording replayed offline gives its own reference-estimator rows, bit for bit
+    (same build), and the new file passes bench check like a live run."""
+    cap = read_capture(EX / "example.mcap")
+    res = run_replay(cap, ReplayOptions(out=tmp_path / "o.mcap"))   # the scenario's estimators
+    assert res.ok and res.cycles == cap.n == 750
+    a, b = _ref(EX / "example.mcap"), _ref(res.out)
+    assert len(a["t_s"]) == len(b["t_s"]) > 700
+    assert _same(a, b, a.keys())
+    from bench.check import check_recording
+
+    rep = check_recording(res.out)
+    assert rep.summary["ref_SMO_SIGN_pee_rms_rad"] == pytest.approx(
+        check_recording(EX / "example.mcap").summary["ref_SMO_SIGN_pee_rms_rad"], rel=0, abs=0)
+
+
+@pytest.mark.parametrize("name", ["example.serial.bin", "example.log.gz"])
+def test_frame_captures_offline_equal_the_recording(tmp_path, name):
+    """The serial byte capture and the candump log of the same run (python-can's Logger wrote
+    it) replay offline to the same estimates as the recording, and carry its encoder angle."""
+    cap = read_capture(EX / name)
+    assert cap.ts_s == pytest.approx(600e-6) and cap.n == 750 and cap.has_theta
+    res = run_replay(cap, _opts(tmp_path, "o", window_s=(0.25, 0.45)))
+    assert res.ok
+    assert _same(_ref(EX / "example.mcap"), _ref(res.out))
+    m = res.metrics["SMO_SIGN"]       # against the 16-bit encoder angle, not the plant's truth
+    assert m["pee_rms_rad"] == pytest.approx(0.6027, abs=1e-3)
+
+
+def test_candump_written_by_python_can_logger_replays(tmp_path):
+    """A plain candump .log (python-can's can.Logger) of the frames replays; unknown ids, wrong
+    lengths, remote frames and 29-bit ids are counted, never decoded."""
+    import can
+
+    src = list(can.LogReader(str(EX / "example.log.gz")))
+    out = tmp_path / "bus.log"
+    with can.Logger(str(out)) as lg:
+        for i, m in enumerate(src):
+            lg.on_message_received(m)
+            if i == 100:
+                lg.on_message_received(can.Message(timestamp=m.timestamp, arbitration_id=0x555,
+                                                   data=b"\x01\x02", is_extended_id=False))
+                lg.on_message_received(can.Message(timestamp=m.timestamp, arbitration_id=0x100,
+                                                   data=b"\x01\x02", is_extended_id=False))
+                lg.on_message_received(can.Message(timestamp=m.timestamp,
+                                                   arbitration_id=0x18FF0000, data=b"\x00" * 8))
+    cap = read_capture(out)
+    an = cap.anomalies.as_dict()
+    assert an["unknown_ids"] == 1 and cap.anomalies.unknown_id_counts[0x555] == 1
+    assert an["wrong_length"] == 1 and an["not_protocol"] == 1
+    res = run_replay(cap, _opts(tmp_path, "o"))
+    assert res.ok and res.cycles == 750
+    assert _same(_ref(EX / "example.mcap"), _ref(res.out))
+
+
+def test_csv_example_matches_its_recording(tmp_path):
+    """The 5 kHz DAQ export, resampled onto the 600 us grid, gives the recording's metrics within
+    the stated tolerance (docs/replay.md: PEE RMS 2 %, mean speed 1 %)."""
+    prof = load_profile("gong2020")
+    cap = read_capture(EX / "example_daq.csv", mapping=EX / "example_daq.toml", profile=prof)
+    assert cap.resampling["daq_rate_hz"] == pytest.approx(5000.0)
+    rec = read_capture(EX / "example.mcap")
+    i = np.searchsorted(rec.rows["t_s"], cap.rows["t_s"])
+    assert np.array_equal(rec.rows["t_s"][i], cap.rows["t_s"])
+    assert np.array_equal(rec.rows["duty_raw"][i], cap.rows["duty_raw"])
+    err = cap.rows["i_abc_a"] - rec.rows["i_abc_a"][i]
+    assert np.sqrt(np.mean(err ** 2)) < 0.05
+    w = (0.25, 0.45)
+    a = run_replay(cap, _opts(tmp_path, "csv", window_s=w)).metrics["SMO_SIGN"]
+    b = run_replay(rec, _opts(tmp_path, "rec", window_s=w)).metrics["SMO_SIGN"]
+    assert a["pee_rms_rad"] == pytest.approx(b["pee_rms_rad"], rel=0.02)
+    assert a["speed_hat_mean_rpm"] == pytest.approx(b["speed_hat_mean_rpm"], rel=0.01)
+
+
+def test_mapping_naming_a_missing_column(tmp_path):
+    m = (EX / "example_daq.toml").read_text().replace('"Ib [mA]"', '"I_b (mA)"')
+    (tmp_path / "m.toml").write_text(m)
+    with pytest.raises(CaptureError, match=r"signals\.i_b\.column: column 'I_b \(mA\)' is not in"):
+        read_capture(EX / "example_daq.csv", mapping=tmp_path / "m.toml")
+
+
+# -- into a controller ----------------------------------------------------------------------------
+
+def test_controller_reproduces_the_recorded_duties(tmp_path):
+    cap = read_capture(EX / "example.mcap")
+    res = run_replay(cap, ReplayOptions(mode="controller", out=tmp_path / "c.mcap"))
+    assert res.ok, res.error
+    c = res.compare
+    assert c["cycles"] == 750 and "first_divergence" not in c
+    assert all(f["differ"] == 0 for f in c["fields"].values())
+
+
+def test_controller_with_a_changed_gain_diverges(tmp_path):
+    """The same stub told another observer gain (CONFIG SMO_K_V, as a rebuilt firmware with
+    another constant would have it) answers differently: the first divergence is reported."""
+    cap = read_capture(EX / "example.log.gz")
+    res = run_replay(cap, _opts(tmp_path, "c", mode="controller", estimators=None, est_config={},
+                                set_params={Param.SMO_K_V: 30.0}))
+    assert res.ok, res.error
+    fd = res.compare["first_divergence"]
+    assert 0 < fd["row"] < 750 and fd["recorded"] != fd["now"]
+    assert res.compare["fields"]["duty_a"]["differ"] > 0
+
+
+# -- into the plant -------------------------------------------------------------------------------
+
+def test_plant_reproduces_the_recorded_currents(tmp_path):
+    res = run_replay(read_capture(EX / "example.mcap"),
+                     ReplayOptions(mode="plant", out=tmp_path / "p.mcap"))
+    assert res.ok
+    assert all(p["rms_error_a"] == 0.0 for p in res.compare["phases"].values())
+
+
+def test_plant_from_a_can_log_and_another_motor(tmp_path):
+    """From the CAN log (initial angle from its encoder) the plant follows closely; a plant with
+    another resistance does not (the comparison can fail)."""
+    cap = read_capture(EX / "example.log.gz")
+    good = run_replay(cap, _opts(tmp_path, "p1", mode="plant", estimators=None, est_config={}))
+    assert max(p["rms_error_a"] for p in good.compare["phases"].values()) < 0.01
+    prof = tmp_path / "other.toml"
+    prof.write_text((Path(load_profile("gong2020").path)).read_text()
+                    .replace("rs_ohm = 0.6383", "rs_ohm = 1.2"))
+    bad = run_replay(cap, _opts(tmp_path, "p2", mode="plant", estimators=None, est_config={},
+                                profile=str(prof)))
+    assert max(p["rms_error_a"] for p in bad.compare["phases"].values()) > 0.05
+
+
+# -- timing ---------------------------------------------------------------------------------------
+
+def test_paced_replay_reports_the_pacing_error(tmp_path):
+    cap = read_capture(EX / "example.mcap")
+    res = run_replay(cap, _opts(tmp_path, "r", rate=1.0))
+    assert res.ok
+    assert res.pacing["pace_s"] == pytest.approx(600e-6)
+    assert math.isfinite(res.pacing["start_err_p99_us"]) and res.wall_s >= 0.44
+    st = load_recording(res.out, topics=["/timing"]).topics["/timing"]
+    assert np.isfinite(st["start_err_us"]).all()
+
+
+# -- damaged captures -----------------------------------------------------------------------------
+
+def test_truncated_serial_capture(tmp_path):
+    data = (EX / "example.serial.bin").read_bytes()
+    cut = tmp_path / "cut.serial.bin"
+    cut.write_bytes(data[: len(data) // 2 + 5])
+    cap = read_capture(cut)
+    assert any("truncated record" in p and str(cut) in p and "byte" in p for p in cap.problems)
+    assert 300 < cap.n < 450
+    res = run_replay(cap, _opts(tmp_path, "o"))
+    a, b = _ref(EX / "example.mcap"), _ref(res.out)
+    n = len(b["t_s"])
+    assert all(np.array_equal(a[f][:n], b[f], equal_nan=True) for f in ("theta_hat_rad", "t_s"))
+
+
+def test_corrupt_serial_capture(tmp_path):
+    """Octets flipped inside one record: the frames there fail their CRC (counted with the byte
+    offset), the cycles around them replay; a corrupt record header stops the reading there."""
+    data = bytearray((EX / "example.serial.bin").read_bytes())
+    recs = list(read_records(EX / "example.serial.bin", []))
+    victim = recs[len(recs) // 3]
+    for j in range(RECORD.size + 3, RECORD.size + 9):
+        data[victim.offset + j] ^= 0x5A
+    bad = tmp_path / "bad.serial.bin"
+    bad.write_bytes(bytes(data))
+    cap = read_capture(bad)
+    an = cap.anomalies.as_dict()
+    assert an["damaged"] >= 1 and (an["drops"] + an["gaps"]) >= 1
+    assert any(f"byte {victim.offset}" in t for _k, _t, t in cap.anomalies.details)
+    assert cap.n >= 740
+    data[recs[500].offset + 8] = 7      # direction 7: not a record header
+    bad.write_bytes(bytes(data))
+    cap = read_capture(bad)
+    assert any(f"byte {recs[500].offset}: corrupt record header" in p for p in cap.problems)
+    assert run_replay(cap, _opts(tmp_path, "o2")).ok
+
+
+def test_truncated_and_corrupt_candump(tmp_path):
+    text = gzip.decompress((EX / "example.log.gz").read_bytes()).decode().splitlines()
+    bad = text[:1500] + ["(1795503179.0) hil0 10#ZZZZ R"] + text[1500:2500]
+    bad[-1] = bad[-1][:25]       # the last line cut in the middle
+    p = tmp_path / "bad.log"
+    p.write_text("\n".join(bad) + "\n")
+    cap = read_capture(p)
+    assert any(str(p) in x and "unreadable" in x and "resumes" in x for x in cap.problems)
+    assert cap.anomalies.as_dict()["damaged"] >= 1
+    assert cap.n > 500
+    assert run_replay(cap, _opts(tmp_path, "o")).ok
+
+
+def test_truncated_mcap_replays_what_is_intact(tmp_path):
+    data = (EX / "example.mcap").read_bytes()
+    p = tmp_path / "cut.mcap"
+    p.write_bytes(data[: int(len(data) * 0.6)])
+    cap = read_capture(p)
+    assert cap.problems and str(p) in cap.problems[0] and "byte" in cap.problems[0]
+    assert 0 < cap.n < 750
+    res = run_replay(cap, ReplayOptions(out=tmp_path / "o.mcap"))
+    a, b = _ref(EX / "example.mcap"), _ref(res.out)
+    n = len(b["t_s"])
+    assert n > 0 and all(np.array_equal(a[f][:n], b[f], equal_nan=True) for f in a)
+
+
+def test_not_a_capture(tmp_path):
+    p = tmp_path / "x.log"
+    p.write_text("(1.0) can0 555#0102\n(1.1) can0 7FF#\n")
+    with pytest.raises(CaptureError, match="no control cycle") as e:
+        read_capture(p)
+    assert "unknown_ids 2" in str(e.value)
+
+
+def test_gaps_duplicates_out_of_order_counted(tmp_path):
+    """A SENSE group dropped, one repeated and one moved back: each counted per kind."""
+    import can
+
+    msgs = list(can.LogReader(str(EX / "example.log.gz")))
+    sense = [i for i, m in enumerate(msgs) if m.arbitration_id == 0x100]
+    drop = set(range(sense[200] - 1, sense[200] + 3))        # AUX, SENSE, TELEM, DUTY of a cycle
+    out = []
+    for i, m in enumerate(msgs):
+        if i in drop:
+            continue
+        out.append(m)
+        if i == sense[300]:
+            out.append(m)                                     # SENSE again (a re-send)
+        if i == sense[400]:
+            out.append(msgs[sense[390]])                      # an old SENSE, late
+    p = tmp_path / "g.log"
+    with can.Logger(str(p)) as lg:
+        for m in out:
+            lg.on_message_received(m)
+    cap = read_capture(p)
+    an = cap.anomalies.as_dict()
+    assert an["gaps"] == 1 and an["cycles_missing"] == 1
+    assert an["duplicates"] >= 1 and an["out_of_order"] >= 1
+    assert cap.n == 749
+    res = run_replay(cap, _opts(tmp_path, "o"))
+    ev = load_recording(res.out, topics=["/events"]).topics["/events"]
+    kinds = set(ev["kind"])
+    assert {"capture_gaps", "capture_duplicates", "capture_out_of_order"} <= kinds
+
+
+def test_cli_replay(tmp_path, capsys):
+    from bench.cli import main
+
+    rc = main(["replay", str(EX / "example.serial.bin"), "--profile", "gong2020",
+               "--estimators", "SMO_SIGN", "--est-config", "SMO_SIGN.k_v=25",
+               "--est-config", "SMO_SIGN.wc_rad_s=300", "--out", str(tmp_path / "o.mcap")])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "replayed 750/750 cycles (offline)" in out and "SMO_SIGN" in out
+    assert main(["replay", str(EX / "example.serial.bin"), "--out", str(tmp_path / "o.mcap")]) == 2
