@@ -188,6 +188,10 @@ class CanLink(Link):
             msg = can.Message(timestamp=now, arbitration_id=fid, data=payload, is_extended_id=False,
                               is_fd=self.fd, bitrate_switch=self.brs, is_rx=False,
                               channel=self.log_channel)
+            if self.logger is not None:
+                # logged before it is sent: its answer (read by another thread of the engine's
+                # bridge) can then never be logged before it; a failed send ends the run
+                self._log(msg)
             try:
                 self.bus.send(msg, timeout=SEND_TIMEOUT_S)
             except (can.CanError, OSError) as exc:
@@ -196,8 +200,6 @@ class CanLink(Link):
                                     f"({type(exc).__name__}: {exc}); the adapter or the bus is "
                                     f"gone") from None
             self.counters.bytes_tx += len(payload)
-            if self.logger is not None:
-                self._log(msg)
 
     # -- receiving ----------------------------------------------------------------------------------
     def _recv(self, timeout_s: float) -> can.Message | None:
@@ -253,9 +255,9 @@ class CanLink(Link):
 
     def _log(self, msg: can.Message) -> None:
         """One line of the candump log. The engine's bridge sends and receives from two threads:
-        the lines are written in the order the bench handled the frames, and a stamp is never
-        earlier than the line before (an rx stamp taken by the interface just before a tx was
-        logged is moved up to it: by at most the time between the two threads)."""
+        the lines are written in the order the bench handled the frames (a sent frame just before
+        it goes out), and a stamp is never earlier than the line before (an rx stamp the
+        interface took just before a tx line was written is moved up to it)."""
         with self._log_lock:
             if msg.timestamp < self._last_log_s:
                 msg.timestamp = self._last_log_s
