@@ -50,17 +50,21 @@ float est_emf_angle_step(est_pll_t *pll, est_emf_dir_t *d, float theta_emf_rad,
     d->dir = flipped ? -1 : 1;             /* the EMF's polarity relative to the PLL angle */
     f = w + pll->kp * err;                 /* the PLL's instantaneous frequency: no ramp lag */
     if (fabsf(w) >= dir_speed_rad_s && fabsf(f) >= dir_speed_rad_s && (w < 0.0f) == (f < 0.0f)
-        && fabsf(w) > 0.0f && (w < 0.0f) != flipped) {
-        /* the speed says the other direction: the PLL angle is pi off (a start-up locked pi off);
-         * re-align it once that has lasted EST_EMF_RESYNC_S, never on a single noisy sample */
-        d->disagree_n += 1;
-        if ((float)d->disagree_n * ts_s >= EST_EMF_RESYNC_S) {
-            pll->theta_rad = fw_wrap_2pi(pll->theta_rad + FW_PI_F);
-            d->dir = -d->dir;
-            d->disagree_n = 0;
+        && fabsf(w) > 0.0f) {
+        /* the speed's sign is clear: evidence for or against the PLL angle's polarity. When the
+         * evidence against has outweighed the evidence for by EST_EMF_RESYNC_S worth of steps,
+         * the PLL angle is pi off (locked the wrong way at a start-up or a slip at low speed):
+         * re-align it. Never on a single noisy sample. */
+        if ((w < 0.0f) != flipped) {
+            d->disagree_n += 1;
+            if ((float)d->disagree_n * ts_s >= EST_EMF_RESYNC_S) {
+                pll->theta_rad = fw_wrap_2pi(pll->theta_rad + FW_PI_F);
+                d->dir = -d->dir;
+                d->disagree_n = 0;
+            }
+        } else if (d->disagree_n > 0) {
+            d->disagree_n -= 1;
         }
-    } else {
-        d->disagree_n = 0;
     }
     pll->omega_rad_s += pll->ki * ts_s * err;
     pll->theta_rad = fw_wrap_2pi(pll->theta_rad + (pll->omega_rad_s + pll->kp * err) * ts_s);

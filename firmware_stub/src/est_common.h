@@ -37,7 +37,7 @@ void est_pll_gains(float wn_rad_s, float *kp, float *ki);
 /** Direction-of-rotation state of est_emf_angle_step. */
 typedef struct {
     int dir;        /**< +1 / -1: the EMF's polarity relative to the PLL angle (= direction) */
-    int disagree_n; /**< steps the speed has contradicted the PLL angle's polarity */
+    int disagree_n; /**< evidence against the PLL angle's polarity, in steps */
 } est_emf_dir_t;
 
 void est_emf_dir_reset(est_emf_dir_t *d);
@@ -51,9 +51,11 @@ void est_emf_dir_reset(est_emf_dir_t *d);
  * rotor speed and its angle keeps the rotor's polarity by continuity, through a reversal too.
  * Per step:
  *  - dir = the EMF angle's polarity relative to the PLL angle (-1: pi apart);
- *  - if the PLL speed w and its instantaneous frequency w + kp err (lag-free on a speed ramp)
- *    agree in sign, both reach dir_speed_rad_s, and say the other direction than dir, for
- *    EST_EMF_RESYNC_S in a row, the PLL angle is pi off (a start-up locked pi off): it is
+ *  - where the PLL speed w and its instantaneous frequency w + kp err (lag-free on a speed
+ *    ramp) agree in sign and both reach dir_speed_rad_s, the speed's sign is evidence for
+ *    (sign = dir) or against the PLL angle's polarity: a counter goes up on evidence against,
+ *    down on evidence for, and holds otherwise; when it reaches EST_EMF_RESYNC_S worth of steps
+ *    the PLL angle is pi off (a start-up locked the wrong way, a slip at low speed) and is
  *    re-aligned by pi;
  *  - output: the EMF angle + pi for dir < 0 where |w| >= dir_speed_rad_s, the PLL angle below
  *    (where the EMF is too small to trust its angle). dir_speed_rad_s <= 0: no hold band.

@@ -79,9 +79,10 @@ class EmfAngle:
     Specification (docs/estimators_smo.md, "Negative speed and reversal"): e = w psi_f (-sin, cos),
     so atan2(-e_a, e_b) is theta + pi when w < 0. The PLL tracks that angle modulo pi (errors
     folded into [-pi/2, pi/2]), so its speed is the signed rotor speed and its angle keeps the
-    polarity by continuity. dir is the EMF angle's polarity relative to the PLL angle. When the
-    PLL speed w and w + kp err agree in sign, both reach dir_speed and contradict dir for RESYNC_S
-    in a row, the PLL angle is moved by pi. Output: EMF angle (+ pi for dir < 0) where
+    polarity by continuity. dir is the EMF angle's polarity relative to the PLL angle. Where the
+    PLL speed w and w + kp err agree in sign and both reach dir_speed, a counter rises when the
+    speed's sign contradicts dir and falls when it confirms it; at RESYNC_S worth of steps the
+    PLL angle is moved by pi. Output: EMF angle (+ pi for dir < 0) where
     |w| >= dir_speed, the PLL angle below (dir_speed <= 0: never).
     """
 
@@ -100,15 +101,15 @@ class EmfAngle:
             err = wrap_pi(err + math.pi)
         self.dir = -1 if flipped else 1
         f = w + self.pll.kp * err
-        if (abs(w) >= self.dir_speed and abs(f) >= self.dir_speed and (w < 0) == (f < 0)
-                and w != 0.0 and (w < 0) != flipped):
-            self.disagree_n += 1
-            if self.disagree_n * self.ts >= RESYNC_S - 1e-12:
-                self.pll.theta = wrap_2pi(self.pll.theta + math.pi)
-                self.dir = -self.dir
-                self.disagree_n = 0
-        else:
-            self.disagree_n = 0
+        if abs(w) >= self.dir_speed and abs(f) >= self.dir_speed and (w < 0) == (f < 0) and w != 0:
+            if (w < 0) != flipped:          # evidence against the PLL angle's polarity
+                self.disagree_n += 1
+                if self.disagree_n * self.ts >= RESYNC_S - 1e-12:
+                    self.pll.theta = wrap_2pi(self.pll.theta + math.pi)
+                    self.dir = -self.dir
+                    self.disagree_n = 0
+            elif self.disagree_n > 0:       # evidence for it
+                self.disagree_n -= 1
         self.pll.step_error(err)
         if abs(w) >= self.dir_speed:
             return wrap_2pi(theta_emf + (math.pi if self.dir < 0 else 0.0))
