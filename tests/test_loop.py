@@ -247,16 +247,16 @@ def test_stub_runs_clean_under_asan_and_ubsan(tmp_path, monkeypatch):
 
 
 def test_reference_estimator_runs_beside_the_controller_on_the_same_samples(g2_run):
-    """The host's SMO_SIGN (same C, same configuration) sees exactly what the controller saw:
-    its angle sits on the controller's telemetry. They are not bit-identical: the controller
-    feeds its observer the float32 SVPWM voltage, the host the voltage rebuilt from the wire's
-    16-bit duties and 10 mV bus reading, and a sign switch can flip on that difference, so the
-    bound is statistical: RMS < 0.01 rad after the hand-over (measured 0.0014 rad)."""
+    """The host's SMO_TANH (same C, same configuration: the bench sends the controller the
+    library's settings, runner.estimator_defaults) sees exactly what the controller saw: its
+    angle sits on the controller's telemetry. They are not bit-identical: the controller feeds its
+    observer the float32 SVPWM voltage, the host the voltage rebuilt from the wire's 16-bit duties
+    and 10 mV bus reading, so the bound is statistical: RMS < 0.01 rad after the hand-over."""
     from bench.metrics import wrap_pi
 
     rec = load_recording(g2_run.recording)
     telem = rec.topic(ch.CONTROLLER_TELEMETRY)
-    ref = rec.topic(ch.REFERENCE_PREFIX + "SMO_SIGN")
+    ref = rec.topic(ch.REFERENCE_PREFIX + "SMO_TANH")
     idx = np.searchsorted(telem["t_s"], ref["t_s"])
     late = ref["t_s"] > 0.6
     d = wrap_pi(ref["theta_hat_rad"][late] - telem["theta_hat_rad"][idx][late])
