@@ -29,6 +29,8 @@ from .claims import Run
 SPEEDS_RPM = (5, 10, 20, 50, 100, 200, 500, 1000, 2000, 3000)
 SPEEDS_QUICK = (10, 100, 1000, 3000)
 SMOS = ("SMO_SIGN", "SMO_SIGMOID", "SMO_TANH")
+#: reversal runs: each SMO with the library's settings, the sign SMO also with a fixed gain, HFI
+REVERSALS = SMOS + ("SMO_SIGN.k25", "HFI_SDFT")
 MISMATCH = (("nominal", ()), ("Rs -30%", (("RS_OHM", 0.7),)), ("Rs +30%", (("RS_OHM", 1.3),)),
             ("Ld,Lq -20%", (("LD_H", 0.8), ("LQ_H", 0.8))),
             ("Ld,Lq +20%", (("LD_H", 1.2), ("LQ_H", 1.2))),
@@ -103,6 +105,11 @@ def plan(quick: bool = False) -> Plan:
     for est in SMOS:
         pl.runs.append(Run(f"B.rev.{est}", "beyond_reversal", (("controller.estimator", est),),
                            f"{est}: +500 -> -500 rpm"))
+    # the sign SMO with gong_g2_500rpm's fixed gain instead of the library's adaptive one
+    pl.runs.append(Run("B.rev.SMO_SIGN.k25", "beyond_reversal",
+                       (("controller.estimator", "SMO_SIGN"),
+                        ("controller.params.SMO_K_V", 25.0), ("controller.params.SMO_WC_RAD_S", 300.0)),
+                       "SMO_SIGN, k = 25 V, wc = 300 rad/s: +500 -> -500 rpm"))
     pl.runs.append(Run("B.rev.HFI_SDFT", "beyond_hfi_speed",
                        (("plant.inverter_nonlinear", False), ("scenario.duration_s", 1.6),
                         ("metrics.window_s", [1.2, 1.6]),
@@ -197,7 +204,7 @@ def evaluate(pl: Plan, rep) -> dict:
             out["sens"].append(dict(est=est, case=name, pee_max=e[0], pee_mean=e[1], n_err=e[2],
                                     n_mean=e[3], held=math.isfinite(e[3]) and
                                     abs(e[3] - ref) <= 0.1 * ref + 0.5, error=fail))
-    for est in SMOS + ("HFI_SDFT",):
+    for est in REVERSALS:
         rid = f"B.rev.{est}"
         rec = _rec(rep, rid)
         final = -50.0 if est == "HFI_SDFT" else -500.0
@@ -306,13 +313,14 @@ def _plots(out, rep):
     plt.close(fig)
     paths.append(p)
 
-    fig, axes = plt.subplots(2, 4, figsize=(16, 6))
-    for j, est in enumerate(SMOS + ("HFI_SDFT",)):
+    fig, axes = plt.subplots(2, len(REVERSALS), figsize=(4 * len(REVERSALS), 6))
+    for j, est in enumerate(REVERSALS):
         rec = _rec(rep, f"B.rev.{est}")
         if rec is None:
             continue
         st, te = rec.topic(ch.PLANT_STATE), rec.topic(ch.CONTROLLER_TELEMETRY)
         t0 = 1.3 if est != "HFI_SDFT" else 0.6
+        axes[0][j].set_ylabel("speed [rpm]")
         m = np.asarray(st["t_s"]) >= t0
         mt = np.asarray(te["t_s"]) >= t0
         axes[0][j].plot(np.asarray(st["t_s"])[m], np.asarray(st["speed_rpm"])[m], label="n")
@@ -325,8 +333,8 @@ def _plots(out, rep):
         axes[1][j].set_xlabel("t [s]")
         for ax in axes[:, j]:
             ax.grid(alpha=0.3)
-    fig.suptitle("Beyond: speed reversal through zero (SMOs +-500 rpm gong2020 ideal; HFI "
-                 "+-50 rpm hou2021)", fontsize=10)
+    fig.suptitle("Beyond: speed reversal through zero (SMOs +-500 rpm gong2020 ideal, library "
+                 "settings; SMO_SIGN.k25: fixed k = 25 V; HFI +-50 rpm hou2021)", fontsize=10)
     fig.tight_layout()
     p = rep.out_dir / "plots" / "beyond_reversal.png"
     fig.savefig(p, dpi=90)

@@ -268,7 +268,9 @@ def _chattering_a(c: Context, estimator: str, **config: float) -> float:
     profile = load_profile(c.rec.run.get("profile", ""))
     est = REFERENCE_ESTIMATORS[estimator](profile, c.ts_s, **config)
     r = replay(c.rec, est, window_s=c.window_s)
-    return metrics.chattering_index_a(r.i_hat_alpha_a, r.i_hat_beta_a, r.i_alpha_a, r.i_beta_a)
+    w_e = 2.0 * math.pi * c.electrical_hz()
+    return metrics.chattering_index_a(r.i_hat_alpha_a, r.i_hat_beta_a, r.i_alpha_a, r.i_beta_a,
+                                      r.t_s, w_e)
 
 
 def dual_samples(rec: Recording) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -385,8 +387,9 @@ METRICS: dict[str, tuple[str, str, Callable[..., float]]] = {
     "ipd_error_deg": ("deg", "initial-position error: the mean of wrap(theta_hat - theta) over "
                              "the window after the procedure (wrong polarity: about 180)",
                       _ipd_error_deg),
-    "chattering_a": ("A", "RMS of |i_hat - i| (alpha-beta) of an observer replayed on the "
-                          "recording's samples (Yuan Fig. 17: distance from the diagonal)",
+    "chattering_a": ("A", "RMS of i_hat - i (alpha-beta) of an observer replayed on the "
+                          "recording's samples, its DC and fundamental removed (Yuan Fig. 17: "
+                          "the width of the band about the trajectory)",
                      _chattering_a),
     "delay_estimate_us": ("us", "mean of Gong's eq. 20 per-period estimates from the recorded "
                                 "dual samples in the window (guards of est_delay_comp)",
@@ -936,8 +939,9 @@ def _claims() -> tuple[Claim, ...]:
                        study="Y5", params=(("key", f"{name}.{phase}"), ("unit", "cycles")))
                     for name, paper in (("GSDFT", 2.0), ("SDFT", 5.0))
                     for phase in ("start", "step"))
-              + tuple(_q(f"Y5.{name}.window", f"{name} window (exact settling)", "study",
-                         paper, compared("the FIR's length: M/3 and M samples"), study="Y5",
+              + tuple(_q(f"Y5.{name}.window", f"{name} exactly settled (window full)", "study",
+                         paper, compared("the FIR's taps: M/3 and M samples; settled M/3 - 1 and "
+                                         "M - 1 samples after the first new one"), study="Y5",
                          params=(("key", f"{name}.window"), ("unit", "cycles")))
                       for name, paper in (("GSDFT", 2.0), ("SDFT", 5.0))),
               relations=(Relation("Y5.rel", "GSDFT tracks faster than SDFT",

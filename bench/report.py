@@ -239,6 +239,9 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
             measured = _fmt(v, q.unit)
             if "lower bound" in note and math.isfinite(v):
                 measured = ">= " + measured
+            if not math.isfinite(v):
+                measured = "no value: " + (_short_fault(note) if "ended early" in note
+                                           else "not measurable (see note)")
             qrows.append((q, Row(c.id, q.key, q.what, _fmt(q.paper_value, q.unit if not
                                                             isinstance(q.paper_value, str) else ""),
                                  measured, q.unit, q.rule.text(), q.rule.source, verdict,
@@ -255,6 +258,16 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
                              "=": f"|difference| < {rel.tol:g}"}[rel.op], rel.source, verdict,
                             note, rel.diagnostic, is_relation=True))
     return rows
+
+
+def _short_fault(note: str) -> str:
+    """'controller reported fault STARTUP_FAILED at seq 519 ...' -> 'controller fault
+    STARTUP_FAILED at t = 0.0519 s'."""
+    import re
+    m = re.search(r"fault (\w+) at seq (\d+)", note)
+    if m:
+        return f"the controller faulted ({m.group(1)}) at cycle {m.group(2)}"
+    return "the run ended early"
 
 
 def claim_verdict(rows: list[Row]) -> str:

@@ -167,9 +167,10 @@ def plot_y3(rep):
         ax.plot([lo, hi], [lo, hi], "r--", lw=0.8, label="sliding surface i^ = i")
         ax.set_xlabel("estimated i_alpha [A]")
         ax.set_ylabel("measured i_alpha [A]")
-        ax.set_title(f"{label}: chattering index "
-                     f"{metrics.chattering_index_a(r.i_hat_alpha_a, r.i_hat_beta_a, r.i_alpha_a, r.i_beta_a):.3g} A",
-                     fontsize=9)
+        w_e = abs(float(np.mean(_win(rec, ch.PLANT_STATE, 0.6, 1.2)["omega_e_rad_s"])))
+        idx = metrics.chattering_index_a(r.i_hat_alpha_a, r.i_hat_beta_a, r.i_alpha_a,
+                                         r.i_beta_a, r.t_s, w_e)
+        ax.set_title(f"{label}: chattering index {idx:.3g} A", fontsize=9)
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
     fig.suptitle("Y3 (Fig. 17): estimated vs measured current, same samples, 50 rpm full load",

@@ -139,6 +139,14 @@ def test_chattering_index_is_rms_distance_from_the_diagonal():
     sq = 0.1 * np.sign(np.sin(2 * np.pi * 500 * t + 0.1))
     assert metrics.chattering_index_a(i_a + sq, i_b, i_a, i_b) == pytest.approx(0.1, rel=1e-3)
     assert metrics.chattering_index_a(i_a, i_b, i_a, i_b) == 0.0
+    # a smooth error at the electrical frequency (a linear observer's d = e / L) plus an offset
+    # is not chattering: removed when t and omega are given, leaving the square wave
+    smooth_a = 0.9 * np.sin(2 * np.pi * t + 0.3) + 0.05
+    smooth_b = -0.9 * np.cos(2 * np.pi * t + 0.3)
+    got = metrics.chattering_index_a(i_a + smooth_a + sq, i_b + smooth_b, i_a, i_b, t, 2 * np.pi)
+    assert got == pytest.approx(0.1, rel=2e-3)
+    assert metrics.chattering_index_a(i_a + smooth_a, i_b + smooth_b, i_a, i_b) == \
+        pytest.approx(math.sqrt(0.9 ** 2 + 0.05 ** 2), rel=1e-3)
 
 
 def test_initial_position_error_and_polarity_rate():
