@@ -396,8 +396,8 @@ def markdown(rep) -> list[str]:
          "Rows no paper has; no verdicts (see bench/beyond.py for the set-up of each)."
          + (" Quick grid (--quick)." if out["plan"].quick else ""), ""]
     for title, head, rows in _tables(out):
-        L += [f"### {title}", "", "| " + " | ".join(head) + " |",
-              "|" + "---|" * len(head)]
+        head_md = [c.replace("|", "\\|") for c in head]
+        L += [f"### {title}", "", "| " + " | ".join(head_md) + " |", "|" + "---|" * len(head)]
         L += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
         L.append("")
     for p in out["plots"]:

@@ -622,7 +622,8 @@ def measure(q: Quantity, ctx: Context) -> tuple[float, str, str]:
         octx = qctx.with_window(q.at_speed_window_s) if q.at_speed_window_s else qctx
         why_op = operating_point_note(octx, q.at_speed_rpm)
         if why_op:
-            return value, "FAIL" if q.rule.kind != "compared" else "COMPARED", why_op
+            return (value, "FAIL" if q.rule.kind != "compared" else "COMPARED",
+                    why_op + ("; " + why if why else ""))
     if kind == "FAIL":
         return value, "FAIL" if q.rule.kind != "compared" else "COMPARED", why
     if at_least and q.rule.kind == "at_most":
@@ -642,14 +643,18 @@ def evaluate(claim: Claim, ctx: Context, scenario_name: str | None = None) -> li
     return out
 
 
-def relate(rel: Relation, values: dict[str, float],
-           not_reproducible: frozenset = frozenset()) -> tuple[tuple[float, ...], str, str]:
+def relate(rel: Relation, values: dict[str, float], not_reproducible: frozenset = frozenset(),
+           off_point: frozenset = frozenset()) -> tuple[tuple[float, ...], str, str]:
     """Check a relation on the measured values; a relation over a quantity that is NOT
     REPRODUCIBLE is not reproducible either."""
     vals = tuple(float(k[1:]) if k.startswith("#") else values.get(k, math.nan) for k in rel.keys)
     nr = [k for k in rel.keys if k in not_reproducible]
     if nr:
         return vals, "NOT REPRODUCIBLE", f"{', '.join(nr)} not reproducible on this bench"
+    off = [k for k in rel.keys if k in off_point]
+    if off:
+        return vals, "FAIL", (f"{', '.join(off)}: the drive did not hold the operating point, so "
+                              "the comparison does not hold either")
     if not all(math.isfinite(v) for v in vals):
         missing = [k for k, v in zip(rel.keys, vals) if not math.isfinite(v)]
         return vals, "FAIL", f"no measured value for {', '.join(missing)}"

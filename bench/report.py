@@ -115,6 +115,9 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | N
         else:
             todo.append((rid, run, path))
     console = console or Console(stderr=True)
+    import sys
+    sys.stdout.flush()          # a forked worker must not inherit (and repeat) buffered output
+    sys.stderr.flush()
     with Progress(TextColumn("[bold]claims[/bold] {task.description}"), BarColumn(),
                   MofNCompleteColumn(), TimeElapsedColumn(), console=console,
                   disable=not console.is_terminal) as progress:
@@ -249,8 +252,9 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
         order = {q.key: i for i, q in enumerate(c.quantities)}
         rows += [r for _, r in sorted(qrows, key=lambda x: order[x[0].key])]
         nr = frozenset(r.key for _, r in qrows if r.verdict == "NOT REPRODUCIBLE")
+        off = frozenset(r.key for _, r in qrows if "did not hold" in r.note)
         for rel in c.relations:
-            vals, verdict, note = relate(rel, values, nr)
+            vals, verdict, note = relate(rel, values, nr, off)
             sym = {"<": " < ", ">": " > ", "=": " = "}[rel.op]
             rows.append(Row(c.id, rel.key, rel.what, rel.paper,
                             sym.join(_fmt(v) for v in vals), "",
