@@ -30,7 +30,10 @@ class CheckReport:
 
     @property
     def all_pass(self) -> bool:
-        return all(r.verdict == "PASS" for r in self.results)
+        """No quantity failed: PASS or COMPARED (value compared, no pass/fail) everywhere,
+        diagnostics (not the paper's setup) aside."""
+        return all(r.verdict in ("PASS", "COMPARED") for r in self.results
+                   if not r.quantity.diagnostic)
 
 
 def scenario_of(rec: Recording) -> Scenario:
@@ -145,11 +148,13 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
 
     for r in report.results:
         unit = METRICS[r.quantity.metric][0]
-        colour = {"PASS": "green", "DIFFERS": "yellow"}.get(r.verdict, "red")
+        colour = {"PASS": "green", "COMPARED": "blue", "NOT REPRODUCIBLE": "magenta",
+                  "INVALID": "yellow"}.get(r.verdict, "red")
+        paper = r.quantity.paper_value
         table.add_row(r.claim.id, r.quantity.what or r.quantity.metric,
-                      _fmt(r.quantity.paper_value, unit), _fmt(r.measured, unit),
-                      r.quantity.rule_text(), f"[{colour}]{r.verdict}[/{colour}]"
-                      + (f" ({r.note})" if r.note else ""))
+                      paper if isinstance(paper, str) else _fmt(paper, unit),
+                      _fmt(r.measured, unit), r.quantity.rule_text(),
+                      f"[{colour}]{r.verdict}[/{colour}]" + (f" ({r.note})" if r.note else ""))
     console.print(table)
     for cid in dict.fromkeys(r.claim.id for r in report.results):
         notes = CLAIMS[cid].notes

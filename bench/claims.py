@@ -616,6 +616,8 @@ def measure(q: Quantity, ctx: Context) -> tuple[float, str, str]:
         return value, kind, why
     if at_least:
         why = (why + "; " if why else "") + at_least
+    if kind == "FAIL" and not math.isfinite(value):
+        return value, "FAIL", why            # the drive faulted before the window
     if q.not_reproducible:
         return value, "NOT REPRODUCIBLE", q.not_reproducible
     if q.at_speed_rpm is not None:
@@ -854,7 +856,7 @@ def _claims() -> tuple[Claim, ...]:
                            compared("Gong Fig. 15 (the difference is the claim)"),
                            f"G67.{rpm:g}.{state}", window_s=w, at_speed_rpm=rpm))
             g6_q.append(_q(f"G6.{rpm:g}.{state}.iq", f"{rpm:g} rpm mean i_q, compensation {state}",
-                           "iq_mean_a", {500.0: "~0.87 A", 2000.0: "1.15 / 1.08 A",
+                           "iq_mean_a", {500.0: "0.87 A (from '0.04 A (4.6%)')", 2000.0: "1.15 A",
                                          3000.0: "(not given)"}[rpm] if state == "off" else
                            {500.0: "-0.04 A", 2000.0: "1.08 A", 3000.0: "(not given)"}[rpm],
                            compared(gong_iq_src), f"G67.{rpm:g}.{state}", window_s=w,
