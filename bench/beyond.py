@@ -271,18 +271,20 @@ def _plots(out, rep):
 
     fig, ax = plt.subplots(figsize=(11, 4.5))
     for (method, ideal), style in zip(((m, i) for m in ("pure", "bias") for i in (False, True)),
-                                      ("o-", "o:", "s-", "s:")):
+                                      ("o", "x", "s", "+")):
         rows = [r for r in out["ipd"] if r["method"] == method and r["ideal"] == ideal]
         ok = [r for r in rows if math.isfinite(r["err_deg"])]
         rate = sum(1 for r in ok if abs(r["err_deg"]) < 90) / max(len(rows), 1)
-        ax.plot([r["angle"] for r in rows], [r["err_deg"] for r in rows], style, ms=3,
-                label=f"{'HF-only (Hou)' if method == 'pure' else 'd-bias'}"
-                      f"{', ideal inverter' if ideal else ', dead time'}: polarity right "
-                      f"{100 * rate:.0f} %")
+        undecided = sum(1 for r in rows if not math.isfinite(r["err_deg"]))
+        ax.plot([r["angle"] for r in rows], [r["err_deg"] for r in rows], style, ms=5,
+                mfc="none", label=f"{'HF-only (Hou)' if method == 'pure' else 'd-bias'}"
+                f"{', ideal inverter' if ideal else ', dead time'}: polarity right "
+                f"{100 * rate:.0f} %, undecided {undecided}")
     ax.axhspan(-1, 1, color="g", alpha=0.15)
     ax.set_xlabel("actual initial position [deg el.]")
-    ax.set_ylabel("error [deg] (+-180: wrong polarity; gap: undecided, procedure failed)")
-    ax.set_title("Beyond: initial position over 0..360 deg, both polarity tests", fontsize=9)
+    ax.set_ylabel("estimate - actual [deg]")
+    ax.set_title("Beyond: initial position over 0..360 deg, both polarity tests (+-180: wrong "
+                 "polarity; no marker: undecided, the procedure faulted)", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     fig.tight_layout()

@@ -323,10 +323,12 @@ def plot_h3(rep):
             rid = f"H3.{method}.{a:g}deg" + (".nodt" if diag else "")
             rec = _load(rep, rid)
             v = np.nan
-            if rec is not None:
+            out = rep.outcomes.get(rid)
+            if rec is not None and out is not None and not out.error:   # a fault: no point
                 te = rec.topic(ch.CONTROLLER_TELEMETRY)
-                if len(te["t_s"]):
-                    v = math.degrees(float(np.nanmean(metrics.wrap_pi(te["pee_rad"][-300:]))))
+                e = metrics.wrap_pi(np.asarray(te["pee_rad"])[np.asarray(te["t_s"]) >= 0.17])
+                if e.size:
+                    v = math.degrees(math.atan2(np.mean(np.sin(e)), np.mean(np.cos(e))))
             errs.append(v)
         ax.plot(H3_ANGLES_DEG, errs, style, label=f"{'HF-only' if method == 'pure' else 'd-bias'}"
                 f" test{', dead time off' if diag else ''}")
