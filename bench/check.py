@@ -38,9 +38,11 @@ class CheckReport:
 
     @property
     def all_pass(self) -> bool:
-        """Every claim PASSes and the run is complete, undamaged, over a clean (or allowed) link."""
+        """No quantity failed (PASS or COMPARED everywhere, diagnostics -- not the paper's setup --
+        aside) and the run is complete, undamaged, over a clean (or allowed) link."""
         intact = self.integrity is None or self.integrity.ok
-        return intact and all(r.verdict == "PASS" for r in self.results)
+        return intact and all(r.verdict in ("PASS", "COMPARED") for r in self.results
+                              if not r.quantity.diagnostic)
 
 
 def scenario_of(rec: Recording) -> Scenario:
@@ -219,11 +221,13 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
 
     for r in report.results:
         unit = METRICS[r.quantity.metric][0]
-        colour = {"PASS": "green", "DIFFERS": "yellow", "INVALID": "magenta"}.get(r.verdict, "red")
+        colour = {"PASS": "green", "COMPARED": "blue", "NOT REPRODUCIBLE": "magenta",
+                  "INVALID": "yellow"}.get(r.verdict, "red")
+        paper = r.quantity.paper_value
         table.add_row(r.claim.id, r.quantity.what or r.quantity.metric,
-                      _fmt(r.quantity.paper_value, unit), _fmt(r.measured, unit),
-                      r.quantity.rule_text(), f"[{colour}]{r.verdict}[/{colour}]"
-                      + (f" ({r.note})" if r.note else ""))
+                      paper if isinstance(paper, str) else _fmt(paper, unit),
+                      _fmt(r.measured, unit), r.quantity.rule_text(),
+                      f"[{colour}]{r.verdict}[/{colour}]" + (f" ({r.note})" if r.note else ""))
     console.print(table)
     for cid in dict.fromkeys(r.claim.id for r in report.results):
         notes = CLAIMS[cid].notes

@@ -112,12 +112,36 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
 def _cmd_claims(args: argparse.Namespace) -> int:
     from .claims import CLAIMS, METRICS
 
+    if args.run:
+        from .report import run_report
+
+        only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
+        try:
+            rep = run_report(args.out, only=only, jobs=args.jobs, beyond=not args.no_beyond,
+                             reuse=args.reuse, beyond_quick=args.quick)
+        except ValueError as exc:
+            Console(stderr=True).print(f"[red]error:[/red] {exc}")
+            return 2
+        from .report import claim_verdict
+        out = Console()
+        for c in rep.claims:
+            rows = [r for r in rep.rows if r.claim == c.id]
+            out.print(f"{c.id:3s} {claim_verdict(rows):17s} {c.text[:90]}")
+        out.print(f"report: {rep.out_dir / 'report.md'}, {rep.out_dir / 'report.html'} "
+                  f"({rep.wall_s:.0f} s)")
+        return 0
     for c in CLAIMS.values():
         print(f"{c.id}  {c.paper}: {c.text}")
         for q in c.quantities:
-            unit, definition, _ = METRICS[q.metric]
-            print(f"      {q.metric}: paper {q.rule_text()} {unit} ({definition})")
-        print(f"      scenarios: {', '.join(c.scenarios)}")
+            unit = q.unit
+            definition = METRICS[q.metric][1] if q.metric in METRICS else q.metric
+            tag = " [diagnostic]" if q.diagnostic else ""
+            print(f"      {q.key}{tag}: paper {q.paper_value} {unit}; rule {q.rule_text()} "
+                  f"({q.rule.source}); {definition}")
+        for r in c.relations:
+            print(f"      relation {r.key}: {r.what} ({r.paper}; {r.source})")
+        runs = ", ".join(r.name for r in c.runs) or "-"
+        print(f"      runs: {runs}" + (f"; studies: {', '.join(c.studies)}" if c.studies else ""))
     return 0
 
 
@@ -166,7 +190,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("scenarios", help="list the bundled scenarios")
     s.set_defaults(func=_cmd_scenarios)
-    k = sub.add_parser("claims", help="list the paper claims and their metrics")
+    k = sub.add_parser("claims", help="list the paper claims; --run: reproduce them all and "
+                                      "write a report with plots")
+    k.add_argument("--run", action="store_true",
+                   help="run every claim's scenarios (in parallel) and write report.md/.html")
+    k.add_argument("--only", default="", help="comma-separated claim ids (default: all 19)")
+    k.add_argument("--out", type=Path, default=Path("reports/claims"),
+                   help="report folder (default reports/claims)")
+    k.add_argument("--jobs", type=int, default=None,
+                   help="runs in parallel (default: the number of cores, at most 4)")
+    k.add_argument("--no-beyond", action="store_true",
+                   help="skip the studies beyond the papers (error vs speed, initial position "
+                        "over 360 deg, parameter sensitivity, speed reversal)")
+    k.add_argument("--quick", action="store_true",
+                   help="the studies beyond the papers on a coarse grid (fewer runs)")
+    k.add_argument("--reuse", action="store_true",
+                   help="reuse recordings already in <out>/recordings (development)")
     k.set_defaults(func=_cmd_claims)
 
     from .replay.cli import add_parser as add_replay_parser

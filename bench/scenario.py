@@ -640,3 +640,23 @@ def speed_ref_at(scn: Scenario, t_s: float) -> float:
         if ev.t_s <= t_s and ev.speed_ref_rad_s is not None:
             ref = ev.speed_ref_rad_s
     return ref
+
+
+def derive_scenario(base: str | Path, name: str, overrides: tuple[tuple[str, Any], ...] | list,
+                    note: str = "") -> Scenario:
+    """A bundled (or any) scenario with dotted-key overrides (``plant.inverter_nonlinear``,
+    ``controller.params.HFI_POL_BIAS_A``, ``metrics.window_s`` ...) and the scenario name
+    ``name``. The derived TOML (what a recording attaches) starts with a comment naming the base
+    and the overrides; errors name the base file and the field as for any scenario."""
+    from . import tomlw
+
+    path = resolve_path(base)
+    base_scn = load_scenario(path)
+    doc = base_scn.raw
+    for key, value in overrides:
+        doc = tomlw.set_dotted(doc, key, value)
+    doc = tomlw.set_dotted(doc, "scenario.name", name)
+    header = [f"# derived from {base_scn.display_path}" + (f": {note}" if note else "")]
+    header += [f"#   {k} = {v!r}" for k, v in overrides]
+    text = "\n".join(header) + "\n" + tomlw.dumps(doc)
+    return parse_scenario(text, path.with_name(f"{name}.toml"))

@@ -32,7 +32,7 @@ def test_one_step_equations_match(traj):
     worst = dict(e=0.0, th=0.0, i=0.0)
     for k in range(len(traj)):
         m.load_state((s.i_hat_a.x, s.i_hat_a.y), (s.z_v.x, s.z_v.y), (s.e_hat_v.x, s.e_hat_v.y),
-                     s.pll.theta_rad, s.pll.omega_rad_s)
+                     s.pll.theta_rad, s.pll.omega_rad_s, (s.dir.dir, s.dir.disagree_n))
         i_ab = (traj.i_alpha_a[k], traj.i_beta_a[k])
         v_ab = (traj.v_alpha_prev_v[k], traj.v_beta_prev_v[k])
         th_m, w_m, ea_m, eb_m = m.step(i_ab, v_ab)

@@ -59,7 +59,7 @@ def test_one_step_equations_match(trajs, rpm):
     worst = dict(i=0.0, e=0.0, th=0.0, w=0.0)
     for k in range(len(traj)):
         m.load_state((s.i_hat_a.x, s.i_hat_a.y), (s.e_hat_v.x, s.e_hat_v.y), s.pll.theta_rad,
-                     s.pll.omega_rad_s)
+                     s.pll.omega_rad_s, (s.dir.dir, s.dir.disagree_n))
         i_ab, v_ab = _inputs(traj, k)
         th_m, w_m, ea_m, eb_m = m.step(i_ab, v_ab)
         o = c.step(*i_ab, *v_ab)

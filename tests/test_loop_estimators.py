@@ -1,28 +1,33 @@
 """Every back-EMF estimator of the library closes the loop on the C stub: standstill -> 500 rpm
 on Gong's motor (Table I), held. The scenario is gong_g2_500rpm with the estimator swapped and its
 gains left to the library's rules (firmware_stub/est_smo.py), which the bench sends over CONFIG."""
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from bench import channels as ch
 from bench.recording import load_recording
 from bench.runner import run_scenario
-from bench.scenario import SCENARIO_DIR, parse_scenario
+from bench.scenario import derive_scenario
 
-BASE = (SCENARIO_DIR / "gong_g2_500rpm.toml").read_text()
+PARAMS = dict(IQ_MAX_A=6.0, ALIGN_I_A=3.0, ALIGN_TIME_S=0.2, IF_I_A=3.0, IF_ACCEL_RAD_S2=60.0,
+              HANDOVER_SPEED_RAD_S=20.0)
 
 
 def scenario_for(estimator: str):
-    text = BASE.replace('estimator = "SMO_SIGN"', f'estimator = "{estimator}"')
-    if estimator != "SMO_SIGN":   # the sign SMO's hand-picked gains do not apply to the others
-        text = text.replace("SMO_K_V = 25.0\nSMO_WC_RAD_S = 300.0\n", "")
-        # the same estimator as a host reference, with the library's default settings: the
-        # bench sends the controller exactly those (runner.estimator_defaults)
-        text = text.replace('estimators = ["SMO_SIGN"]', f'estimators = ["{estimator}"]')
-        text = text.replace("[reference.SMO_SIGN]\nk_v = 25.0\nwc_rad_s = 300.0\n", "")
-    return parse_scenario(text, Path(f"gong_500rpm_{estimator}.toml"))
+    """gong_g2_500rpm with the estimator swapped; the sign SMO keeps its hand-picked gains
+    (k 25 V, wc 300 rad/s), the others take the library's rules (the bench sends the controller
+    exactly the settings the host reference gets: runner.estimator_defaults)."""
+    params = dict(PARAMS)
+    ref_cfg: dict = {}
+    if estimator == "SMO_SIGN":
+        params.update(SMO_K_V=25.0, SMO_WC_RAD_S=300.0)
+        ref_cfg = {"k_v": 25.0, "wc_rad_s": 300.0}
+    reference = {"estimators": [estimator]}
+    if ref_cfg:
+        reference[estimator] = ref_cfg
+    return derive_scenario("gong_g2_500rpm", f"gong_500rpm_{estimator}",
+                           (("controller.estimator", estimator), ("controller.params", params),
+                            ("reference", reference)))
 
 
 @pytest.mark.parametrize("estimator, pee_rms_max_rad", [

@@ -382,6 +382,12 @@ static void run_estimator(controller_t *c, fw_vec2_t i_ab, const ctrl_sample_t *
     }
 }
 
+/* Gong's current pre-compensation is on: the currents (and so the estimate) refer to t_k + t_d. */
+static int delay_compensating(const controller_t *c)
+{
+    return c->cfg.delay_comp_mode > 0.5f;
+}
+
 /* Re-express the current-loop integrators (voltages) in a frame rotated by delta_rad. */
 static void rotate_current_integrators(controller_t *c, float delta_rad)
 {
@@ -439,8 +445,11 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
         c->out.t_d_est_s = dco->t_d_s;
     }
 
-    {   /* the voltage that acted over [t_(k-1), t_k]: the older command until t_d, then the newer */
-        float w = fw_clampf(k->t_act_delay_s / k->ts_s, 0.0f, 1.0f);
+    {   /* the voltage that acted over [t_(k-1), t_k]: the older command until t_d, then the newer.
+         * With Gong's pre-compensation the currents are predicted at t_k + t_d, so the interval the
+         * estimator propagates over is [t_(k-1) + t_d, t_k + t_d], where the newer command acted
+         * alone (w = 0). */
+        float w = delay_compensating(c) ? 0.0f : fw_clampf(k->t_act_delay_s / k->ts_s, 0.0f, 1.0f);
         c->v_ab_acted_v.x = w * c->v_ab_older_v.x + (1.0f - w) * c->v_ab_applied_v.x;
         c->v_ab_acted_v.y = w * c->v_ab_older_v.y + (1.0f - w) * c->v_ab_applied_v.y;
     }
@@ -543,7 +552,8 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     c->prot_theta_rad = theta + omega_e * k->ts_s;
 
     /* the voltage acts from t_k + delay on: advance the angle to the middle of its action */
-    theta_pwm = theta + omega_e * (k->t_act_delay_s + 0.5f * k->ts_s);
+    /* (with the pre-compensation the angle already refers to t_k + t_d: only the half period) */
+    theta_pwm = theta + omega_e * ((delay_compensating(c) ? 0.0f : k->t_act_delay_s) + 0.5f * k->ts_s);
     if (k->harm_comp_enable > 0.5f) {
         /* Yuan eq. 28-37: 5th/7th extracted from the measured current, compensation voltages
          * added to the current-loop output */

@@ -55,6 +55,7 @@ void est_smo_sigmoid_default_config(est_smo_sigmoid_config_t *cfg, float rs_ohm,
     cfg->lag_comp = EST_SMO_SIGMOID_LAG_EQ15;
     est_pll_gains(150.0f, &cfg->pll_kp, &cfg->pll_ki);
     cfg->speed_lpf_rad_s = 0.0f;
+    cfg->dir_speed_rad_s = EST_EMF_DIR_SPEED_RAD_S;
 }
 
 static int config_finite(const est_smo_sigmoid_config_t *c)
@@ -62,7 +63,8 @@ static int config_finite(const est_smo_sigmoid_config_t *c)
     return fw_is_finite(c->rs_ohm) && fw_is_finite(c->ls_h) && fw_is_finite(c->psi_f_wb) &&
            fw_is_finite(c->ts_s) && fw_is_finite(c->k_v) && fw_is_finite(c->a_per_a) &&
            fw_is_finite(c->wc_rad_s) && fw_is_finite(c->pll_kp) && fw_is_finite(c->pll_ki) &&
-           fw_is_finite(c->speed_lpf_rad_s);
+           fw_is_finite(c->speed_lpf_rad_s) &&
+           fw_is_finite(c->dir_speed_rad_s);
 }
 
 int est_smo_sigmoid_init(est_smo_sigmoid_t *s, const est_smo_sigmoid_config_t *cfg)
@@ -91,6 +93,7 @@ void est_smo_sigmoid_reset(est_smo_sigmoid_t *s)
     s->z_v.x = s->z_v.y = 0.0f;
     s->h_v.x = s->h_v.y = 0.0f;
     est_pll_reset(&s->pll, 0.0f, 0.0f);
+    est_emf_dir_reset(&s->dir);
     s->out.theta_e_rad = 0.0f;
     s->out.omega_e_rad_s = 0.0f;
     s->out.e_alpha_v = 0.0f;
@@ -129,10 +132,11 @@ const est_output_t *est_smo_sigmoid_step(est_smo_sigmoid_t *s, fw_vec2_t i_ab_a,
     s->h_v.y += s->a_lpf * (s->z_v.y - s->h_v.y);
 
     /* position from H (eq. 15), full quadrant, lag compensation with the last speed estimate */
-    theta = fw_wrap_2pi(atan2f(-s->h_v.x, s->h_v.y) + lag_rad(c, s->out.omega_e_rad_s));
+    theta = atan2f(-s->h_v.x, s->h_v.y) + lag_rad(c, s->out.omega_e_rad_s);
 
-    /* speed: est_common PLL on theta */
-    omega = est_pll_step(&s->pll, theta, c->ts_s);
+    /* direction of rotation (+pi for w < 0) and speed: est_common */
+    theta = est_emf_angle_step(&s->pll, &s->dir, theta, c->dir_speed_rad_s, c->ts_s);
+    omega = s->pll.omega_rad_s;
     s->out.omega_e_rad_s += s->a_speed * (omega - s->out.omega_e_rad_s);
     s->out.theta_e_rad = theta;
     s->out.e_alpha_v = 0.5f * s->h_v.x; /* eq. 14 */

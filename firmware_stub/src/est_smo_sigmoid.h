@@ -48,6 +48,9 @@ typedef struct {
     float pll_kp;          /**< PLL proportional gain [1/s] */
     float pll_ki;          /**< PLL integral gain [1/s^2] */
     float speed_lpf_rad_s; /**< first-order filter on the speed output; <= 0 disables */
+    float dir_speed_rad_s; /**< |electrical speed| below which the direction of rotation is held
+                              and the PLL angle is output (est_emf_angle_step); default
+                              EST_EMF_DIR_SPEED_RAD_S */
 } est_smo_sigmoid_config_t;
 
 typedef struct {
@@ -63,6 +66,7 @@ typedef struct {
     fw_vec2_t z_v;     /**< switching term K sigmoid(i~) of the last step */
     fw_vec2_t h_v;     /**< intermediate variable H (eq. 11), ~ 2 E */
     est_pll_t pll;
+    est_emf_dir_t dir; /**< direction of rotation (est_emf_angle_step) */
     est_output_t out;  /**< e_alpha_v/e_beta_v = H/2 (eq. 14) */
 } est_smo_sigmoid_t;
 

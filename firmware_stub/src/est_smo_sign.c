@@ -16,6 +16,7 @@ void est_smo_sign_default_config(est_smo_sign_config_t *cfg, float rs_ohm, float
     cfg->speed_from_emf = 0;
     est_pll_gains(150.0f, &cfg->pll_kp, &cfg->pll_ki);
     cfg->speed_lpf_rad_s = 0.0f;
+    cfg->dir_speed_rad_s = EST_EMF_DIR_SPEED_RAD_S;
 }
 
 int est_smo_sign_init(est_smo_sign_t *s, const est_smo_sign_config_t *cfg)
@@ -46,6 +47,7 @@ void est_smo_sign_reset(est_smo_sign_t *s)
     s->e_hat_v.x = s->e_hat_v.y = 0.0f;
     s->k_now_v = s->cfg.k_v > 0.0f ? s->cfg.k_v : s->cfg.k_min_v;
     est_pll_reset(&s->pll, 0.0f, 0.0f);
+    est_emf_dir_reset(&s->dir);
     s->out.theta_e_rad = 0.0f;
     s->out.omega_e_rad_s = 0.0f;
     s->out.e_alpha_v = 0.0f;
@@ -72,11 +74,11 @@ const est_output_t *est_smo_sign_step(est_smo_sign_t *s, fw_vec2_t i_ab_a, fw_ve
     /* position (eq. 8) with the LPF phase-lag compensation (eq. 9 / Gong 7) */
     theta_raw = atan2f(-s->e_hat_v.x, s->e_hat_v.y);
     theta_raw += atanf(s->out.omega_e_rad_s / c->wc_rad_s);
-    theta_raw = fw_wrap_2pi(theta_raw);
 
-    /* speed */
+    /* direction of rotation (+pi for w < 0) and speed: est_common */
+    theta_raw = est_emf_angle_step(&s->pll, &s->dir, theta_raw, c->dir_speed_rad_s, c->ts_s);
     e_mag = sqrtf(s->e_hat_v.x * s->e_hat_v.x + s->e_hat_v.y * s->e_hat_v.y);
-    omega = est_pll_step(&s->pll, theta_raw, c->ts_s);
+    omega = s->pll.omega_rad_s;
     if (c->speed_from_emf && c->psi_f_wb > 0.0f) {
         /* eq. 10 gives the magnitude; the direction is the PLL's */
         float mag = e_mag / c->psi_f_wb;

@@ -36,6 +36,9 @@ typedef struct {
     float pll_kp;          /**< PLL proportional gain [1/s] (speed_from_emf = 0) */
     float pll_ki;          /**< PLL integral gain [1/s^2] */
     float speed_lpf_rad_s; /**< first-order filter on the speed output; <= 0 disables */
+    float dir_speed_rad_s; /**< |electrical speed| below which the direction of rotation is held
+                              and the PLL angle is output (est_emf_angle_step); default
+                              EST_EMF_DIR_SPEED_RAD_S */
 } est_smo_sign_config_t;
 
 typedef struct {
@@ -51,6 +54,7 @@ typedef struct {
     fw_vec2_t e_hat_v; /**< filtered EMF */
     float k_now_v;     /**< gain in use */
     est_pll_t pll;
+    est_emf_dir_t dir; /**< direction of rotation (est_emf_angle_step) */
     est_output_t out;
 } est_smo_sign_t;
 

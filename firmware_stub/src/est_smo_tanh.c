@@ -83,13 +83,15 @@ void est_smo_tanh_default_config(est_smo_tanh_config_t *cfg, float rs_ohm, float
     cfg->m_per_a = 0.01f; /* Gong section V-A: m = 0.01, BL = 265 A */
     est_pll_gains(150.0f, &cfg->pll_kp, &cfg->pll_ki);
     cfg->speed_lpf_rad_s = 0.0f;
+    cfg->dir_speed_rad_s = EST_EMF_DIR_SPEED_RAD_S;
 }
 
 static int config_finite(const est_smo_tanh_config_t *c)
 {
     return fw_is_finite(c->rs_ohm) && fw_is_finite(c->ls_h) && fw_is_finite(c->psi_f_wb) &&
            fw_is_finite(c->ts_s) && fw_is_finite(c->k_v) && fw_is_finite(c->m_per_a) &&
-           fw_is_finite(c->pll_kp) && fw_is_finite(c->pll_ki) && fw_is_finite(c->speed_lpf_rad_s);
+           fw_is_finite(c->pll_kp) && fw_is_finite(c->pll_ki) && fw_is_finite(c->speed_lpf_rad_s) &&
+           fw_is_finite(c->dir_speed_rad_s);
 }
 
 int est_smo_tanh_init(est_smo_tanh_t *s, const est_smo_tanh_config_t *cfg)
@@ -111,6 +113,7 @@ void est_smo_tanh_reset(est_smo_tanh_t *s)
     s->i_hat_a.x = s->i_hat_a.y = 0.0f;
     s->e_hat_v.x = s->e_hat_v.y = 0.0f;
     est_pll_reset(&s->pll, 0.0f, 0.0f);
+    est_emf_dir_reset(&s->dir);
     s->out.theta_e_rad = 0.0f;
     s->out.omega_e_rad_s = 0.0f;
     s->out.e_alpha_v = 0.0f;
@@ -136,9 +139,11 @@ const est_output_t *est_smo_tanh_step(est_smo_tanh_t *s, fw_vec2_t i_ab_a, fw_ve
     s->e_hat_v.x = c->k_v * switching_fn(s->i_hat_a.x - i_ab_a.x, c->m_per_a);
     s->e_hat_v.y = c->k_v * switching_fn(s->i_hat_a.y - i_ab_a.y, c->m_per_a);
 
-    /* position (eq. 18), full quadrant; speed d theta/dt (eq. 19) as the est_common PLL */
-    theta = fw_wrap_2pi(atan2f(-s->e_hat_v.x, s->e_hat_v.y));
-    omega = est_pll_step(&s->pll, theta, c->ts_s);
+    /* position (eq. 18), full quadrant, +pi for w < 0; speed d theta/dt (eq. 19) as the
+     * est_common PLL */
+    theta = est_emf_angle_step(&s->pll, &s->dir, atan2f(-s->e_hat_v.x, s->e_hat_v.y),
+                               c->dir_speed_rad_s, c->ts_s);
+    omega = s->pll.omega_rad_s;
     s->out.omega_e_rad_s += s->a_speed * (omega - s->out.omega_e_rad_s);
     s->out.theta_e_rad = theta;
     s->out.e_alpha_v = s->e_hat_v.x;

@@ -38,6 +38,9 @@ typedef struct {
     float pll_kp;          /**< PLL proportional gain [1/s] */
     float pll_ki;          /**< PLL integral gain [1/s^2] */
     float speed_lpf_rad_s; /**< first-order filter on the speed output; <= 0 disables */
+    float dir_speed_rad_s; /**< |electrical speed| below which the direction of rotation is held
+                              and the PLL angle is output (est_emf_angle_step); default
+                              EST_EMF_DIR_SPEED_RAD_S */
 } est_smo_tanh_config_t;
 
 typedef struct {
@@ -50,6 +53,7 @@ typedef struct {
     fw_vec2_t i_hat_a; /**< estimated current at the current step */
     fw_vec2_t e_hat_v; /**< e^ = k F(i~) of the last step (also the injection of the next) */
     est_pll_t pll;
+    est_emf_dir_t dir; /**< direction of rotation (est_emf_angle_step) */
     est_output_t out;
 } est_smo_tanh_t;
 

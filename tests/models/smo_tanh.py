@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from tests.models.smo_sigmoid import Pll, wrap_2pi, zoh_first_order
+from tests.models.smo_sigmoid import DIR_SPEED_RAD_S, EmfAngle, zoh_first_order
 
 
 def hyperbolic(x, m_per_a: float):
@@ -56,22 +56,25 @@ def deadbeat_gain_v_per_a(rs_ohm: float, ls_h: float, ts_s: float) -> float:
 
 
 class SmoTanhModel:
-    def __init__(self, rs_ohm, ls_h, psi_f_wb, ts_s, k_v, m_per_a, pll_kp, pll_ki):
+    def __init__(self, rs_ohm, ls_h, psi_f_wb, ts_s, k_v, m_per_a, pll_kp, pll_ki,
+                 dir_speed_rad_s=DIR_SPEED_RAD_S):
         del psi_f_wb
         self.f, self.g = zoh_first_order(-rs_ohm / ls_h, 1.0 / ls_h, ts_s)
         self.k, self.m = k_v, m_per_a
-        self.pll = Pll(pll_kp, pll_ki, ts_s)
+        self.angle = EmfAngle(pll_kp, pll_ki, ts_s, dir_speed_rad_s)
+        self.pll = self.angle.pll
         self.i_hat = np.zeros(2)
         self.e = np.zeros(2)
 
-    def load_state(self, i_hat, e, pll_theta, pll_omega):
+    def load_state(self, i_hat, e, pll_theta, pll_omega, direction=(1, 0)):
         self.i_hat, self.e = np.array(i_hat, float), np.array(e, float)
         self.pll.theta, self.pll.omega = float(pll_theta), float(pll_omega)
+        self.angle.dir, self.angle.disagree_n = direction
 
     def step(self, i_ab, v_ab_prev):
         """Returns (theta, omega, e^alpha, e^beta) for the measured i_ab at t_k."""
         self.i_hat = self.f * self.i_hat + self.g * (np.asarray(v_ab_prev, float) - self.e)  # eq. 3
         self.e = self.k * hyperbolic(self.i_hat - np.asarray(i_ab, float), self.m)   # eq. 6, 8
-        theta = wrap_2pi(math.atan2(-self.e[0], self.e[1]))                          # eq. 18
-        omega = self.pll.step(theta)                                                 # eq. 19
+        theta = self.angle.step(math.atan2(-self.e[0], self.e[1]))                   # eq. 18
+        omega = self.pll.omega                                                       # eq. 19
         return theta, omega, self.e[0], self.e[1]
