@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 from rich.console import Console
 from rich.table import Table
 
@@ -111,8 +112,39 @@ def summarise(ctx: Context) -> dict[str, float]:
     return out
 
 
+#: per-cycle topics: `bench check` keeps only the rows in the claims' windows
+WINDOWED_TOPICS = (ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.LINK_FRAMES,
+                   ch.TIMING, ch.REPLAY_CONTROLLER, ch.REPLAY_PLANT, "/reference/*")
+
+
+def read_for_check(path: str | Path) -> Recording:
+    """The recording as `bench check` needs it, in bounded memory: the header first (metadata,
+    the attached scenario), then one streaming pass keeping the per-cycle topics only inside the
+    windows the scenario's claims read, and counting the estimator the controller reported over
+    the whole run."""
+    from collections import Counter
+
+    from .claims import windows_needed
+    from .recording import read_header
+
+    header = read_header(path)
+    windows = windows_needed(scenario_of(header))
+    estimators: Counter = Counter()
+
+    def count_estimators(cols) -> None:
+        est = cols.get("estimator")
+        if est is not None and len(est):
+            values, counts = np.unique(np.asarray(est), return_counts=True)
+            estimators.update({int(v): int(c) for v, c in zip(values, counts)})
+
+    rec = load_recording(path, windows={t: windows for t in WINDOWED_TOPICS},
+                         reduce={ch.CONTROLLER_TELEMETRY: count_estimators})
+    rec.estimator_counts = dict(estimators)
+    return rec
+
+
 def check_recording(path: str | Path) -> CheckReport:
-    rec = load_recording(path)
+    rec = read_for_check(path)
     scn = scenario_of(rec)
     ctx = build_context(rec, scn)
     report = CheckReport(rec, scn, ctx, summarise(ctx))

@@ -582,6 +582,30 @@ def operating_point_note(ctx: Context, ref_rpm: float) -> str:
             f"(range {float(np.min(n)):.3g}..{float(np.max(n)):.3g})")
 
 
+#: metrics that re-run an observer from the start of the run (they need every row up to their
+#: window's end)
+NEEDS_HISTORY = frozenset({"chattering_a"})
+#: rows kept before a window: a metric may look back (response time: 0.1 s before its event;
+#: step responses: 0.05 s)
+WINDOW_LEAD_S = 0.2
+
+
+def windows_needed(scn) -> list[tuple[float, float]]:
+    """The time windows the claims of a scenario (and the summary) read, each with its lead:
+    what `bench check` keeps of a recording's per-cycle topics."""
+    out = [scn.metrics_window_s]
+    for claim_id in scn.claims:
+        claim = CLAIMS.get(claim_id)
+        if claim is None:
+            continue
+        for q in applicable(claim, scn.name):
+            w = q.window_s or scn.metrics_window_s
+            out.append((0.0, w[1]) if q.metric in NEEDS_HISTORY else w)
+            if q.at_speed_window_s is not None:
+                out.append(q.at_speed_window_s)
+    return [(max(0.0, w0 - WINDOW_LEAD_S), w1) for w0, w1 in out]
+
+
 def run_failure(rec: Recording) -> tuple[str, str]:
     """('', '') for a complete run; ('FAIL', why) when the controller under test faulted (the
     method's own failure); ('INVALID', why) when the bench broke (link, stub, interrupt)."""

@@ -133,16 +133,20 @@ def _estimator_recount(rec, requested: str | None) -> tuple[int, str]:
         want = int(Estimator[requested])
     except KeyError:
         return 0, ""
-    telem = _topic(rec, ch.CONTROLLER_TELEMETRY)
-    if not telem or "estimator" not in telem:
-        return 0, ""
-    est = np.asarray(telem["estimator"], dtype=float)
-    valid = np.isfinite(est) & (est >= 0)
-    wrong = valid & (est != want)
-    n = int(wrong.sum())
+    counted = getattr(rec, "estimator_counts", None)   # the whole run, counted while streaming
+    if counted is None:
+        telem = _topic(rec, ch.CONTROLLER_TELEMETRY)
+        if not telem or "estimator" not in telem:
+            return 0, ""
+        est = np.asarray(telem["estimator"], dtype=float)
+        est = est[np.isfinite(est)].astype(int)
+        vals, cnts = np.unique(est, return_counts=True)
+        counted = dict(zip(vals.tolist(), cnts.tolist()))
+    wrong_counts = {int(v): int(c) for v, c in counted.items() if v >= 0 and v != want}
+    n = sum(wrong_counts.values())
     if not n:
         return 0, ""
-    values, counts = np.unique(est[wrong].astype(int), return_counts=True)
+    values, counts = list(wrong_counts), list(wrong_counts.values())
     names = []
     for v, c in zip(values, counts):
         try:
@@ -184,8 +188,12 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
     if unreadable:
         add(Problem("completeness", "unreadable_chunks", f"{unreadable} unreadable chunk(s) in the recording",
                     float(unreadable)))
-    state = _topic(rec, ch.PLANT_STATE)
-    rows = len(state["t_s"]) if state and "t_s" in state else 0
+    counts = getattr(rec, "counts", None) or {}
+    if ch.PLANT_STATE in counts:
+        rows = int(counts[ch.PLANT_STATE])       # messages in the file, kept or not
+    else:
+        state = _topic(rec, ch.PLANT_STATE)
+        rows = len(state["t_s"]) if state and "t_s" in state else 0
     if out.cycles_done is not None and rows < out.cycles_done:
         add(Problem("completeness", "rows", f"{out.cycles_done - rows} of {out.cycles_done} cycles have no "
                                             f"row in {ch.PLANT_STATE}", float(out.cycles_done - rows)))

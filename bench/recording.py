@@ -58,6 +58,9 @@ class Recording:
     bytes_read: int = 0
     file_size: int = 0
     has_footer: bool = False
+    #: TELEM.estimator value -> cycles over the whole run, when counted while streaming
+    #: (bench check) instead of keeping the column
+    estimator_counts: dict[int, int] | None = None
 
     def topic(self, name: str) -> dict[str, np.ndarray]:
         if name not in self.topics:
@@ -84,10 +87,11 @@ class _TopicBuffer:
     """Rows of one topic: decoded a chunk at a time, only the wanted fields and rows."""
 
     def __init__(self, topic: str, schema_name: str, encoding: str, descriptor: bytes,
-                 fields: Iterable[str] | None, windows):
+                 fields: Iterable[str] | None, windows, reducer=None):
         self.topic = topic
         self.encoding = encoding
         self.windows = windows
+        self.reducer = reducer
         self.layout = None
         self.msg_class = None
         if encoding == "protobuf":
@@ -121,6 +125,8 @@ class _TopicBuffer:
             cols = self._decode_protobuf(data)
         else:
             cols = self._decode_json(data)
+        if self.reducer is not None:
+            self.reducer(cols)
         if self.windows is not None and "t_s" in cols:
             t = cols["t_s"]
             keep = np.zeros(len(t), dtype=bool)
@@ -173,20 +179,66 @@ class _TopicBuffer:
         return out
 
 
+def _by_topic(value, topic: str):
+    """A per-topic option: a dict (a topic, or "/reference/*" for every reference) or one value
+    for every topic."""
+    if not isinstance(value, dict):
+        return value
+    if topic in value:
+        return value[topic]
+    if topic.startswith(chans.REFERENCE_PREFIX):
+        return value.get("/reference/*")
+    return None
+
+
+def read_header(path: str | Path) -> Recording:
+    """Metadata, attachments and message counts without decoding any message: from the summary
+    section of a finalised file (a few reads), else by a streaming pass."""
+    from mcap.reader import make_reader
+
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            reader = make_reader(f)
+            summary = reader.get_summary()
+            if summary is None or summary.statistics is None:
+                raise ValueError("no summary")
+            rec = Recording(path)
+            rec.file_size = path.stat().st_size
+            rec.has_footer = True
+            for m in reader.iter_metadata():
+                rec.metadata[m.name] = dict(m.metadata)
+            for a in reader.iter_attachments():
+                rec.attachments[a.name] = bytes(a.data)
+            for cid, chan in summary.channels.items():
+                rec.counts[chan.topic] = int(summary.statistics.channel_message_counts.get(cid, 0))
+            rec.messages = int(summary.statistics.message_count)
+            return rec
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot open: {exc.strerror}") from None
+    except Exception:  # noqa: BLE001 - no usable summary (a cut or damaged file): stream it
+        return load_recording(path, topics=())
+
+
 def load_recording(path: str | Path, topics: Iterable[str] | None = None,
                    fields: dict[str, Iterable[str]] | None = None,
-                   windows: Iterable[tuple[float, float]] | None = None) -> Recording:
+                   windows=None, reduce: dict | None = None) -> Recording:
     """Read a recording in one streaming pass.
 
     ``topics``: the topics to decode (None: all; ``"/reference/*"`` selects every reference
     estimator). ``fields``: per topic, the fields to keep (default: all). ``windows``: keep only
-    rows with t_s inside one of these [t0, t1] intervals (default: all rows). Metadata,
-    attachments and per-topic message counts are always read.
+    rows with t_s inside one of these [t0, t1] intervals -- a list for every topic, or a dict
+    topic -> list (topics it does not name keep every row). ``reduce``: topic -> callable, called
+    with each chunk's decoded columns of that topic before any window (an aggregate over the whole
+    run in bounded memory). Metadata, attachments and per-topic message counts are always read.
     """
     path = Path(path)
     rec = Recording(path)
     wanted = set(topics) if topics is not None else None
-    win = [tuple(map(float, w)) for w in windows] if windows is not None else None
+
+    def windows_of(topic: str):
+        w = _by_topic(windows, topic) if windows is not None else None
+        return [tuple(map(float, x)) for x in w] if w is not None else None
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     buffers: dict[int, _TopicBuffer | None] = {}
@@ -219,7 +271,8 @@ def load_recording(path: str | Path, topics: Iterable[str] | None = None,
             if want_topic(r.topic) and enc in ("protobuf", "json"):
                 buffers[r.id] = _TopicBuffer(r.topic, sch.name if sch else "", enc,
                                              bytes(sch.data) if sch else b"",
-                                             (fields or {}).get(r.topic), win)
+                                             (fields or {}).get(r.topic), windows_of(r.topic),
+                                             _by_topic(reduce, r.topic) if reduce else None)
             else:
                 buffers[r.id] = None
         elif isinstance(r, Metadata):

@@ -107,11 +107,11 @@ def _line(text: str, needle: str) -> int:
     (lambda t: t + "\n[[events]]\nt_s = 0.6\niq_ref_a = 40\n", "iq_ref_a = 40",
      "events[0].iq_ref_a: 40 A is outside [-32.768, 32.767] A (the range SENSE.i_a..i_c can report"),
     (lambda t: t.replace('claims = ["G2"]', 'claims = ["G99"]'), "claims =",
-     "scenario.claims: unknown claim 'G99'; known: G2"),
+     "scenario.claims: unknown claim 'G99'; known: Y1, Y2"),
     (lambda t: t.replace("IQ_MAX_A = 6.0", "IQ_MAX_A = 6.0\nPOLE_PAIRS = 4.5"), "POLE_PAIRS",
      "controller.params.POLE_PAIRS: is an integer parameter: must be a whole number, got 4.5"),
-    (lambda t: t.replace("SMO_K_V = 25.0", "SMO_K_V = 1e39"), "SMO_K_V =",
-     "controller.params.SMO_K_V: 1e+39 does not fit a binary32 CONFIG value"),
+    (lambda t: t.replace("SMO_M_PER_A = 0.01", "SMO_M_PER_A = 1e39"), "SMO_M_PER_A =",
+     "controller.params.SMO_M_PER_A: 1e+39 does not fit a binary32 CONFIG value"),
     (lambda t: t.replace('name = "gong_g2_500rpm"', 'name = "../../escaped"'), "name =",
      "scenario.name: '../../escaped' must be 1-100 letters"),
     (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\nts_s = 1.23456e-4"),
@@ -129,7 +129,7 @@ def _line(text: str, needle: str) -> int:
     (lambda t: t.replace('claims = ["G2"]', 'claims = ["G2"]\nmode = "realtime"') + "\n[realtime]\n"
                                                                                      "duty_update = \"now\"\n",
      "duty_update", "realtime.duty_update: must be one of on_arrival, next_period"),
-    (lambda t: t.replace('estimator = "SMO_SIGN"', 'estimator = "ENCODER"\nsend_encoder_angle = false'),
+    (lambda t: t.replace('estimator = "SMO_TANH"', 'estimator = "ENCODER"\nsend_encoder_angle = false'),
      "send_encoder_angle", "controller.send_encoder_angle: the ENCODER estimator needs the encoder angle"),
 ])
 def test_bad_values_name_file_line_field_and_range(tmp_path, edit, needle, expect):
@@ -167,7 +167,7 @@ def test_new_keys_and_their_defaults(tmp_path):
     assert (scn.link.retry_timeout_s, scn.link.max_retries, scn.link.allow) == (0.02, 5, {"crc_errors": 5,
                                                                                           "retries": 10})
     assert scn.hello_flags(dual_sampling=True) == 0x07
-    enc = load_scenario(write(tmp_path, G2.replace('estimator = "SMO_SIGN"', 'estimator = "ENCODER"')))
+    enc = load_scenario(write(tmp_path, G2.replace('estimator = "SMO_TANH"', 'estimator = "ENCODER"')))
     assert enc.encoder_angle_sent and enc.hello_flags(False) & 0x04
 
 
