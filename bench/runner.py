@@ -114,7 +114,7 @@ def git_revision() -> str:
         return "unknown"
 
 
-_UNSAFE_RUN = re.compile(r"[^A-Za-z0-9_+-]+")
+_UNSAFE_RUN = re.compile(r"[^A-Za-z0-9_+@-]+")
 
 
 def default_recording_path(scenario: Scenario) -> Path:

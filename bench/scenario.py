@@ -38,7 +38,7 @@ RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 #: the longest run a scenario may ask for (a recording of 10 kHz cycles grows by ~tens of MB per second)
 MAX_DURATION_S = 3600.0
 #: a scenario name becomes a file name in the recordings folder: no path separators, no leading dot
-NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,99}\Z")
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.@-]{0,99}\Z")
 FLOAT32_MAX = 3.4028234663852886e38
 DUTY_UPDATES = ("on_arrival", "next_period")
 MODES = ("lockstep", "realtime")
@@ -489,7 +489,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     s = top.table_of("scenario")
     name = s.string("name", path.stem)
     if not NAME_PATTERN.match(name):
-        raise s.fail("name", f"{name!r} must be 1-100 letters, digits, '_', '-' or '.', not starting with "
+        raise s.fail("name", f"{name!r} must be 1-100 letters, digits, '_', '-', '@' or '.', not starting with "
                              f"'.' or '-' (it names the recording file)")
     description = s.string("description", "")
     profile = s.string("profile")

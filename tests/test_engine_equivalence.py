@@ -13,9 +13,7 @@ definition: /plant/sense theta_enc_rad, which the old loop filled with the true 
 engine records the angle actually sent (it differs only where the 16-bit encoder wraps to 0).
 
 If a later, deliberate change of the firmware or the plant changes the G2 run, this test fails:
-the golden must then be re-recorded, and since the Python loop no longer exists it can only be
-re-recorded by the engine itself -- from then on this is a regression test, not an equivalence
-proof, and the docstring must say so.
+re-record the golden (make_g2_golden.py) and say in the commit which change moved it.
 """
 from __future__ import annotations
 

@@ -1,7 +1,10 @@
-"""Record the golden of the engine-equivalence test (tests/test_engine_equivalence.py).
+"""Record the golden of tests/test_engine_equivalence.py.
 
-Run once, at commit f6614b9 (the last commit with the Python lockstep loop,
-``bench/runner.py: Runner._loop``), from the repository root:
+History: first recorded at commit f6614b9 by the Python lockstep loop (``bench/runner.py:
+LockstepRunner._loop``, the last commit with it); the C engine reproduced it bit for bit through
+commit 343d327. The merge of the paper-claims work (8605a34) changed the firmware (the SMOs'
+direction handling, the controller's delay handling), so the stub's answers changed; the golden
+was then re-recorded by the engine itself with this script. From the repository root:
 
     .venv/bin/python tests/golden/make_g2_golden.py
 
