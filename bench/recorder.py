@@ -68,7 +68,7 @@ def check_target(path: Path, force: bool) -> None:
 
 
 def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: int,
-           force: bool) -> None:
+           force: bool, cpus: tuple[int, ...] = ()) -> None:
     import signal as _signal
 
     from mcap.writer import CompressionType, Writer
@@ -77,6 +77,19 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     # EOF here and the file would never be finalised
     parent_end.close()
     _signal.signal(_signal.SIGINT, _signal.SIG_IGN)   # the parent decides when to stop
+    if cpus:
+        try:
+            os.sched_setaffinity(0, cpus)   # off the real-time engine's CPU
+        except OSError:
+            pass
+    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0":
+        # throughput, not latency: the kernel's workers that carry the link's bytes (a pty's
+        # flip-buffer work, a socket's softirq) and the controller come first
+        try:
+            os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+            os.nice(19)
+        except OSError:
+            pass
     target = Path(path)
     tmp = partial_path(target)
     ring = ffi.new("rec_ring_t *")
@@ -231,7 +244,8 @@ class ProcessRecorder:
     """Writes one MCAP file through a recorder process. Context manager; always finalised."""
 
     def __init__(self, path: Path, *, force: bool = False, ring_capacity: int = RING_CAPACITY_BYTES,
-                 chunk_size: int = CHUNK_SIZE_BYTES):
+                 chunk_size: int = CHUNK_SIZE_BYTES, cpus: tuple[int, ...] = ()):
+        """``cpus``: the CPUs the recorder process may run on (empty: any)."""
         import multiprocessing as mp
 
         self.path = Path(path)
@@ -246,7 +260,7 @@ class ProcessRecorder:
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path),
                                                       self.ring_mem, self.ring_size, chunk_size,
-                                                      force),
+                                                      force, tuple(cpus)),
                                  name="hil-recorder", daemon=False)
         self._proc.start()
         child.close()

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import platform
 import re
 import subprocess
@@ -157,6 +158,8 @@ class Runner:
             rt = scenario.realtime
             isr = rt.stub_isr + (f":{rt.stub_phase_us:g}" if rt.stub_phase_us is not None else "")
             self.stub_args += ("--isr", isr, "--rt-priority", str(rt.stub_priority))
+            if rt.busy_wait:
+                self.stub_args += ("--busy-poll",)
             if rt.stub_cpu is not None:
                 self.stub_args += ("--cpu", str(rt.stub_cpu))
         self.record = record
@@ -218,7 +221,7 @@ class Runner:
                                          capture_path=self.out_path.with_suffix(".log"))
         try:
             self._check_budget(opened)
-            rec = ProcessRecorder(self.out_path, force=self.force,
+            rec = ProcessRecorder(self.out_path, force=self.force, cpus=self._recorder_cpus(),
                                   **({"ring_capacity": self.ring_bytes} if self.ring_bytes else {}))
         except BaseException:
             opened.close()
@@ -255,6 +258,14 @@ class Runner:
                 result.error += (f" (no cycle ran; the recording of the attempt, with its "
                                  f"handshake frames, is {rec.final_path})")
         return result
+
+    def _recorder_cpus(self) -> tuple[int, ...]:
+        """In real time with the engine pinned, the recorder runs on the other CPUs: its MCAP and
+        zstd work (and the kernel's writing of the file) never delay the engine's periods."""
+        if self.mode != "realtime" or self.cpu is None:
+            return ()
+        others = tuple(sorted(set(os.sched_getaffinity(0)) - {int(self.cpu)}))
+        return others
 
     def _open_channels(self, rec: ProcessRecorder) -> None:
         self.rec = rec
@@ -391,6 +402,7 @@ class Runner:
             duty_update=rt.duty_update,
             guard_s=rt.guard_us * 1e-6,
             spin_s=rt.spin_us * 1e-6,
+            busy_wait=int(rt.busy_wait),
             rt_priority=rt.priority,
             rt_mlock=int(rt.mlock),
             rt_cpu=-1 if self.cpu is None else int(self.cpu),

@@ -87,6 +87,8 @@ class RealtimeSettings:
     mlock: bool = True                      # mlockall when allowed
     spin_us: float = 30.0                   # spin this long before each deadline
     guard_us: float = 10.0                  # on_arrival: DUTY due by the period end - guard
+    busy_wait: bool = False                 # engine (and stub) poll without sleeping while a
+                                            # frame is due: no wake-up latency, a CPU each
     # the C stub as the controller (--link stub...): what fires its ISR, its priority and CPU
     stub_isr: str = "sense"                 # "sense" (on SENSE arrival) | "timer" (free-running)
     stub_phase_us: float | None = None      # timer: first tick this long after the first SENSE
@@ -446,6 +448,7 @@ def _realtime(top: _Fields, mode: str) -> RealtimeSettings:
     mlock = r.boolean("mlock", d.mlock)
     spin_us = r.number("spin_us", d.spin_us, min_value=0.0)
     guard_us = r.number("guard_us", d.guard_us, min_value=0.0)
+    busy_wait = r.boolean("busy_wait", d.busy_wait)
     stub_isr = r.string("stub_isr", d.stub_isr)
     if stub_isr not in ("sense", "timer"):
         raise r.fail("stub_isr", f"must be 'sense' or 'timer', got {stub_isr!r}")
@@ -453,8 +456,8 @@ def _realtime(top: _Fields, mode: str) -> RealtimeSettings:
     stub_priority = r.integer("stub_priority", d.stub_priority, 0, 99)
     stub_cpu = r.integer("stub_cpu", -1, 0, 4095) if "stub_cpu" in r.table else None
     r.reject_unknown()
-    return RealtimeSettings(duty_update, misses, cpu, priority, mlock, spin_us, guard_us, stub_isr,
-                            stub_phase_us, stub_priority, stub_cpu)
+    return RealtimeSettings(duty_update, misses, cpu, priority, mlock, spin_us, guard_us, busy_wait,
+                            stub_isr, stub_phase_us, stub_priority, stub_cpu)
 
 
 def _link(top: _Fields) -> LinkSettings:

@@ -220,7 +220,7 @@ typedef struct {
     int estimator_expected; uint16_t cmd_seq_start;
     int link_kind; int link_fd; int can_brs; double retry_timeout_s; int max_retries;
     int max_consecutive_bad_duties; int max_consecutive_misses; double guard_s;
-    int rt_priority; int rt_cpu; int rt_mlock; double spin_s;
+    int rt_priority; int rt_cpu; int rt_mlock; double spin_s; int busy_wait;
     double recorder_stall_s; int stats_every_cycles; int record_frames;
     uint16_t ch_state, ch_sense, ch_telem, ch_frames, ch_events, ch_timing, ch_stats;
     engine_signal_t sig_i, sig_i2, sig_vdc, sig_theta;

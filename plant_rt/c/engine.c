@@ -1507,7 +1507,7 @@ static int run_realtime(engine_t *e)
             return e->end;
         }
         sent_ns = eng_now_ns();
-        hist_add(&e->hist_jitter, (double)(sent_ns - t_k) * 1e-3);
+        hist_add(&e->hist_jitter, (double)(start - t_k) * 1e-3); /* the period start (wake-up) */
         /* the duties acting in period k: in NEXT_PERIOD those DUTY(k-1) set, known now */
         if (cfg->duty_update == ENGINE_DUTY_NEXT_PERIOD) {
             e->duties[0] = latched[0];
@@ -1523,7 +1523,12 @@ static int run_realtime(engine_t *e)
             if (completed) {
                 break;
             }
-            r = eng_link_poll(&e->link, t_next - guard_ns);
+            /* busy_wait: read without sleeping until the DUTY or the deadline (the thread
+             * never leaves the CPU, so it sees the DUTY the moment it lands) */
+            r = eng_link_poll(&e->link, cfg->busy_wait ? eng_now_ns() : t_next - guard_ns);
+            if (cfg->busy_wait && r == 0 && eng_now_ns() < t_next - guard_ns) {
+                continue;
+            }
             if (r < 0) {
                 link_failed(e, &c);
                 return e->end;
@@ -1611,7 +1616,7 @@ static int run_realtime(engine_t *e)
             if (e->have_ring) {
                 t.t_s = c.t_s;
                 t.seq = c.seq;
-                t.start_err_us = (double)(sent_ns - t_k) * 1e-3;
+                t.start_err_us = (double)(start - t_k) * 1e-3;
                 t.rtt_us = completed ? (double)(c.duty_t_ns - sent_ns) * 1e-3 : (double)NAN;
                 t.arrival_us = completed ? (double)(c.duty_t_ns - t_k) * 1e-3 : (double)NAN;
                 t.cycle_us = (double)(eng_now_ns() - t_k) * 1e-3;

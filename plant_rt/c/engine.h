@@ -177,6 +177,7 @@ typedef struct {
     int rt_cpu;                /* pin the engine thread to this CPU (-1: do not) */
     int rt_mlock;              /* mlockall(MCL_CURRENT | MCL_FUTURE) */
     double spin_s;             /* spin this long before each deadline */
+    int busy_wait;             /* poll the link without sleeping while DUTY(k) is due */
     /* recording */
     double recorder_stall_s;   /* lockstep: wait at most this long for ring space */
     int stats_every_cycles;

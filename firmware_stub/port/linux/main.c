@@ -23,6 +23,8 @@
  *                    nothing (the PWM keeps its duties) and is counted (isr_stale). The first
  *                    tick is PHASE_US (default 20 % of the period) after the first SENSE; then
  *                    the timer never re-synchronises (a crystal of its own).
+ * --busy-poll: poll the link without sleeping (a CPU of its own, no wake-up latency: a DSP's
+ * receive interrupt answers within microseconds; a sleeping Linux process does not).
  * --rt-priority N / --cpu N: SCHED_FIFO priority and CPU of the stub (real-time runs); said once
  * on stderr if not permitted, and the stub carries on.
  *
@@ -278,7 +280,7 @@ static void usage(void)
             "--socketcand [HOST:]PORT|fd:N [--bus NAME] | --socketcan IFACE)\n"
             "                [--idle-timeout-s S] [--quiet] [--echo]\n"
             "                [--inject silent|crash|garbage|bad-duty|unknown-id|wrong-dlc|bus-off|slow@CYCLE]\n"
-            "                [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N]\n");
+            "                [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N] [--busy-poll]\n");
 }
 
 static int parse_inject(const char *arg, inject_t *kind, unsigned long *cycle)
@@ -326,7 +328,8 @@ int main(int argc, char **argv)
     int was_open = 0;
     const char *exit_reason = "host closed the link";
     transport_t *t;
-    int rt_priority = 0, rt_cpu = -1;
+    int rt_priority = 0, rt_cpu = -1, busy_poll = 0;
+    long long last_busy_ms = 0;
 
     app.inject = INJECT_NONE;
     app.isr.fd = -1;
@@ -372,6 +375,8 @@ int main(int argc, char **argv)
             }
         } else if (strcmp(argv[i], "--rt-priority") == 0 && i + 1 < argc) {
             rt_priority = (int)strtol(argv[++i], NULL, 10);
+        } else if (strcmp(argv[i], "--busy-poll") == 0) {
+            busy_poll = 1;
         } else if (strcmp(argv[i], "--cpu") == 0 && i + 1 < argc) {
             rt_cpu = (int)strtol(argv[++i], NULL, 10);
         } else if (strcmp(argv[i], "--echo") == 0) {
@@ -454,7 +459,15 @@ int main(int argc, char **argv)
             pf[1].revents = 0;
             nfds = 2u;
         }
-        pr = poll(pf, nfds, HEARTBEAT_PERIOD_MS);
+        if (busy_poll) {
+            /* spin on the descriptors; the heartbeat bookkeeping below runs once a millisecond */
+            do {
+                pr = poll(pf, nfds, 0);
+            } while (pr == 0 && !g_stop && now_ms() - last_busy_ms < 1);
+            last_busy_ms = now_ms();
+        } else {
+            pr = poll(pf, nfds, HEARTBEAT_PERIOD_MS);
+        }
         p = pf[0];
         now = now_ms();
         if (pr > 0 && nfds == 2u && (pf[1].revents & POLLIN)) {
