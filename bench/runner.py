@@ -137,6 +137,22 @@ def event_cycles(scenario: Scenario, ts_s: float) -> list[tuple[int, object]]:
     return out
 
 
+def realtime_cpus(engine_cpu: int | None, stub_cpu: int | None) -> tuple[int | None, int | None]:
+    """The CPU layout of a real-time run (docs/realtime.md): the engine (and the recorder, below
+    it) on the last CPU this process may use, the stub on the first; the kernel's workers that
+    carry the link's bytes take whatever the sleeping stub leaves of its CPU. What the scenario
+    or the command line set is kept. On one CPU nothing is pinned."""
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) < 2:
+        return engine_cpu, stub_cpu
+    if engine_cpu is None:
+        engine_cpu = allowed[-1] if stub_cpu != allowed[-1] else allowed[0]
+    if stub_cpu is None:
+        others = [c for c in allowed if c != engine_cpu]
+        stub_cpu = others[0] if others else None
+    return engine_cpu, stub_cpu
+
+
 class Runner:
     """One run of a scenario against the controller on a link (lockstep or real time)."""
 
@@ -144,8 +160,10 @@ class Runner:
                  progress: bool = True, stub_args: tuple[str, ...] = (),
                  allow_slow_link: bool = False, force: bool = False,
                  realtime: bool | None = None, record: bool = True, cpu: int | None = None,
-                 ring_bytes: int | None = None):
+                 ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None):
+        """``recorder_cpus``: overrides where the recorder runs (bench.perf.loop compares)."""
         self.scn = scenario
+        self._recorder_cpus_override = recorder_cpus
         self.mode = "realtime" if (realtime if realtime is not None else
                                    scenario.mode == "realtime") else "lockstep"
         self.allow_slow_link = allow_slow_link
@@ -154,17 +172,20 @@ class Runner:
         self.force = force
         self.progress = progress
         self.stub_args = tuple(stub_args)
+        self.record = record
+        self.ring_bytes = ring_bytes
+        self.cpu = cpu if cpu is not None else scenario.realtime.cpu
+        stub_cpu = scenario.realtime.stub_cpu
+        if self.mode == "realtime":
+            self.cpu, stub_cpu = realtime_cpus(self.cpu, stub_cpu)
         if self.mode == "realtime" and (link_spec == "stub" or link_spec.startswith("stub-")):
             rt = scenario.realtime
             isr = rt.stub_isr + (f":{rt.stub_phase_us:g}" if rt.stub_phase_us is not None else "")
             self.stub_args += ("--isr", isr, "--rt-priority", str(rt.stub_priority))
             if rt.busy_wait:
                 self.stub_args += ("--busy-poll",)
-            if rt.stub_cpu is not None:
-                self.stub_args += ("--cpu", str(rt.stub_cpu))
-        self.record = record
-        self.ring_bytes = ring_bytes
-        self.cpu = cpu if cpu is not None else scenario.realtime.cpu
+            if stub_cpu is not None:
+                self.stub_args += ("--cpu", str(stub_cpu))
         self.profile = load_profile(scenario.profile)
         self.plant = Plant(self.profile, **scenario.plant_overrides)
         self.ts_s = float(self.plant.params.ts_s)
@@ -212,6 +233,27 @@ class Runner:
         return self.scn.hello_flags(bool(self.plant.params.dual_sampling))
 
     # -- the run --------------------------------------------------------------------------
+    def _throttling_note(self) -> str:
+        """A real-time run that spins through the whole period under the kernel's RT throttling
+        loses 50 ms of every second to it (docs/realtime.md)."""
+        if self.mode != "realtime":
+            return ""
+        rt = self.scn.realtime
+        ts_s = self.ts_s
+        if rt.priority <= 0 or not (rt.busy_wait or rt.spin_us * 1e-6 >= 0.9 * ts_s):
+            return ""
+        try:
+            runtime = int(Path("/proc/sys/kernel/sched_rt_runtime_us").read_text())
+            period = int(Path("/proc/sys/kernel/sched_rt_period_us").read_text())
+        except (OSError, ValueError):
+            return ""
+        if runtime < 0 or runtime >= period:
+            return ""
+        return (f"RT throttling on (sched_rt_runtime_us {runtime} of {period}): the engine "
+                f"never sleeps with busy_wait or spin_us near the period, so the kernel stops it "
+                f"for {(period - runtime) / 1000:.0f} ms every {period / 1e6:g} s "
+                f"(docs/realtime.md)")
+
     def run(self) -> RunResult:
         scn = self.scn
         check_target(self.out_path, self.force)      # before any process or device is touched
@@ -259,13 +301,19 @@ class Runner:
                                  f"handshake frames, is {rec.final_path})")
         return result
 
+    def _stub_cpu(self) -> int | None:
+        args = self.stub_args
+        return int(args[args.index("--cpu") + 1]) if "--cpu" in args else None
+
     def _recorder_cpus(self) -> tuple[int, ...]:
-        """In real time with the engine pinned, the recorder runs on the other CPUs: its MCAP and
-        zstd work (and the kernel's writing of the file) never delay the engine's periods."""
+        """In real time the recorder shares the engine's CPU, below it: the SCHED_FIFO engine
+        preempts it at once, while on a CPU of its own the recorder's MCAP and zstd bursts
+        would hold off the kernel's workers that carry the link's bytes (docs/realtime.md)."""
+        if self._recorder_cpus_override is not None:
+            return tuple(self._recorder_cpus_override)
         if self.mode != "realtime" or self.cpu is None:
             return ()
-        others = tuple(sorted(set(os.sched_getaffinity(0)) - {int(self.cpu)}))
-        return others
+        return (int(self.cpu),)
 
     def _open_channels(self, rec: ProcessRecorder) -> None:
         self.rec = rec
@@ -325,6 +373,9 @@ class Runner:
             "profile_path": str(prof.path),
             "mode": self.mode,
             "duty_update": scn.realtime.duty_update if self.mode == "realtime" else "",
+            "realtime_cpus": (json.dumps({"engine": self.cpu, "recorder": self._recorder_cpus(),
+                                          "stub": self._stub_cpu()})
+                              if self.mode == "realtime" else ""),
             "link": opened.link.description,
             "controller": f"hil_stub {stub.executable}" if stub is not None else self.link_spec,
             "git_revision": git_revision(),
@@ -488,7 +539,7 @@ class Runner:
         r = e.result()
         result.cycles_done = r.cycles_done
         result.end = r.end_name
-        result.realtime_notes = r.rt_notes
+        result.realtime_notes = "; ".join(n for n in (r.rt_notes, self._throttling_note()) if n)
         if result.interrupted:
             result.error = f"interrupted by the user at cycle {r.cycles_done}"
         elif r.end == eng.END_CONTROLLER_FAULT:

@@ -82,7 +82,7 @@ class RealtimeSettings:
 
     duty_update: str = "on_arrival"         # "on_arrival" (ePWM immediate) | "next_period" (shadow)
     max_consecutive_misses: int = 10        # then all legs OFF, FAULT_PLANT, and the run ends
-    cpu: int | None = None                  # pin the engine to this CPU (None: not pinned)
+    cpu: int | None = None                  # the engine's CPU (None: the last allowed; realtime_cpus)
     priority: int = 80                      # SCHED_FIFO priority asked for (0: do not ask)
     mlock: bool = True                      # mlockall when allowed
     spin_us: float = 30.0                   # spin this long before each deadline
@@ -93,7 +93,7 @@ class RealtimeSettings:
     stub_isr: str = "sense"                 # "sense" (on SENSE arrival) | "timer" (free-running)
     stub_phase_us: float | None = None      # timer: first tick this long after the first SENSE
     stub_priority: int = 70                 # SCHED_FIFO priority asked for the stub (0: none)
-    stub_cpu: int | None = None
+    stub_cpu: int | None = None             # None: the first allowed CPU that is not the engine's
 
 
 @dataclass(frozen=True)

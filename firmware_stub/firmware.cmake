@@ -18,6 +18,11 @@ add_executable(pty_pingpong ${HIL_ROOT}/bench/perf/pty_pingpong.c)
 target_compile_options(pty_pingpong PRIVATE -Wall -Wextra -Werror)
 target_link_libraries(pty_pingpong PRIVATE util)
 
+# Benchmark helper: timer wake-up latency of a periodic thread (docs/realtime.md; cyclictest's
+# measurement plus the engine's spin before each deadline).
+add_executable(wakeup_latency ${HIL_ROOT}/bench/perf/wakeup_latency.c)
+target_compile_options(wakeup_latency PRIVATE -Wall -Wextra -Werror)
+
 # C tests of the firmware: one executable per tests/c/test_fw_*.c, run by CTest.
 file(GLOB HIL_FW_TESTS CONFIGURE_DEPENDS ${HIL_ROOT}/tests/c/test_fw_*.c)
 foreach(test_src ${HIL_FW_TESTS})

@@ -2,6 +2,7 @@
 
     python -m bench.perf.loop [--quick] [--no-can] [--engine-cpu N] [--stub-cpu N]
     python -m bench.perf.loop --soak 10          # 10-minute lockstep run: memory of every process
+    python -m bench.perf.loop --quick --tuned    # adds 10 kHz real time with the tuned set-up
 
 Everything is measured in one run on one machine, and compared as ratios:
 
@@ -11,11 +12,18 @@ Everything is measured in one run on one machine, and compared as ratios:
    recording on (``lockstep_recorded_per_s``) and off (``lockstep_unrecorded_per_s``); the rate
    is cycles over the engine's own wall time (set-up excluded);
 3. real time at 5, 10 and 20 kHz against the stub (its ISR on SENSE arrival), G2 scenario,
-   recording on: the period start error (jitter) percentiles and the deadline-miss rate;
+   recording on, the default CPU layout: the period start error (jitter) percentiles and the
+   deadline-miss rate; then 5 kHz once more with the recorder on the stub's CPU instead of the
+   engine's (the layout the default replaced);
 4. ``recorder_msgs_per_s``: how fast the recorder process turns ring records into MCAP messages
    (G2 rows, alone on the machine's second core);
 5. the CAN paths (unless --no-can): lockstep over python-can's slcan and socketcand interfaces
    through the engine's bridge, at the period classic CAN carries (600 us).
+
+6. with ``--tuned``, 10 kHz real time once more with the set-up of docs/realtime.md: engine and
+   stub each pinned to a core, the engine spinning through the whole period, both polling
+   without sleeping (``busy_wait``), and, when run as root, the kernel's real-time throttling
+   lifted for the run (``/proc/sys/kernel/sched_rt_runtime_us`` = -1, restored afterwards).
 
 ``--quick`` keeps the whole run under a minute (real-time runs of 3 s); the full run uses 60 s
 real-time runs. The last line printed is one JSON object with every figure. The figures in
@@ -101,12 +109,13 @@ def pty_ceiling(iterations: int) -> dict:
 
 
 def run(scn, *, link: str = "stub", record: bool = True, cpu: int | None = None,
-        stub_args: tuple[str, ...] = (), watch=None) -> dict:
+        stub_args: tuple[str, ...] = (), watch=None,
+        recorder_cpus: tuple[int, ...] | None = None) -> dict:
     from bench.runner import Runner
 
     with tempfile.TemporaryDirectory() as tmp:
         r = Runner(scn, link_spec=link, out_path=Path(tmp) / "perf.mcap", progress=False,
-                   record=record, cpu=cpu, stub_args=stub_args)
+                   record=record, cpu=cpu, stub_args=stub_args, recorder_cpus=recorder_cpus)
         if watch is not None:
             th = threading.Thread(target=watch, args=(r,), daemon=True)
             th.start()
@@ -118,7 +127,8 @@ def run(scn, *, link: str = "stub", record: bool = True, cpu: int | None = None,
            "cycles_per_s": result.cycles_done / result.engine_s, "record": record,
            "link": link, "mode": result.mode, "file_bytes": size,
            "rows_dropped": result.link_stats.get("rows_dropped", 0),
-           "realtime_notes": result.realtime_notes}
+           "realtime_notes": result.realtime_notes, "engine_cpu": r.cpu,
+           "stub_cpu": r._stub_cpu(), "recorder_cpus": list(r._recorder_cpus())}
     out.update(result.timing)
     return out
 
@@ -164,6 +174,35 @@ def recorder_rate(messages: int) -> dict:
         wall = time.perf_counter() - t0
         written = rec.messages
     return {"messages": written, "wall_s": wall, "msgs_per_s": written / wall}
+
+
+RT_RUNTIME = Path("/proc/sys/kernel/sched_rt_runtime_us")
+
+#: docs/realtime.md's tuned set-up: the engine spins through the whole period (no timer wake-up
+#: latency); not busy_wait: on two cores a stub that never sleeps starves the kernel's workers
+#: that carry the pty's bytes (runs stall for up to 100 ms)
+TUNED = """spin_us = 95.0
+guard_us = 5.0"""
+
+
+def tuned_run(rt_s: float) -> dict:
+    """10 kHz real time with the tuned set-up; lifts RT throttling for the run if root."""
+    old = None
+    try:
+        old = RT_RUNTIME.read_text().strip()
+        if old != "-1":
+            RT_RUNTIME.write_text("-1")
+    except OSError as e:
+        print(f"tuned: real-time throttling left on ({e.strerror}: {RT_RUNTIME}); a task "
+              f"spinning through the whole period is stopped for 50 ms a second", file=sys.stderr)
+        old = None
+    try:
+        out = run(scenario(rt_s, "realtime", 10000.0, TUNED))
+    finally:
+        if old is not None and old != "-1":
+            RT_RUNTIME.write_text(old)
+    out["rt_throttling_lifted"] = old is not None
+    return out
 
 
 def rss_kb(pid: int) -> int:
@@ -219,6 +258,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-can", action="store_true", help="skip the CAN paths")
     ap.add_argument("--engine-cpu", type=int, default=None, help="real time: engine thread's CPU")
     ap.add_argument("--stub-cpu", type=int, default=None, help="real time: the stub's CPU")
+    ap.add_argument("--tuned", action="store_true",
+                    help="also 10 kHz real time with docs/realtime.md's tuned set-up")
     ap.add_argument("--soak", type=float, default=None, metavar="MINUTES",
                     help="only the lockstep soak: memory of every process at start and end")
     args = ap.parse_args(argv)
@@ -237,6 +278,15 @@ def main(argv: list[str] | None = None) -> int:
     for rate in (5000, 10000, 20000):
         rows[f"rt_{rate // 1000}khz"] = [run(scenario(rt_s, "realtime", rate, rt_extra),
                                              cpu=args.engine_cpu)]
+    # the same 5 kHz run with the recorder on the stub's CPU instead of the engine's: why the
+    # default layout puts it with the engine (docs/realtime.md, "Where everything runs")
+    r5 = rows["rt_5khz"][0]
+    if r5["stub_cpu"] is not None:
+        rows["rt_5khz_recorder_apart"] = [run(scenario(rt_s, "realtime", 5000, rt_extra),
+                                              cpu=args.engine_cpu,
+                                              recorder_cpus=(r5["stub_cpu"],))]
+    if args.tuned:
+        rows["rt_10khz_tuned"] = [tuned_run(rt_s)]
     rows["recorder"] = [recorder_rate(200_000 if quick else 1_000_000)]
     if not args.no_can:
         for spec in ("stub",) + CAN_LINKS:
@@ -263,12 +313,22 @@ def main(argv: list[str] | None = None) -> int:
                               ("lockstep_unrecorded", "lockstep, engine, recording off", unrec_rate)):
         print(f"{label:44s} {rate:9.0f} {rate / ceiling:6.2f} {med(name, 'cycle_p50_us'):8.1f} "
               f"{med(name, 'cycle_p99_us'):8.1f}")
-    print(f"\nreal time against the stub, {rt_s:g} s each, recording on "
-          f"(engine CPU {args.engine_cpu}, stub CPU {args.stub_cpu}):")
+    r10 = rows["rt_10khz"][0]
+    print(f"\nreal time against the stub, {rt_s:g} s each, recording on (engine CPU "
+          f"{r10['engine_cpu']}, recorder CPUs {r10['recorder_cpus']}, stub CPU "
+          f"{r10['stub_cpu']}):")
     print(f"{'rate':8s} {'jitter p50':>10s} {'p99':>8s} {'p99.9':>8s} {'max':>9s} {'missed':>7s} "
           f"{'miss rate':>10s} {'overruns':>9s} {'RTT p50':>8s} {'RTT p99':>8s}")
-    for rate in (5, 10, 20):
-        r = rows[f"rt_{rate}khz"][0]
+    for rate, case in ((5, "rt_5khz"), (10, "rt_10khz"), (20, "rt_20khz"),
+                       (5, "rt_5khz_recorder_apart"), (10, "rt_10khz_tuned")):
+        if case not in rows:
+            continue
+        r = rows[case][0]
+        if case.endswith("apart"):
+            print(f"recorder on the stub's CPU {r['recorder_cpus']} instead of the engine's:")
+        if case.endswith("tuned"):
+            print(f"tuned set-up (docs/realtime.md; RT throttling lifted: "
+                  f"{r['rt_throttling_lifted']}):")
         print(f"{rate:3d} kHz  {r['jitter_p50_us']:10.1f} {r['jitter_p99_us']:8.1f} "
               f"{r['jitter_p999_us']:8.1f} {r['jitter_max_us']:9.1f} {r['missed']:7d} "
               f"{r['miss_rate']:10.2e} {r['overruns']:9d} {r['cycle_p50_us']:8.1f} "
@@ -298,7 +358,14 @@ def main(argv: list[str] | None = None) -> int:
         "rt_10khz_miss_rate": rows["rt_10khz"][0]["miss_rate"],
         "rt_10khz_overruns": rows["rt_10khz"][0]["overruns"],
         "rt_20khz_miss_rate": rows["rt_20khz"][0]["miss_rate"],
+        **({"rt_5khz_recorder_apart_miss_rate": rows["rt_5khz_recorder_apart"][0]["miss_rate"]}
+           if "rt_5khz_recorder_apart" in rows else {}),
         "recorder_msgs_per_s": med("recorder", "msgs_per_s"),
+        **({"rt_10khz_tuned_p99_jitter_us": rows["rt_10khz_tuned"][0]["jitter_p99_us"],
+            "rt_10khz_tuned_p999_jitter_us": rows["rt_10khz_tuned"][0]["jitter_p999_us"],
+            "rt_10khz_tuned_miss_rate": rows["rt_10khz_tuned"][0]["miss_rate"],
+            "rt_10khz_tuned_rtt_p50_us": rows["rt_10khz_tuned"][0]["cycle_p50_us"]}
+           if args.tuned else {}),
         "rt_seconds": rt_s, "lockstep_cycles": cycles, "repeats": repeat,
     }
     if not args.no_can:

@@ -1386,6 +1386,27 @@ static void rt_setup(engine_t *e)
     }
 }
 
+/** One real-time period's /link/timing row (start error, round trip, arrival, miss). */
+static void rt_record_timing(engine_t *e, const cycle_t *c, int64_t start_err_ns, int completed,
+                             int64_t sent_ns, int64_t t_k)
+{
+    rec_timing_t t;
+    if (!e->have_ring) {
+        return;
+    }
+    t.t_s = c->t_s;
+    t.seq = c->seq;
+    t.start_err_us = (double)start_err_ns * 1e-3;
+    t.rtt_us = completed ? (double)(c->duty_t_ns - sent_ns) * 1e-3 : (double)NAN;
+    t.arrival_us = completed ? (double)(c->duty_t_ns - t_k) * 1e-3 : (double)NAN;
+    t.cycle_us = (double)(eng_now_ns() - t_k) * 1e-3;
+    t.missed = completed ? 0u : 1u;
+    t.retries = 0u;
+    t.late_total = e->n.late_duty;
+    t.missed_total = e->n.missed_duty;
+    RECORD(e, e->cfg.ch_timing, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
+}
+
 static void rt_teardown(engine_t *e)
 {
     if (e->rt_fifo) {
@@ -1585,6 +1606,7 @@ static int run_realtime(engine_t *e)
                 }
                 after_telemetry(e, &c);
                 record_cycle(e, &c);
+                rt_record_timing(e, &c, start - t_k, 0, sent_ns, t_k);
                 plant_step_split(e->plant, e->duties, 0.0);
                 record_event(e, c.t_s, "watchdog",
                              "inverter safe state (all legs off), FAULT_PLANT WATCHDOG sent",
@@ -1611,22 +1633,7 @@ static int run_realtime(engine_t *e)
         if (!plant_finite(e, &c)) {
             return e->end;
         }
-        {
-            rec_timing_t t;
-            if (e->have_ring) {
-                t.t_s = c.t_s;
-                t.seq = c.seq;
-                t.start_err_us = (double)(start - t_k) * 1e-3;
-                t.rtt_us = completed ? (double)(c.duty_t_ns - sent_ns) * 1e-3 : (double)NAN;
-                t.arrival_us = completed ? (double)(c.duty_t_ns - t_k) * 1e-3 : (double)NAN;
-                t.cycle_us = (double)(eng_now_ns() - t_k) * 1e-3;
-                t.missed = completed ? 0u : 1u;
-                t.retries = 0u;
-                t.late_total = e->n.late_duty;
-                t.missed_total = e->n.missed_duty;
-                RECORD(e, cfg->ch_timing, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
-            }
-        }
+        rt_record_timing(e, &c, start - t_k, completed, sent_ns, t_k);
         __atomic_store_n(&e->cycles_done, k + 1, __ATOMIC_RELEASE);
         e->speed_rpm = e->plant->y[2] * cfg->rpm_per_rad_s;
         if (cfg->stats_every_cycles > 0 && (k + 1) % cfg->stats_every_cycles == 0) {
