@@ -40,7 +40,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                   f"{tm['jitter_p99_us']:.1f} us, p99.9 {tm['jitter_p999_us']:.1f} us, max "
                   f"{tm['jitter_max_us']:.1f} us; SENSE->DUTY p50 {tm['cycle_p50_us']:.1f} us, "
                   f"p99 {tm['cycle_p99_us']:.1f} us; {tm['missed']} missed "
-                  f"(rate {tm['miss_rate']:.2e}), {tm['late']} late")
+                  f"(rate {tm['miss_rate']:.2e}), {tm['late']} late, {tm['overruns']} periods "
+                  f"lost by the bench (overruns); lost rate {tm['lost_rate']:.2e}")
         if result.realtime_notes:
             err.print(f"[yellow]real-time setup:[/yellow] {result.realtime_notes} "
                       f"(the run went on without it: timing figures are best effort)")

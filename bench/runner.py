@@ -63,6 +63,7 @@ class RunResult:
     link_stats: dict = field(default_factory=dict)
     timing: dict = field(default_factory=dict)
     realtime_notes: str = ""
+    ts_s: float = 0.0              # the control period [s]
 
     @property
     def ok(self) -> bool:
@@ -177,6 +178,14 @@ class Runner:
         self.cpu = cpu if cpu is not None else scenario.realtime.cpu
         stub_cpu = scenario.realtime.stub_cpu
         if self.mode == "realtime":
+            allowed = sorted(os.sched_getaffinity(0))
+            for what, asked in (("engine", self.cpu), ("stub", stub_cpu)):
+                if asked is not None and asked not in allowed:
+                    origin = ("--cpu" if what == "engine" and cpu is not None else
+                              f"{scenario.display_path}: realtime.{'cpu' if what == 'engine' else 'stub_cpu'}")
+                    raise RunAborted(f"{origin} = {asked}: this process may run on CPUs "
+                                     f"{', '.join(map(str, allowed))} only; a real-time run "
+                                     f"pinned elsewhere would not be what was asked for")
             self.cpu, stub_cpu = realtime_cpus(self.cpu, stub_cpu)
         if self.mode == "realtime" and (link_spec == "stub" or link_spec.startswith("stub-")):
             rt = scenario.realtime
@@ -222,8 +231,15 @@ class Runner:
     # -- what the controller is told ----------------------------------------------------------
     def controller_params(self) -> dict[Param, float]:
         params = motor_params(self.profile)
-        # the stub stands for a DSP whose computation delay is the one the plant emulates
-        params[Param.CTRL_DELAY_S] = float(self.plant.params.t_delay_s)
+        # The delay from sampling to the new duties acting, which the controller compensates
+        # (angle advance, the voltage its observer is fed). Lockstep: the computation delay the
+        # plant emulates. Real time with a shadow-loaded PWM (next_period): one whole period.
+        # Real time on arrival: the link's real round trip, unknown before the run; the profile's
+        # delay stands for it (a scenario can set CTRL_DELAY_S in [controller.params]).
+        if self.mode == "realtime" and self.scn.realtime.duty_update == "next_period":
+            params[Param.CTRL_DELAY_S] = self.ts_s
+        else:
+            params[Param.CTRL_DELAY_S] = float(self.plant.params.t_delay_s)
         params.update(estimator_defaults(self.scn.estimator, self.profile, self.ts_s,
                                          self.scn.controller_params))
         params.update(self.scn.controller_params)
@@ -233,6 +249,16 @@ class Runner:
         return self.scn.hello_flags(bool(self.plant.params.dual_sampling))
 
     # -- the run --------------------------------------------------------------------------
+    def _stub_rt_notes(self) -> str:
+        """What the stub (the controller in CI) could not get of its real-time set-up: its
+        'cannot pin' / 'SCHED_FIFO not permitted' lines, said with the engine's."""
+        stub = getattr(getattr(self, "opened", None), "stub", None)
+        if self.mode != "realtime" or stub is None:
+            return ""
+        lines = [ln.removeprefix("hil_stub: ") for ln in list(stub.stderr_tail)
+                 if "cannot pin" in ln or "not permitted" in ln]
+        return "; ".join(f"controller stub: {ln}" for ln in lines)
+
     def _throttling_note(self) -> str:
         """A real-time run that spins through the whole period under the kernel's RT throttling
         loses 50 ms of every second to it (docs/realtime.md)."""
@@ -257,7 +283,8 @@ class Runner:
     def run(self) -> RunResult:
         scn = self.scn
         check_target(self.out_path, self.force)      # before any process or device is touched
-        result = RunResult(scn.name, self.out_path, 0, self.n_cycles, mode=self.mode)
+        result = RunResult(scn.name, self.out_path, 0, self.n_cycles, mode=self.mode,
+                           ts_s=self.ts_s)
         t0 = time.monotonic()
         opened = self.opened = open_link(self.link_spec, self.stub_args,
                                          capture_path=self.out_path.with_suffix(".log"))
@@ -539,7 +566,8 @@ class Runner:
         r = e.result()
         result.cycles_done = r.cycles_done
         result.end = r.end_name
-        result.realtime_notes = "; ".join(n for n in (r.rt_notes, self._throttling_note()) if n)
+        result.realtime_notes = "; ".join(n for n in (r.rt_notes, self._throttling_note(),
+                                                      self._stub_rt_notes()) if n)
         if result.interrupted:
             result.error = f"interrupted by the user at cycle {r.cycles_done}"
         elif r.end == eng.END_CONTROLLER_FAULT:
@@ -618,7 +646,8 @@ class Runner:
                        jitter_max_us=e.hist_max("jitter"),
                        missed=c["missed_duty"], late=c["late_duty"],
                        overruns=c["rt_overruns"],
-                       miss_rate=c["missed_duty"] / max(e.cycles_done, 1))
+                       miss_rate=c["missed_duty"] / max(e.cycles_done, 1),
+                       lost_rate=(c["missed_duty"] + c["rt_overruns"]) / max(e.cycles_done, 1))
         return out
 
 

@@ -1,19 +1,26 @@
-"""The C cycle engine reproduces the Python lockstep loop it replaced (issue 8, item 3).
+"""The C cycle engine reproduces the Python lockstep loop it replaced (issue 8, item 3), and keeps
+reproducing its own G2 run bit for bit (a regression test).
 
-The golden (tests/golden/g2_python_loop.npz) was recorded by the Python loop
-(``bench/runner.py: Runner._loop`` at commit f6614b9, the last with it) on a frozen copy of
-``gong_g2_500rpm`` (tests/golden/g2_equivalence.toml) with tests/golden/make_g2_golden.py. It
-holds the SHA-256 of every recorded numeric column (plant state, what the controller was sent,
-telemetry and duties, the host reference SMO) and full copies of the key ones.
+The proof of item 3. The golden of the Python loop (``bench/runner.py: Runner._loop`` at commit
+f6614b9, the last with it) was recorded on a frozen copy of ``gong_g2_500rpm``
+(tests/golden/g2_equivalence.toml) by tests/golden/make_g2_golden.py, as
+tests/golden/g2_python_loop.npz (in git at a9084b6): the SHA-256 of every recorded float column
+(plant state, what the controller was sent, telemetry and duties, the host reference SMO) and
+full copies of the key ones. The engine matched it with zero tolerance through commit 343d327
+(``git checkout 343d327 && .venv/bin/python -m pytest tests/test_engine_equivalence.py``, re-run
+2026-11-24: both tests pass). Bit identity holds because the engine evaluates every expression of
+the old loop in the same order in binary64 (no FMA contraction: -ffp-contract=off), encodes the
+wire with the DBC's rounding rule, and steps the same plant and estimator C. One column differs
+by definition: /plant/sense theta_enc_rad, which the old loop filled with the true angle while
+the engine records the angle actually sent (it differs only where the 16-bit encoder wraps to 0).
 
-The claim is bit identity: the engine evaluates every expression of the old loop in the same
-order in binary64 (no FMA contraction: -ffp-contract=off), encodes the wire with the DBC's
-rounding rule, and steps the same plant and estimator C. One column legitimately differs by
-definition: /plant/sense theta_enc_rad, which the old loop filled with the true angle while the
-engine records the angle actually sent (it differs only where the 16-bit encoder wraps to 0).
-
-If a later, deliberate change of the firmware or the plant changes the G2 run, this test fails:
-re-record the golden (make_g2_golden.py) and say in the commit which change moved it.
+Since then. The merge of the paper-claims work (8605a34) changed the firmware (the SMOs'
+direction handling, the controller's delay handling), which changes the stub's answers and so
+the run: the Python loop no longer exists to re-record, so the golden
+(tests/golden/g2_engine_regression.npz) is now the engine's own run of the same scenario, every
+numeric column hashed (integers included). This test then guards against any unintended change
+of the per-cycle path: if a deliberate change of the firmware or the plant moves the G2 run,
+re-record it (make_g2_golden.py) and say in the commit which change moved it.
 """
 from __future__ import annotations
 
@@ -40,8 +47,8 @@ def engine_run(tmp_path_factory):
     return load_recording(out)
 
 
-def test_engine_is_bit_identical_to_the_python_loop(engine_run):
-    golden = np.load(GOLDEN / "g2_python_loop.npz")
+def test_engine_is_bit_identical_to_its_golden_run(engine_run):
+    golden = np.load(GOLDEN / "g2_engine_regression.npz")
     mismatches = []
     for line in golden["hashes"]:
         topic, name, n, digest = str(line).rsplit(":", 3)
@@ -53,7 +60,7 @@ def test_engine_is_bit_identical_to_the_python_loop(engine_run):
 
 
 def test_full_columns_agree_exactly(engine_run):
-    golden = np.load(GOLDEN / "g2_python_loop.npz")
+    golden = np.load(GOLDEN / "g2_engine_regression.npz")
     for key in golden.files:
         if ":" not in key:
             continue

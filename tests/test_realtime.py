@@ -73,20 +73,112 @@ def rt_scenario(update="on_arrival", duration=1.5, rate_hz=10000, misses=1000, e
 #: periods (counted, duties held, the watchdog) is asserted unconditionally below.
 LOST_PERIODS_LIMIT = 0.01
 
+#: A host stall: this many periods or more lost in a row (missed DUTY or a period the bench lost).
+#: During a stall the plant runs on held duties while the rotor turns on (at 500 rpm, 4 pole
+#: pairs: 0.063 rad electrical in 3 periods of 100 us, 3.1 rad in a 15 ms stall): the loop is
+#: disturbed as by a load step, and then has to recover. Isolated single misses are not stalls.
+STALL_PERIODS = 3
+#: Time the G2 loop takes to recover from a stall before its speed counts as "held" again: the
+#: speed loop of the stub (SPEED_LOOP_DIV 10, its PI at about 20 Hz) settles a disturbance in
+#: about 0.1 s; twice that.
+RECOVERY_S = 0.2
+#: The least undisturbed time a "held" verdict needs.
+MIN_CLEAN_S = 0.3
 
-def run_real_time(scn, out: Path, **kwargs):
+
+def host_stalls(timing: dict, ts_s: float, min_periods: int = STALL_PERIODS) -> list[tuple[float, float]]:
+    """(start, end) times [s] of every streak of at least ``min_periods`` periods lost in a row,
+    read from the recording's /timing rows (one per period: ``missed`` for a DUTY not back in
+    time, ``overrun`` for a period the bench itself lost): the bench's own record of the host
+    stalls, never inferred from the speed."""
+    lost = (np.asarray(timing["missed"]).astype(bool) |
+            np.asarray(timing.get("overrun", np.zeros(len(timing["t_s"])))).astype(bool))
+    t = np.asarray(timing["t_s"], dtype=float)
+    out = []
+    k = 0
+    while k < len(lost):
+        if not lost[k]:
+            k += 1
+            continue
+        j = k
+        while j < len(lost) and lost[j]:
+            j += 1
+        if j - k >= min_periods:
+            out.append((float(t[k]), float(t[j - 1]) + ts_s))
+        k = j
+    return out
+
+
+def undisturbed(t_s: np.ndarray, stalls: list[tuple[float, float]],
+                recovery_s: float = RECOVERY_S) -> np.ndarray:
+    """Mask of the samples at t_s that are neither inside a stall nor within recovery_s after one."""
+    ok = np.ones(len(t_s), dtype=bool)
+    for a, b in stalls:
+        ok &= ~((t_s >= a) & (t_s < b + recovery_s))
+    return ok
+
+
+def run_real_time(scn, out: Path, *, need_clean_from_s: float | None = None, **kwargs):
+    """Run a real-time scenario; repeat once, then skip with the figures, if the machine lost
+    more than LOST_PERIODS_LIMIT of the periods or (with need_clean_from_s) left less than
+    MIN_CLEAN_S of undisturbed time after need_clean_from_s."""
+    why = ""
     for attempt in (1, 2):
         if attempt == 2:
             out.unlink(missing_ok=True)
         result = run_scenario(scn, out_path=out, progress=False, force=True, **kwargs)
         t = result.timing
         lost = (t.get("overruns", 0) + t.get("missed", 0)) / max(result.cycles_done, 1)
-        if lost <= LOST_PERIODS_LIMIT:
+        why = (f"{lost:.1%} of the periods were lost ({t.get('overruns')} bench overruns, "
+               f"{t.get('missed')} missed duties; jitter p99 {t.get('jitter_p99_us', 0):.0f} us)")
+        if lost > LOST_PERIODS_LIMIT:
+            continue
+        if need_clean_from_s is None or not result.ok or not out.exists():
             return result
-    pytest.skip(f"this machine could not keep real time: {lost:.1%} of the periods were lost "
-                f"({t.get('overruns')} bench overruns, {t.get('missed')} missed duties; jitter "
-                f"p99 {t.get('jitter_p99_us', 0):.0f} us) twice; see bench.perf.loop"
+        rec = load_recording(out)
+        stalls = host_stalls(rec.topic(ch.TIMING), result.ts_s)
+        state_t = rec.topic(ch.PLANT_STATE)["t_s"]
+        window = state_t >= need_clean_from_s
+        clean = np.count_nonzero(undisturbed(state_t, stalls) & window)
+        if clean * result.ts_s >= MIN_CLEAN_S:
+            return result
+        why = (f"host stalls left {clean * result.ts_s:.3f} s undisturbed after "
+               f"t = {need_clean_from_s} s: " + ", ".join(f"{a:.4f}-{b:.4f} s" for a, b in stalls))
+    pytest.skip(f"this machine could not keep real time: {why} twice; see bench.perf.loop"
                 + (f"; the run ended: {result.error}" if result.error else ""))
+
+
+def test_host_stall_classifier_on_synthetic_timing():
+    """The classifier the hold test relies on: streaks of >= 3 lost periods, overruns and misses
+    alike; single misses are not stalls; the recovery time is cut out after each stall."""
+    ts = 1e-4
+    n = 100
+    missed = np.zeros(n, dtype=np.uint32)
+    overrun = np.zeros(n, dtype=np.uint32)
+    missed[10] = 1                      # isolated: not a stall
+    missed[20:22] = 1                   # 2 in a row: not a stall
+    missed[30:32] = 1
+    overrun[32:35] = 1                  # 2 misses + 3 overruns: one stall of 5
+    missed[90:100] = 1                  # a stall that runs to the end
+    timing = {"t_s": np.arange(n) * ts, "missed": missed, "overrun": overrun}
+    stalls = host_stalls(timing, ts)
+    assert stalls == [(pytest.approx(30 * ts), pytest.approx(35 * ts)),
+                      (pytest.approx(90 * ts), pytest.approx(100 * ts))]
+    t = np.arange(0, 200) * ts
+    ok = undisturbed(t, stalls, recovery_s=10 * ts)
+    assert ok[29] and not ok[30] and not ok[44] and ok[45] and not ok[90]
+
+
+def test_host_stall_classifier_finds_none_in_lockstep(tmp_path):
+    """A lockstep run cannot be late: the classifier must find no stall in its /timing rows."""
+    out = tmp_path / "lock.mcap"
+    scn = rt_scenario(duration=0.3)
+    result = run_scenario(scn, out_path=out, progress=False, realtime=False)
+    assert result.ok, result.error
+    timing = load_recording(out).topic(ch.TIMING)
+    assert len(timing["t_s"]) == result.cycles_planned
+    assert host_stalls(timing, result.ts_s) == []
+    assert not np.asarray(timing["overrun"]).any()
 
 
 @pytest.mark.parametrize("rate_hz", [10000, 5000])
@@ -94,21 +186,30 @@ def run_real_time(scn, out: Path, **kwargs):
 def test_real_time_closes_the_loop_and_holds_500_rpm(tmp_path, rate_hz, update):
     """The stub answers each SENSE (its ISR on SENSE arrival). A loaded CI machine may make the
     stub miss a deadline now and then: the miss limit is set high (1000) so the assertion is on
-    the loop, and every miss is counted in the recording."""
+    the loop, and every miss is counted in the recording. "Held" is judged on the samples no host
+    stall disturbed (host_stalls: the bench's own /timing record, RECOVERY_S after each stall cut
+    out): a stall is the host's failure, a loop that drifts or oscillates while undisturbed is
+    the bench's, and fails here."""
     out = tmp_path / "rt.mcap"
-    result = run_real_time(rt_scenario(update, rate_hz=rate_hz), out)
+    result = run_real_time(rt_scenario(update, duration=2.5, rate_hz=rate_hz), out,
+                           need_clean_from_s=1.2)
     assert result.ok, result.error
     assert result.mode == "realtime" and result.cycles_done == result.cycles_planned
     rec = load_recording(out)
     state = rec.topic(ch.PLANT_STATE)
-    late = state["t_s"] >= 1.2
-    speed = state["speed_rpm"][late]
-    # held: the mean within 10 rpm and 90 % of the window within 20 rpm of 500 (a host stall of
-    # a few ms that the loss limit lets through can still dip the speed briefly)
+    timing = rec.topic(ch.TIMING)
+    clean = undisturbed(state["t_s"], host_stalls(timing, result.ts_s)) & (state["t_s"] >= 1.2)
+    speed = state["speed_rpm"][clean]
+    assert len(speed) * result.ts_s >= MIN_CLEAN_S
+    # held: the mean within 10 rpm and 90 % of the undisturbed window within 20 rpm of 500,
+    # every undisturbed sample within 40 rpm
     assert abs(np.mean(speed) - 500.0) < 10.0, (speed.min(), speed.max())
     assert np.percentile(np.abs(speed - 500.0), 90) < 20.0, (speed.min(), speed.max())
-    timing = rec.topic(ch.TIMING)
-    assert len(timing["t_s"]) + result.timing["overruns"] == result.cycles_planned
+    assert np.max(np.abs(speed - 500.0)) < 40.0, (speed.min(), speed.max())
+    # every period has its /timing row, the bench's lost periods included
+    assert len(timing["t_s"]) == result.cycles_planned
+    assert int(np.count_nonzero(timing["overrun"])) == result.timing["overruns"]
+    assert int(np.count_nonzero(timing["missed"])) == result.timing["missed"]
     assert np.nanmedian(timing["rtt_us"]) > 0.0
     assert rec.run["mode"] == "realtime" and rec.run["duty_update"] == update
 
@@ -171,8 +272,11 @@ def test_silent_controller_drives_the_inverter_to_its_safe_state(tmp_path):
     assert "FAULT_PLANT WATCHDOG sent" in result.error
     rec = load_recording(out)
     assert rec.truncated is None and rec.unreadable_chunks == 0
-    missed = rec.topic(ch.TIMING)["missed"].astype(bool)
-    assert missed[-10:].all() and (len(missed) == 10 or not missed[-11])   # the streak: 10
+    timing = rec.topic(ch.TIMING)
+    # the streak: 10 (periods the bench itself lost have rows too, but the controller was not
+    # asked in them: they neither count nor break the streak)
+    missed = timing["missed"].astype(bool)[~timing["overrun"].astype(bool)]
+    assert missed[-10:].all() and (len(missed) == 10 or not missed[-11])
     if result.cycles_done >= 1000:
         # periods the bench itself lost (overruns) count as cycles done but are no exchange
         assert 1010 <= result.cycles_done <= 1000 + 10 + 1 + result.timing["overruns"]
@@ -237,15 +341,43 @@ def test_a_rate_the_link_cannot_carry_in_real_time_is_refused(tmp_path):
     assert not out.exists() and not partial_path(out).exists()
 
 
-def test_real_time_setup_it_cannot_get_is_said_once_and_the_run_goes_on(tmp_path):
-    """A CPU that does not exist: the engine says so (realtime_notes, an /events row) and runs."""
+def test_a_cpu_this_process_may_not_use_is_refused_before_anything_starts(tmp_path):
+    """Pinning asked for (--cpu, [realtime] cpu / stub_cpu) on a CPU that does not exist or is
+    not ours: refused up front, naming the CPUs there are, no process started, no file left."""
     out = tmp_path / "nocpu.mcap"
-    result = run_scenario(rt_scenario(duration=0.2), out_path=out, progress=False, cpu=1023)
-    assert result.ok, result.error
-    assert "CPU pinning" in result.realtime_notes
+    with pytest.raises(RunAborted, match=r"--cpu = 1023: this process may run on CPUs .* only"):
+        run_scenario(rt_scenario(duration=0.2), out_path=out, progress=False, cpu=1023)
+    with pytest.raises(RunAborted, match=r"realtime.stub_cpu = 4095"):
+        run_scenario(rt_scenario(duration=0.2, extra="stub_cpu = 4095"), out_path=out,
+                     progress=False)
+    assert not out.exists() and not partial_path(out).exists()
+
+
+SETPRIV = "/usr/bin/setpriv"
+
+
+@pytest.mark.skipif(not Path(SETPRIV).exists() or os.geteuid() != 0,
+                    reason="needs root and util-linux setpriv to take SCHED_FIFO and mlockall "
+                           "away from a process")
+def test_real_time_setup_it_cannot_get_is_said_once_and_the_run_goes_on(tmp_path):
+    """Without the capabilities for SCHED_FIFO and mlockall (setpriv drops CAP_SYS_NICE and
+    CAP_IPC_LOCK; RLIMIT_RTPRIO is 0), the engine and the stub say so once -- the run's output
+    and one /events row -- and the run goes on."""
+    scn = tmp_path / "rt.toml"
+    scn.write_text(G2_RT.format(duration=0.3, update="on_arrival", misses=1_000_000, extra="",
+                                plant="", w0=0.0))
+    out = tmp_path / "noprio.mcap"
+    proc = subprocess.run([SETPRIV, "--bounding-set", "-sys_nice,-ipc_lock", "--", sys.executable,
+                           "-m", "bench", "run", str(scn), "--out", str(out), "--no-progress"],
+                          cwd=REPO, capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "COLUMNS": "250"})
+    said = proc.stdout + proc.stderr
+    assert "ran " in said and out.exists(), said
+    assert said.count("real-time setup:") == 1, said
+    assert "SCHED_FIFO" in said and "mlockall" in said and "controller stub" in said, said
     events = load_recording(out).topic(ch.EVENTS)
     notes = [t for k, t in zip(events["kind"], events["text"]) if k == "realtime_setup"]
-    assert len(notes) == 1 and "CPU pinning" in notes[0]
+    assert len(notes) == 1 and "SCHED_FIFO" in notes[0]
 
 
 def test_a_suspended_bench_ends_the_run_instead_of_pretending(tmp_path):

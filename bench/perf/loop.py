@@ -236,6 +236,11 @@ def soak(minutes: float) -> int:
 
     result = run(scn, watch=watch)
     stop.set()
+    if len(samples) < 2:
+        sys.exit(f"soak: the run lasted {result['engine_s']:.1f} s, too short for two memory "
+                 f"samples 5 s apart: ask for at least 0.5 minutes")
+    # the first sample is taken at cycle 1000, before the recorder's buffers have filled: the
+    # start figure is the one 5 s later
     first, last = samples[1][1], samples[-1][1]
     print(f"soak: {result['cycles']} lockstep cycles in {result['engine_s'] / 60:.1f} min "
           f"({result['cycles_per_s']:.0f}/s), recording {result['file_bytes'] / 1e6:.0f} MB, "
@@ -318,7 +323,8 @@ def main(argv: list[str] | None = None) -> int:
           f"{r10['engine_cpu']}, recorder CPUs {r10['recorder_cpus']}, stub CPU "
           f"{r10['stub_cpu']}):")
     print(f"{'rate':8s} {'jitter p50':>10s} {'p99':>8s} {'p99.9':>8s} {'max':>9s} {'missed':>7s} "
-          f"{'miss rate':>10s} {'overruns':>9s} {'RTT p50':>8s} {'RTT p99':>8s}")
+          f"{'miss rate':>10s} {'overruns':>9s} {'lost rate':>10s} {'RTT p50':>8s} "
+          f"{'RTT p99':>8s} {'dropped':>8s}")
     for rate, case in ((5, "rt_5khz"), (10, "rt_10khz"), (20, "rt_20khz"),
                        (5, "rt_5khz_recorder_apart"), (10, "rt_10khz_tuned")):
         if case not in rows:
@@ -331,8 +337,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"{r['rt_throttling_lifted']}):")
         print(f"{rate:3d} kHz  {r['jitter_p50_us']:10.1f} {r['jitter_p99_us']:8.1f} "
               f"{r['jitter_p999_us']:8.1f} {r['jitter_max_us']:9.1f} {r['missed']:7d} "
-              f"{r['miss_rate']:10.2e} {r['overruns']:9d} {r['cycle_p50_us']:8.1f} "
-              f"{r['cycle_p99_us']:8.1f}")
+              f"{r['miss_rate']:10.2e} {r['overruns']:9d} {r['lost_rate']:10.2e} "
+              f"{r['cycle_p50_us']:8.1f} {r['cycle_p99_us']:8.1f} {r['rows_dropped']:8d}")
         if r["realtime_notes"]:
             print(f"         real-time setup not obtained: {r['realtime_notes']}")
         if r["error"]:
@@ -352,12 +358,16 @@ def main(argv: list[str] | None = None) -> int:
         "lockstep_unrecorded_per_s": unrec_rate, "ratio_unrecorded": unrec_rate / ceiling,
         "rt_5khz_p99_jitter_us": rows["rt_5khz"][0]["jitter_p99_us"],
         "rt_5khz_miss_rate": rows["rt_5khz"][0]["miss_rate"],
+        "rt_5khz_lost_rate": rows["rt_5khz"][0]["lost_rate"],
         "rt_10khz_p99_jitter_us": rows["rt_10khz"][0]["jitter_p99_us"],
         "rt_10khz_p999_jitter_us": rows["rt_10khz"][0]["jitter_p999_us"],
         "rt_10khz_max_jitter_us": rows["rt_10khz"][0]["jitter_max_us"],
         "rt_10khz_miss_rate": rows["rt_10khz"][0]["miss_rate"],
         "rt_10khz_overruns": rows["rt_10khz"][0]["overruns"],
+        "rt_10khz_lost_rate": rows["rt_10khz"][0]["lost_rate"],
+        "rt_10khz_rows_dropped": rows["rt_10khz"][0]["rows_dropped"],
         "rt_20khz_miss_rate": rows["rt_20khz"][0]["miss_rate"],
+        "rt_20khz_lost_rate": rows["rt_20khz"][0]["lost_rate"],
         **({"rt_5khz_recorder_apart_miss_rate": rows["rt_5khz_recorder_apart"][0]["miss_rate"]}
            if "rt_5khz_recorder_apart" in rows else {}),
         "recorder_msgs_per_s": med("recorder", "msgs_per_s"),

@@ -828,6 +828,7 @@ static void record_cycle(engine_t *e, cycle_t *c)
     const plant_snapshot_t *s = &c->snap;
     const double theta = s->theta_e_rad;
     if (!e->have_ring) {
+        text_reset(e->rx_text, &e->rx_len);
         return;
     }
     {
@@ -883,6 +884,7 @@ static void record_cycle(engine_t *e, cycle_t *c)
         r.rx = e->rx_text;
         RECORD(e, cfg->ch_frames, c->t_s, 64u + e->tx_len + e->rx_len, rec_encode_frames, &r);
     }
+    text_reset(e->rx_text, &e->rx_len);
     if (c->have_telem && c->st != e->last_state && c->st >= 0) {
         const char *name = (c->st < ENGINE_STATE_NAMES && cfg->state_names[c->st][0] != '\0')
                                ? cfg->state_names[c->st] : "?";
@@ -967,7 +969,8 @@ static void begin_cycle(engine_t *e, cycle_t *c, long k)
     c->len0 = d->length_errors;
     c->over0 = d->overruns;
     text_reset(e->tx_text, &e->tx_len);
-    text_reset(e->rx_text, &e->rx_len);
+    /* rx_text is not reset here: frames that arrive after a real-time period's rows were
+     * written (late DUTY, heartbeats) belong in the next row's rx (record_cycle resets it) */
 }
 
 static void after_telemetry(engine_t *e, const cycle_t *c)
@@ -1106,6 +1109,7 @@ static int run_lockstep(engine_t *e)
                 t.retries = (uint32_t)c.retries;
                 t.late_total = e->n.late_duty;
                 t.missed_total = e->n.missed_duty;
+                t.overrun = 0u;
                 RECORD(e, cfg->ch_timing, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
             }
         }
@@ -1174,6 +1178,7 @@ static void replay_timing_row(engine_t *e, const cycle_t *c, int64_t c0, int64_t
     t.retries = (uint32_t)c->retries;
     t.late_total = e->n.late_duty;
     t.missed_total = e->n.missed_duty;
+    t.overrun = 0u;
     RECORD(e, e->cfg.ch_timing, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
 }
 
@@ -1404,6 +1409,29 @@ static void rt_record_timing(engine_t *e, const cycle_t *c, int64_t start_err_ns
     t.retries = 0u;
     t.late_total = e->n.late_duty;
     t.missed_total = e->n.missed_duty;
+    t.overrun = 0u;
+    RECORD(e, e->cfg.ch_timing, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
+}
+
+/** The /link/timing row of a period the bench lost (it woke late_ns after the period's start,
+ *  a whole period or more): no SENSE, no DUTY, the held duties acted. */
+static void rt_record_lost(engine_t *e, const cycle_t *c, int64_t late_ns)
+{
+    rec_timing_t t;
+    if (!e->have_ring) {
+        return;
+    }
+    t.t_s = c->t_s;
+    t.seq = c->seq;
+    t.start_err_us = (double)late_ns * 1e-3;
+    t.rtt_us = (double)NAN;
+    t.arrival_us = (double)NAN;
+    t.cycle_us = (double)NAN;
+    t.missed = 0u;
+    t.retries = 0u;
+    t.late_total = e->n.late_duty;
+    t.missed_total = e->n.missed_duty;
+    t.overrun = 1u;
     RECORD(e, e->cfg.ch_timing, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_timing, &t);
 }
 
@@ -1502,6 +1530,14 @@ static int run_realtime(engine_t *e)
                 skip = cfg->n_cycles - k;
             }
             for (i = 0; i < skip; ++i) {
+                /* each lost period: its start error (>= one period) in the jitter statistics
+                 * and a /timing row, so percentiles and rates are never computed over the
+                 * periods that went well only */
+                const int64_t late_ns = (start - t_k) - i * ts_ns;
+                cycle_t lost;
+                begin_cycle(e, &lost, k + i);
+                hist_add(&e->hist_jitter, (double)late_ns * 1e-3);
+                rt_record_lost(e, &lost, late_ns);
                 plant_step_split(e->plant, e->duties, 0.0);
             }
             e->n.rt_overruns += (uint64_t)skip;

@@ -74,11 +74,14 @@
  *  arrival_us: DUTY arrival after the period start (real time); cycle_us: wall time of the
  *  whole cycle; missed: this period ended without its DUTY (0 or 1; real time);
  *  retries: SENSE re-sends this cycle (lockstep); late_total: DUTY frames that arrived after
- *  their period so far; missed_total: periods without their DUTY so far. */
+ *  their period so far; missed_total: periods without their DUTY so far; overrun: 1 for a
+ *  period the bench itself lost (real time: it woke a whole period or more late, so no SENSE
+ *  left in this period and the plant ran it on the held duties; start_err_us is then how late
+ *  this period's start would have been, >= one period). Every period has one row. */
 #define REC_TIMING(X, P)                                                                       \
     X(P, F64, t_s) X(P, U32, seq) X(P, F64, start_err_us) X(P, F64, rtt_us)                    \
     X(P, F64, arrival_us) X(P, F64, cycle_us) X(P, U32, missed)                                \
-    X(P, U32, retries) X(P, CNT, late_total) X(P, CNT, missed_total)
+    X(P, U32, retries) X(P, CNT, late_total) X(P, CNT, missed_total) X(P, U32, overrun)
 
 /** /link/stats, hil.LinkStats: cumulative counters of the link, the cycle engine and the
  *  recorder, and wall-clock percentiles of the cycle time (lockstep) / period-start error

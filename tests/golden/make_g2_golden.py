@@ -1,10 +1,11 @@
-"""Record the golden of tests/test_engine_equivalence.py.
+"""Record the golden of tests/test_engine_equivalence.py (tests/golden/g2_engine_regression.npz).
 
 History: first recorded at commit f6614b9 by the Python lockstep loop (``bench/runner.py:
 LockstepRunner._loop``, the last commit with it); the C engine reproduced it bit for bit through
 commit 343d327. The merge of the paper-claims work (8605a34) changed the firmware (the SMOs'
 direction handling, the controller's delay handling), so the stub's answers changed; the golden
-was then re-recorded by the engine itself with this script. From the repository root:
+was then re-recorded by the engine itself with this script (and renamed from g2_python_loop.npz,
+which is kept in git at a9084b6). From the repository root:
 
     .venv/bin/python tests/golden/make_g2_golden.py
 
@@ -46,15 +47,15 @@ def main() -> int:
     for topic in TOPICS:
         cols = rec.topic(topic)
         for name, col in sorted(cols.items()):
-            if col.dtype != float:
-                continue
+            if col.dtype.kind not in "fiu":
+                continue   # text columns; integers (seq, state, estimator) are exact in binary64
             col = np.ascontiguousarray(col, dtype="<f8")
             hashes.append(f"{topic}:{name}:{len(col)}:{hashlib.sha256(col.tobytes()).hexdigest()}")
             if name in FULL.get(topic, ()):
                 out[f"{topic}:{name}"] = col
     rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True,
                          text=True).stdout.strip()
-    np.savez_compressed(ROOT / "tests" / "golden" / "g2_python_loop.npz",
+    np.savez_compressed(ROOT / "tests" / "golden" / "g2_engine_regression.npz",
                         hashes=np.array(hashes), revision=np.array(rev), **out)
     print(f"{len(hashes)} column hashes, {len(out)} full columns, revision {rev}")
     return 0
