@@ -34,6 +34,7 @@ TIMING = "/timing"
 REFERENCE_PREFIX = "/reference/"
 REPLAY_CONTROLLER = "/replay/controller"
 REPLAY_PLANT = "/replay/plant"
+FAULTS = "/faults"
 
 PACKAGE = "hil"
 MESSAGE_ENCODING = "protobuf"
@@ -127,7 +128,8 @@ LAYOUTS: dict[str, Layout] = _parse_layout(ffi.string(lib.rec_schema_layout()).d
 TOPIC_KIND = {PLANT_STATE: "PLANT_STATE", PLANT_SENSE: "SENSE",
               CONTROLLER_TELEMETRY: "TELEMETRY", LINK_FRAMES: "FRAMES", EVENTS: "EVENT",
               TIMING: "TIMING", LINK_STATS: "LINK_STATS",
-              REPLAY_CONTROLLER: "REPLAY_CONTROLLER", REPLAY_PLANT: "REPLAY_PLANT"}
+              REPLAY_CONTROLLER: "REPLAY_CONTROLLER", REPLAY_PLANT: "REPLAY_PLANT",
+              FAULTS: "FAULT"}
 
 #: what each channel holds (docs, Foxglove layout, bench check)
 DESCRIPTIONS = {
@@ -151,6 +153,9 @@ DESCRIPTIONS = {
                          "cycle beside the recorded ones.",
     "REPLAY_PLANT": "Replay into the plant: its sampled phase currents under the recorded duties "
                     "beside the recorded currents.",
+    "FAULT": "Every fault the run injected (plant faults on/off, each frame a link fault acted "
+             "on, a controller reset), the controller's trips, and each fault's trace: the "
+             "counters that moved within its detection window (docs/faults.md).",
 }
 
 # the field names every reader relies on (kept as constants for the callers)

@@ -36,6 +36,7 @@ class CheckReport:
     summary: dict[str, float] = field(default_factory=dict)
     results: list[QuantityResult] = field(default_factory=list)
     integrity: Integrity | None = None
+    faults: list = field(default_factory=list)     # bench.faults.FaultOutcome per [[faults]]
 
     @property
     def all_pass(self) -> bool:
@@ -128,7 +129,11 @@ def read_for_check(path: str | Path) -> Recording:
     from .recording import read_header
 
     header = read_header(path)
-    windows = windows_needed(scenario_of(header))
+    scn = scenario_of(header)
+    windows = windows_needed(scn)
+    # a fault's outcome reads the plant from the fault on (its peaks) to the end of the run
+    windows += [(max(0.0, fs.t_s - scn.recording.pre_trigger_s), scn.duration_s)
+                for fs in scn.faults]
     estimators: Counter = Counter()
 
     def count_estimators(cols) -> None:
@@ -154,6 +159,9 @@ def check_recording(path: str | Path) -> CheckReport:
             raise RecordingError(f"{rec.path}: scenario names unknown claim {claim_id!r}")
         report.results.extend(evaluate(claim, ctx, scn.name))
     report.integrity = check_integrity(rec, scn.link.allow, rec.run.get("estimator"))
+    from .faults import outcomes
+
+    report.faults = outcomes(rec)
     note = report.integrity.invalid_note
     if note:
         report.results = [dataclasses.replace(r, verdict="INVALID", note=note) for r in report.results]
@@ -213,6 +221,30 @@ def print_integrity(integrity: Integrity | None, console: Console) -> None:
         console.print(f"  [red]INVALID[/red] estimator: {integrity.estimator_text}")
 
 
+def print_faults(faults: list, console: Console) -> None:
+    """One line per fault of the run: detected?, how fast, by what, the plant's peaks from the
+    fault on, and the controller's reaction after its trip."""
+    if not faults:
+        return
+    console.print("faults:")
+    for o in faults:
+        head = f"  #{o.index} {o.kind} ({o.target})"
+        if o.t_on_s is None:
+            console.print(f"{head}: [yellow]never acted[/yellow]" +
+                          (f" ({'; '.join(o.notes)})" if o.notes else ""))
+            continue
+        if o.detected:
+            what = f"[green]detected[/green] after {o.detection_s * 1e3:.1f} ms by {o.detected_by}"
+        else:
+            what = f"[red]NOT detected[/red] ({o.evidence or 'no trace row'})"
+        react = ""
+        if o.trip_s is not None:
+            react = (f"; after the trip: {o.duties_after_trip} DUTY frame(s) not all legs off, "
+                     f"state {o.state_after or '?'}")
+        console.print(f"{head} at {o.t_on_s:.4f} s: {what}; peak |i| {_fmt(o.peak_current_a, 'A')}, "
+                      f"|T_e| {_fmt(o.peak_torque_nm, 'N m')}{react}")
+
+
 def _fmt(v: float, unit: str = "") -> str:
     if not math.isfinite(v):
         return "n/a"
@@ -238,6 +270,7 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
                       + f". `bench recover {rec.path} -o FIXED.mcap` copies every intact chunk, also "
                         "those after the damage.")
     print_integrity(report.integrity, console)
+    print_faults(report.faults, console)
     print_timing(rec, console)
     w0, w1 = ctx.window_s
     console.print(f"window {w0:g}..{w1:g} s, speed reference {ctx.speed_ref_rpm:g} rpm")

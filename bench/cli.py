@@ -1,5 +1,5 @@
 """Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``, ``bench recover``,
-``bench conformance``, ``bench replay`` (bench/replay/cli.py)."""
+``bench conformance``, ``bench campaign`` (bench/campaign.py), ``bench replay`` (bench/replay/cli.py)."""
 from __future__ import annotations
 
 import argparse
@@ -110,6 +110,36 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_campaign(args: argparse.Namespace) -> int:
+    import time
+
+    from .campaign import CampaignError, load_campaign, run_campaign, write_report
+
+    err = Console(stderr=True)
+    try:
+        camp = load_campaign(args.campaign)
+    except CampaignError as exc:
+        err.print(f"[red]error:[/red] {exc}")
+        return 2
+    out_dir = Path(args.out) if args.out else Path("reports") / "campaigns" / camp.name
+    t0 = time.monotonic()
+    results = run_campaign(camp, out_dir, jobs=args.jobs, link=args.link, keep_all=args.keep_all,
+                           console=err)
+    md = write_report(camp, results, out_dir, time.monotonic() - t0)
+    out = Console()
+    for r in results:
+        colour = {"PASS": "green", "FAIL": "red"}.get(r.verdict, "yellow")
+        faults = ", ".join((f"{o.kind} detected after {o.detection_s * 1e3:.1f} ms by "
+                            f"{o.detected_by}") if o.detected else f"{o.kind} NOT detected"
+                           for o in r.outcomes) or r.run_error
+        out.print(f"{r.case.name:40s} [{colour}]{r.verdict:7s}[/{colour}] {faults}"
+                  + (f" -- {'; '.join(r.reasons)}" if r.reasons else ""))
+    n_bad = sum(1 for r in results if r.verdict != "PASS")
+    out.print(f"{len(results)} runs, {len(results) - n_bad} PASS; table {md}, "
+              f"{md.with_suffix('.csv').with_name('results.csv')}")
+    return 1 if n_bad else 0
+
+
 def _cmd_claims(args: argparse.Namespace) -> int:
     from .claims import CLAIMS, METRICS
 
@@ -189,6 +219,15 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--estimator", default="SMO_SIGN", help="estimator to ask for (default SMO_SIGN)")
     f.set_defaults(func=_cmd_conformance)
 
+    g = sub.add_parser("campaign", help="run a fault campaign: one run per fault, a table of "
+                                        "detection and reaction against the file's limits")
+    g.add_argument("campaign", help="campaign TOML (e.g. bench/campaigns/g2_protection.toml)")
+    g.add_argument("--out", help="report folder (default reports/campaigns/<name>)")
+    g.add_argument("--jobs", type=int, default=1, help="runs in parallel (default 1)")
+    g.add_argument("--link", default=None, help="link of every run (default: the file's, or stub)")
+    g.add_argument("--keep-all", action="store_true",
+                   help="keep every run's recording (default: only the runs that did not PASS)")
+    g.set_defaults(func=_cmd_campaign)
     s = sub.add_parser("scenarios", help="list the bundled scenarios")
     s.set_defaults(func=_cmd_scenarios)
     k = sub.add_parser("claims", help="list the paper claims; --run: reproduce them all and "

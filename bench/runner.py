@@ -195,6 +195,11 @@ class Runner:
                 self.stub_args += ("--busy-poll",)
             if stub_cpu is not None:
                 self.stub_args += ("--cpu", str(stub_cpu))
+        self._check_faults_fit_the_link(scenario, link_spec)
+        if scenario.faults and (link_spec == "stub" or link_spec.startswith("stub-")):
+            # the stub reports its receive errors while cycles flow (HEARTBEAT_CTRL, protocol
+            # 6.7 "may"): faults on the frames it receives then leave a trace on the bench
+            self.stub_args += ("--heartbeat-always",)
         self.profile = load_profile(scenario.profile)
         self.plant = Plant(self.profile, **scenario.plant_overrides)
         self.ts_s = float(self.plant.params.ts_s)
@@ -206,6 +211,25 @@ class Runner:
         self.n_cycles = int(n)
         self.references = self._make_references()
         self._setup_frames: list[tuple[str, int, bytes]] = []
+
+    @staticmethod
+    def _check_faults_fit_the_link(scn: Scenario, link_spec: str) -> None:
+        """Faults this link cannot carry are refused before any process or device is touched."""
+        is_stub = link_spec == "stub" or link_spec.startswith("stub-")
+        is_can = link_spec.startswith(("can:", "stub-slcan", "stub-socketcand", "stub-socketcan"))
+        for fs in scn.faults:
+            where = f"{scn.display_path}: faults[{fs.index}] ({fs.kind})"
+            if fs.kind == "controller_reset" and not is_stub:
+                raise RunAborted(f"{where}: a controller_reset needs the firmware stub as the "
+                                 f"controller (--link stub...): the bench restarts it with SIGUSR1; "
+                                 f"a real drive has no such line")
+            if fs.kind == "bitflip" and is_can and fs.direction & 1:
+                raise RunAborted(f"{where}: on CAN a corrupted frame is destroyed by the bus's CRC "
+                                 f"and retransmitted by the sender's controller: a bit flip towards "
+                                 f"the controller cannot be emulated above the socket (inject it "
+                                 f"from the controller: the bench counts the error frame)")
+            if fs.kind == "garbage" and is_can and fs.burst > 32:
+                raise RunAborted(f"{where}: a CAN garbage burst is at most 32 frames")
 
     def _make_references(self) -> list[tuple[str, Estimator, object]]:
         """The reference estimators the scenario names, configured by the library's rules."""
@@ -353,6 +377,8 @@ class Runner:
         self.ch_timing = rec.channel(ch.TIMING)
         self.ch_refs = [rec.channel(ch.REFERENCE_PREFIX + name, "REFERENCE")
                         for name, _, _ in self.references]
+        self.ch_faults = (rec.channel(ch.FAULTS) if self.scn.faults or self.scn.post_trip_s > 0
+                          else None)
 
     def _start_serial_capture(self, rec: ProcessRecorder, opened: OpenedLink) -> None:
         """A serial link: every octet both ways into <recording>.serial.bin (docs/replay.md):
@@ -489,6 +515,13 @@ class Runner:
         )
         if getattr(self, "ch_serial_raw", None) is not None and self.record:
             options.update(capture_serial=1, ch_serial_raw=self.ch_serial_raw)
+        rs = scn.recording
+        options.update(post_trip_cycles=int(round(scn.post_trip_s / self.ts_s)),
+                       record_every=rs.decimate,
+                       pre_trigger_cycles=int(math.ceil(rs.pre_trigger_s / self.ts_s)),
+                       post_trigger_cycles=int(math.ceil(rs.post_trigger_s / self.ts_s)))
+        if self.ch_faults is not None:
+            options.update(ch_faults=self.ch_faults.index)
         channels = {"ch_state": self.ch_state.index, "ch_sense": self.ch_sense.index,
                     "ch_telem": self.ch_telem.index, "ch_frames": self.ch_frames.index,
                     "ch_events": self.ch_events.index, "ch_timing": self.ch_timing.index,
@@ -514,27 +547,46 @@ class Runner:
         return e
 
     def _schedule_events(self, e: eng.Engine) -> None:
-        for k, ev in event_cycles(self.scn, self.ts_s):
-            subs = []
-            if ev.speed_ref_rad_s is not None:
-                subs.append((eng.EV_CMD, int(Command.SET_SPEED_REF), ev.speed_ref_rad_s))
-            if ev.iq_ref_a is not None:
-                subs.append((eng.EV_CMD, int(Command.SET_IQ_REF), ev.iq_ref_a))
-            if ev.id_ref_a is not None:
-                subs.append((eng.EV_CMD, int(Command.SET_ID_REF), ev.id_ref_a))
-            if ev.control_mode is not None:
-                subs.append((eng.EV_CMD, int(Command.SET_CONTROL_MODE),
-                             1.0 if ev.control_mode == "current" else 0.0))
-            if ev.load_torque_nm is not None:
-                subs.append((eng.EV_LOAD, 0, ev.load_torque_nm))
-            if not subs:
-                subs.append((eng.EV_NOTE, 0, 0.0))
-            value = (ev.speed_ref_rad_s if ev.speed_ref_rad_s is not None
-                     else (ev.load_torque_nm or 0.0))
-            for i, (kind, command, v) in enumerate(subs):
-                last = i == len(subs) - 1
-                e.add_event(k, kind, command=command, value=v,
-                            text=ev.describe() if last else None, record_value=value)
+        from .faults import schedule
+
+        stub = getattr(getattr(self, "opened", None), "stub", None)
+        try:
+            fault_events = schedule(e, self.scn.faults, self.ts_s, n_cycles=self.n_cycles,
+                                    controller_pid=stub.proc.pid if stub is not None else None)
+        except ValueError as exc:
+            raise RunAborted(f"{self.scn.display_path}: {exc}") from None
+        # the engine takes events in cycle order: the scenario's and the faults' merged
+        adders = [(k, 0, i, lambda ev=ev, k=k: self._add_scenario_event(e, k, ev))
+                  for i, (k, ev) in enumerate(event_cycles(self.scn, self.ts_s))]
+        adders += [(k, 1, i, lambda kw=kw, k=k: e.add_fault_event(k, **kw))
+                   for i, (k, kw) in enumerate(fault_events)]
+        for *_, add in sorted(adders, key=lambda a: a[:3]):
+            try:
+                add()
+            except ValueError as exc:
+                raise RunAborted(f"{self.scn.display_path}: {exc}") from None
+
+    def _add_scenario_event(self, e: eng.Engine, k: int, ev) -> None:
+        subs = []
+        if ev.speed_ref_rad_s is not None:
+            subs.append((eng.EV_CMD, int(Command.SET_SPEED_REF), ev.speed_ref_rad_s))
+        if ev.iq_ref_a is not None:
+            subs.append((eng.EV_CMD, int(Command.SET_IQ_REF), ev.iq_ref_a))
+        if ev.id_ref_a is not None:
+            subs.append((eng.EV_CMD, int(Command.SET_ID_REF), ev.id_ref_a))
+        if ev.control_mode is not None:
+            subs.append((eng.EV_CMD, int(Command.SET_CONTROL_MODE),
+                         1.0 if ev.control_mode == "current" else 0.0))
+        if ev.load_torque_nm is not None:
+            subs.append((eng.EV_LOAD, 0, ev.load_torque_nm))
+        if not subs:
+            subs.append((eng.EV_NOTE, 0, 0.0))
+        value = (ev.speed_ref_rad_s if ev.speed_ref_rad_s is not None
+                 else (ev.load_torque_nm or 0.0))
+        for i, (kind, command, v) in enumerate(subs):
+            last = i == len(subs) - 1
+            e.add_event(k, kind, command=command, value=v,
+                        text=ev.describe() if last else None, record_value=value)
 
     def _watch(self, e: eng.Engine, rec: ProcessRecorder, opened: OpenedLink, link,
                result: RunResult) -> None:

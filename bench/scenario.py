@@ -131,6 +131,9 @@ class Scenario:
     send_encoder_angle: bool = False        # [controller]: send theta_enc also to a sensorless estimator
     realtime: RealtimeSettings = field(default_factory=RealtimeSettings)
     link: LinkSettings = field(default_factory=LinkSettings)
+    faults: tuple = ()                      # bench.faults.FaultSpec, [[faults]] (docs/faults.md)
+    recording: Any = None                   # bench.faults.RecordingSettings ([recording])
+    post_trip_s: float = 0.0                # a FAULT_CTRL ends the run this long after it
 
     @property
     def display_path(self) -> str:
@@ -502,6 +505,10 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     if mode not in MODES:
         raise s.fail("mode", f"must be one of {', '.join(MODES)}, got {mode!r}")
     claims = s.strings("claims")
+    has_faults = bool(raw.get("faults"))
+    post_trip_s = s.number("post_trip_s", 0.05 if has_faults else 0.0, min_value=0.0)
+    s.within("post_trip_s", post_trip_s, 0.0, 10.0, "s",
+             "how long the run records the controller's reaction after its FAULT_CTRL")
     from .claims import CLAIMS
 
     for claim in claims:
@@ -557,6 +564,10 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     events = _events(where, raw.get("events", []), duration_s, text)
     realtime = _realtime(top, mode)
     link = _link(top)
+    from .faults import parse_faults, parse_recording
+
+    faults = parse_faults(top, duration_s)
+    recording = parse_recording(top)
     top.reject_unknown()
 
     return Scenario(
@@ -568,6 +579,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         metrics_window_s=(w0, w1), claims=claims,
         telemetry_emf=telemetry_emf, raw=raw, text=text,
         send_encoder_angle=send_encoder, realtime=realtime, link=link,
+        faults=faults, recording=recording, post_trip_s=post_trip_s,
     )
 
 
@@ -625,6 +637,17 @@ def check_against_profile(scn: Scenario) -> None:
     for table, key, w in speeds:
         if abs(w * RPM_PER_RAD_S) > max_rpm:
             raise fail(table, key, f"{w * RPM_PER_RAD_S:g} rpm is outside the range the protocol carries ({why})")
+    for fs in scn.faults:   # each plant fault alone on this plant (the C check names the reason)
+        if fs.target != "plant":
+            continue
+        from bench.faults import PLANT_KINDS
+
+        try:
+            plant.set_fault(PLANT_KINDS[fs.kind][0], phase=fs.phase, phase2=fs.phase2,
+                            level=fs.level, value=fs.value)
+        except ValueError as exc:
+            raise fail(f"faults[{fs.index}]", "kind", f"this plant cannot take it: {exc}") from None
+        plant.clear_faults()
     if scn.reference_estimators:
         try:
             from firmware_stub.estimators import REFERENCE_ESTIMATORS

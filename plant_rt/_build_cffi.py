@@ -15,7 +15,8 @@ from cffi import FFI
 C_DIR = Path(__file__).resolve().parent / "c"
 SOURCES = ("pmsm_machine.c", "inverter.c", "mechanics.c", "sensor.c", "plant.c", "plant_fault.c",
            # the cycle engine and the recording ring / schema (engine.h, rec_ring.h, rec_schema.h)
-           "engine.c", "engine_link.c", "engine_refs.c", "rec_ring.c", "rec_schema.c")
+           "engine.c", "engine_faults.c", "engine_link.c", "engine_refs.c", "rec_ring.c",
+           "rec_schema.c")
 ROOT = C_DIR.parents[1]
 FW_SRC = ROOT / "firmware_stub" / "src"
 PROTOCOL_C = ROOT / "protocol" / "c"
@@ -232,16 +233,37 @@ typedef struct {
     const engine_replay_frame_t *replay_frames; long replay_n_frames; double pace_s;
     uint16_t ch_replay;
     int capture_serial; uint16_t ch_serial_raw;
+    uint16_t ch_faults; long post_trip_cycles;
+    long record_every; long pre_trigger_cycles, post_trigger_cycles;
     ...;
 } engine_config_t;
 typedef struct {
     long cycle; int kind; int command; double value; int record; double record_value;
-    char text[96]; ...;
+    char text[96];
+    int fault_kind, fault_phase, fault_phase2, fault_level, fault_index;
+    char fault_name[24];
+    double detect_within_s;
+    ...;
 } engine_event_t;
+typedef struct {
+    int kind; int direction; int frame_id; long cycle_on, cycle_off; uint32_t count;
+    double probability; double delay_s, jitter_s; double stall_s; uint32_t n_garbage;
+    uint64_t seed;
+} elf_config_t;
+typedef struct {
+    elf_config_t lf; int fault_index; char name[24]; double detect_within_s;
+} engine_link_fault_t;
+typedef struct {
+    int state; char name[24]; char target[12]; long first_k, close_k, seen_k;
+    long window_cycles; double delay_s; uint64_t rtt_seen; ...;
+} engine_trace_t;
 typedef struct {
     uint64_t seq_mismatch, bad_duties, telem_missing, unknown_ids, heartbeats_rx, length_errors;
     uint64_t duplicates, stale_frames, retries, late_duty, missed_duty, estimator_mismatch;
     uint64_t rows_dropped, rt_overruns;
+    uint64_t ctrl_rx_errors, ctrl_resets, ctrl_faults, duties_after_trip;
+    uint64_t faults_injected, faults_untraced;
+    uint64_t state_rows;
 } engine_counters_t;
 typedef struct {
     uint64_t frames_tx, frames_rx, bytes_tx, bytes_rx;
@@ -261,6 +283,8 @@ typedef struct engine {
     engine_hist_t hist_cycle, hist_jitter;
     uint16_t cmd_seq;
     double duties[3];
+    engine_trace_t traces[64];
+    long trip_cycle;
     ...;
 } engine_t;
 void engine_default_config(engine_config_t *cfg);
@@ -269,6 +293,7 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
 int engine_add_reference(engine_t *e, int kind, const void *config, size_t config_size,
                          uint16_t channel);
 int engine_add_event(engine_t *e, const engine_event_t *ev);
+int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f);
 int engine_run(engine_t *e);
 void engine_request_stop(engine_t *e);
 double engine_hist_percentile(const engine_hist_t *h, double q);

@@ -25,6 +25,11 @@ SOURCE = {"plant": 0, "replay_controller": 1, "replay_plant": 2, "replay_estimat
 DUTY_UPDATE = {"on_arrival": 0, "next_period": 1}
 LINK_KIND = {"serial": 0, "can": 1, "canfd": 2}
 EV_CMD, EV_LOAD, EV_DYNO_SPEED, EV_NOTE = 0, 1, 2, 3
+EV_PLANT_FAULT, EV_PLANT_FAULT_CLEAR, EV_CONTROLLER_RESET = 4, 5, 6
+#: link faults (plant_rt/c/engine_faults.h): kinds and directions
+LINK_FAULT_KIND = {"drop": 1, "duplicate": 2, "reorder": 3, "bitflip": 4, "delay": 5, "stall": 6,
+                   "garbage": 7}
+TO_CONTROLLER, FROM_CONTROLLER = 1, 2
 
 END_NAMES = {0: "DONE", 1: "STOPPED", 2: "LINK", 3: "NO_DUTY", 4: "CONTROLLER_FAULT",
              5: "BAD_DUTIES", 6: "WATCHDOG", 7: "PLANT", 8: "CONFIG", 9: "PROTOCOL"}
@@ -32,7 +37,8 @@ END_DONE, END_STOPPED, END_CONTROLLER_FAULT, END_WATCHDOG = 0, 1, 4, 6
 
 COUNTERS = ("seq_mismatch", "bad_duties", "telem_missing", "unknown_ids", "heartbeats_rx",
             "length_errors", "duplicates", "stale_frames", "retries", "late_duty", "missed_duty",
-            "estimator_mismatch", "rows_dropped", "rt_overruns")
+            "estimator_mismatch", "rows_dropped", "rt_overruns", "ctrl_rx_errors", "ctrl_resets",
+            "ctrl_faults", "duties_after_trip", "faults_injected", "faults_untraced", "state_rows")
 
 
 def _signal(cfg_sig, msg: str, name: str) -> None:
@@ -194,6 +200,76 @@ class Engine:
         ev.text = (text or "").encode()[:95]
         if lib.engine_add_event(self._e, ev) != 0:
             raise ValueError(ffi.string(self._e.message).decode())
+
+    def add_fault_event(self, cycle: int, kind: int, *, index: int, name: str,
+                        fault_kind: int = 0, phase: int = 0, phase2: int = 0, level: int = 0,
+                        value: float = 0.0, pid: int = 0, detect_within_s: float = 0.2,
+                        text: str = "") -> None:
+        """A plant fault switched on (EV_PLANT_FAULT) or off (EV_PLANT_FAULT_CLEAR), or a
+        controller reset (EV_CONTROLLER_RESET: SIGUSR1 to ``pid``), at a cycle; ``index`` is
+        the scenario's [[faults]] entry, whose trace the engine records on /faults."""
+        ev = ffi.new("engine_event_t *")
+        ev.cycle = cycle
+        ev.kind = kind
+        ev.command = pid
+        ev.value = value
+        ev.record = 0
+        ev.text = text.encode()[:95]
+        ev.fault_kind = fault_kind
+        ev.fault_phase = phase
+        ev.fault_phase2 = phase2
+        ev.fault_level = level
+        ev.fault_index = index
+        ev.fault_name = name.encode()[:23]
+        ev.detect_within_s = detect_within_s
+        if lib.engine_add_event(self._e, ev) != 0:
+            raise ValueError(ffi.string(self._e.message).decode())
+
+    def add_link_fault(self, *, index: int, name: str, kind: str, direction: int,
+                       frame_id: int = -1, cycle_on: int, cycle_off: int = 0, count: int = 0,
+                       probability: float = 1.0, delay_s: float = 0.0, jitter_s: float = 0.0,
+                       stall_s: float = 0.0, n_garbage: int = 0, seed: int = 1,
+                       detect_within_s: float = 0.2) -> None:
+        """A link fault the engine injects (plant_rt/c/engine_faults.h)."""
+        f = ffi.new("engine_link_fault_t *")
+        f.lf.kind = LINK_FAULT_KIND[kind]
+        f.lf.direction = direction
+        f.lf.frame_id = frame_id
+        f.lf.cycle_on = cycle_on
+        f.lf.cycle_off = cycle_off
+        f.lf.count = count
+        f.lf.probability = probability
+        f.lf.delay_s = delay_s
+        f.lf.jitter_s = jitter_s
+        f.lf.stall_s = stall_s
+        f.lf.n_garbage = n_garbage
+        f.lf.seed = seed
+        f.fault_index = index
+        f.name = name.encode()[:23]
+        f.detect_within_s = detect_within_s
+        if lib.engine_add_link_fault(self._e, f) != 0:
+            raise ValueError(ffi.string(self._e.message).decode())
+
+    def traces(self) -> list[dict]:
+        """What became of each fault (by [[faults]] index): its name, target, whether it acted,
+        first evidence [s after the first action] (None: none) and whether its window closed."""
+        out = []
+        for i in range(64):
+            t = self._e.traces[i]
+            if not t.name[0]:
+                continue
+            acted = int(t.state) > 0
+            out.append({"index": i, "name": ffi.string(t.name).decode(),
+                        "target": ffi.string(t.target).decode(), "acted": acted,
+                        "first_cycle": int(t.first_k) if acted else None,
+                        "evidence_s": ((int(t.seen_k) - int(t.first_k)) * float(self._cfg.ts_s)
+                                       if acted and int(t.seen_k) >= 0 else None)})
+        return out
+
+    @property
+    def trip_cycle(self) -> int:
+        """The cycle of the controller's first FAULT_CTRL in a fault run (-1: none)."""
+        return int(self._e.trip_cycle)
 
     def preload_link_counters(self, deframer: dict[str, int] | None = None,
                               link: dict[str, int] | None = None) -> None:

@@ -5,11 +5,13 @@
 #include <errno.h>
 #include <math.h>
 #include <sched.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/types.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -228,6 +230,279 @@ static void record_event(engine_t *e, double t_s, const char *kind, const char *
     RECORD(e, e->cfg.ch_events, t_s, 64u + strlen(kind) + strlen(text), rec_encode_event, &ev);
 }
 
+/** Is cycle k recorded in full (not decimated away)? */
+static int record_full(const engine_t *e, long k)
+{
+    int i;
+    if (e->cfg.record_every <= 1 || k % e->cfg.record_every == 0 || k < e->full_rate_until) {
+        return 1;
+    }
+    for (i = 0; i < e->n_full_rate; ++i) {
+        if (k >= e->full_rate[i][0] && k < e->full_rate[i][1]) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+static void full_rate_from_now(engine_t *e, long cycles)
+{
+    if (e->cur_k + cycles > e->full_rate_until) {
+        e->full_rate_until = e->cur_k + cycles;
+    }
+}
+
+/** A /faults row at the present cycle's time. */
+static void record_fault(engine_t *e, int32_t seq, int index, const char *target,
+                         const char *kind, const char *direction, const char *action,
+                         const char *text, double value)
+{
+    rec_fault_t r;
+    r.t_s = e->cur_t_s;
+    r.seq = seq;
+    r.index = index;
+    r.target = target;
+    r.kind = kind;
+    r.direction = direction;
+    r.action = action;
+    r.text = text;
+    r.value = value;
+    RECORD(e, e->cfg.ch_faults, r.t_s, 96u + strlen(target) + strlen(kind) + strlen(direction) +
+               strlen(action) + strlen(text), rec_encode_fault, &r);
+}
+
+/* ---- fault traces: the evidence a fault left in the counters ------------------------------------ */
+
+static const char *const TRACE_NAMES[ENGINE_TRACE_COUNTERS] = {
+    "crc_errors", "cobs_errors", "length_errors", "overruns", "bytes_discarded", "seq_mismatch",
+    "bad_duties", "telem_missing", "unknown_ids", "duplicates", "stale_frames", "retries",
+    "late_duty", "missed_duty", "error_frames", "can_unknown_ids", "rx_malformed",
+    "ctrl_rx_errors", "ctrl_resets", "ctrl_faults", "rtt_over_delay"};
+
+static void trace_counters(const engine_t *e, const engine_trace_t *t,
+                           uint64_t v[ENGINE_TRACE_COUNTERS])
+{
+    const hil_deframer_t *d = &e->link.deframer;
+    v[0] = d->crc_errors;
+    v[1] = d->cobs_errors;
+    v[2] = d->length_errors + e->n.length_errors;
+    v[3] = d->overruns;
+    v[4] = d->bytes_discarded;
+    v[5] = e->n.seq_mismatch;
+    v[6] = e->n.bad_duties;
+    v[7] = e->n.telem_missing;
+    v[8] = e->n.unknown_ids;
+    v[9] = e->n.duplicates;
+    v[10] = e->n.stale_frames;
+    v[11] = e->n.retries;
+    v[12] = e->n.late_duty;
+    v[13] = e->n.missed_duty;
+    v[14] = e->link.c.error_frames;
+    v[15] = e->link.c.ext_ids;
+    v[16] = e->link.c.rx_malformed;
+    v[17] = e->n.ctrl_rx_errors;
+    v[18] = e->n.ctrl_resets;
+    v[19] = e->n.ctrl_faults;
+    v[20] = t->rtt_seen;
+}
+
+static void trace_close(engine_t *e, int index, const char *ended);
+
+/** Fault `index` acted now: start (or extend) its detection window. The windows of other faults
+ *  that already have their evidence close now, so what this fault causes is not booked to them;
+ *  one still waiting for evidence stays open (its rows then name both: docs/faults.md). */
+static void trace_act(engine_t *e, int index, long extra_cycles)
+{
+    engine_trace_t *t;
+    int i;
+    if (index < 0 || index >= ENGINE_MAX_TRACES) {
+        return;
+    }
+    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+        if (i != index && e->traces[i].state == 1 && e->traces[i].seen_k >= 0 &&
+            e->traces[i].seen_k < e->cur_k) {
+            trace_close(e, i, NULL);
+        }
+    }
+    t = &e->traces[index];
+    if (t->state != 1) {
+        t->state = 1;
+        t->first_k = e->cur_k;
+        t->seen_k = -1;
+        t->rtt_seen = 0u;
+        trace_counters(e, t, t->snap);
+        t->close_k = e->cur_k;
+    }
+    if (e->cur_k + t->window_cycles + extra_cycles > t->close_k) {
+        t->close_k = e->cur_k + t->window_cycles + extra_cycles;
+    }
+}
+
+/** Close trace `index`: one /faults "trace" row with the counters that moved. `ended`: the run
+ *  ended while the window was open, for this reason (itself evidence, if not NULL). */
+static void trace_close(engine_t *e, int index, const char *ended)
+{
+    engine_trace_t *t = &e->traces[index];
+    uint64_t now[ENGINE_TRACE_COUNTERS];
+    char text[ENGINE_MESSAGE];
+    int n = 0, i, moved = 0;
+    trace_counters(e, t, now);
+    text[0] = '\0';
+    for (i = 0; i < ENGINE_TRACE_COUNTERS; ++i) {
+        if (now[i] > t->snap[i] && n < (int)sizeof text - 48) {
+            n += snprintf(text + n, sizeof text - (size_t)n, "%s%s +%llu", moved ? ", " : "",
+                          TRACE_NAMES[i], (unsigned long long)(now[i] - t->snap[i]));
+            moved = 1;
+        }
+    }
+    if (ended != NULL && n < (int)sizeof text - 16) {
+        snprintf(text + n, sizeof text - (size_t)n, "%sthe run ended: %s", moved ? "; " : "",
+                 ended);
+        if (t->seen_k < 0) {
+            t->seen_k = e->cur_k;
+        }
+    }
+    if (!moved && ended == NULL) {
+        snprintf(text, sizeof text, "no trace: no counter moved within %.4g s of the last action",
+                 (double)t->window_cycles * e->cfg.ts_s);
+        e->n.faults_untraced++;
+    }
+    record_fault(e, -1, index, t->target, t->name, "", "trace", text,
+                 t->seen_k >= 0 ? (double)(t->seen_k - t->first_k) * e->cfg.ts_s : (double)NAN);
+    t->state = 2;
+}
+
+/** End of the present cycle: first evidence, windows that closed. */
+static void traces_step(engine_t *e)
+{
+    int i;
+    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+        engine_trace_t *t = &e->traces[i];
+        if (t->state != 1) {
+            continue;
+        }
+        if (t->seen_k < 0) {
+            uint64_t now[ENGINE_TRACE_COUNTERS];
+            int j;
+            trace_counters(e, t, now);
+            for (j = 0; j < ENGINE_TRACE_COUNTERS; ++j) {
+                if (now[j] > t->snap[j]) {
+                    t->seen_k = e->cur_k;
+                    break;
+                }
+            }
+        }
+        if (e->cur_k >= t->close_k) {
+            trace_close(e, i, NULL);
+        }
+    }
+}
+
+/* ---- the link through the faults ------------------------------------------------------------- */
+
+static int has_link_faults(const engine_t *e)
+{
+    return e->lf.n > 0;
+}
+
+static int link_tx(engine_t *e, uint16_t id, const uint8_t *data, uint16_t dlc)
+{
+    if (!has_link_faults(e)) {
+        return eng_link_queue(&e->link, id, data, dlc);
+    }
+    return elf_tx(&e->lf, &e->link, id, data, dlc, eng_now_ns());
+}
+
+static int link_flush(engine_t *e, int64_t deadline_ns)
+{
+    if (has_link_faults(e)) {
+        (void)elf_tx_due(&e->lf, &e->link, eng_now_ns());
+    }
+    return eng_link_flush(&e->link, deadline_ns);
+}
+
+static int link_pop(engine_t *e, eng_frame_t *f)
+{
+    int64_t now;
+    if (!has_link_faults(e)) {
+        return eng_link_pop(&e->link, f);
+    }
+    now = eng_now_ns();
+    elf_rx_pump(&e->lf, &e->link, now);
+    return elf_rx_pop(&e->lf, f, now);
+}
+
+/** eng_link_poll through the faults: frames held back (delays) become due, delayed frames to
+ *  the controller go out when due. Returns the frames due now (>= 0), or -1 (link failed). */
+static int link_poll(engine_t *e, int64_t deadline_ns)
+{
+    if (!has_link_faults(e)) {
+        return eng_link_poll(&e->link, deadline_ns);
+    }
+    for (;;) {
+        const int64_t now = eng_now_ns();
+        int64_t next, wake;
+        unsigned ready;
+        if (elf_tx_due(&e->lf, &e->link, now) > 0 &&
+            eng_link_flush(&e->link, now + 100000000LL) != 0) {
+            return -1;
+        }
+        elf_rx_pump(&e->lf, &e->link, now);
+        ready = elf_rx_ready(&e->lf, now);
+        if (ready > 0u) {
+            return (int)ready;
+        }
+        if (now >= deadline_ns) {
+            return 0;
+        }
+        next = elf_next_due_ns(&e->lf);
+        wake = next < deadline_ns ? next : deadline_ns;
+        if (eng_link_poll(&e->link, wake) < 0) {
+            elf_rx_pump(&e->lf, &e->link, eng_now_ns());
+            return -1;
+        }
+    }
+}
+
+static const char *direction_name(int dir)
+{
+    return dir == (ELF_TO_CONTROLLER | ELF_FROM_CONTROLLER) ? "both"
+           : dir == ELF_TO_CONTROLLER                      ? "to_controller"
+                                                           : "from_controller";
+}
+
+/** The link-fault injector acted on a frame (or started a stall / a garbage burst). */
+static void link_fault_acted(void *ctx, int i, int dir, const char *action, uint16_t id,
+                             const uint8_t *data, uint16_t dlc, double value)
+{
+    engine_t *e = (engine_t *)ctx;
+    const engine_link_fault_t *lf = &e->lfc[i];
+    char text[128];
+    int32_t seq = -1;
+    long extra = 0;
+    if (data != NULL && dlc >= 2u && id >= 0x100u && id < 0x200u) {
+        seq = (int32_t)((unsigned)data[0] | ((unsigned)data[1] << 8)); /* cycle frames: seq first */
+    }
+    if (data != NULL) {
+        snprintf(text, sizeof text, "%s of frame 0x%03X%s", action, (unsigned)id,
+                 seq >= 0 ? " (cycle message, seq in the frame)" : "");
+    } else {
+        snprintf(text, sizeof text, "%s", action);
+    }
+    e->n.faults_injected++;
+    record_fault(e, seq, lf->fault_index, "link", lf->name, direction_name(dir), action, text,
+                 value);
+    if (lf->lf.kind == ELF_STALL) {
+        extra = (long)ceil(lf->lf.stall_s / e->cfg.ts_s);
+    } else if (lf->lf.kind == ELF_DELAY) {
+        extra = (long)ceil(value / e->cfg.ts_s);
+    }
+    if (strcmp(action, "stall_drop") != 0) {   /* the stall itself opened the trace */
+        trace_act(e, lf->fault_index, extra);
+    }
+    full_rate_from_now(e, e->cfg.post_trigger_cycles + extra);
+}
+
 void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extra)
 {
     rec_link_stats_t s;
@@ -258,6 +533,12 @@ void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extr
     s.missed_duty = e->n.missed_duty;
     s.estimator_mismatch = e->n.estimator_mismatch;
     s.rt_overruns = e->n.rt_overruns;
+    s.ctrl_rx_errors = e->n.ctrl_rx_errors;
+    s.ctrl_resets = e->n.ctrl_resets;
+    s.ctrl_faults = e->n.ctrl_faults;
+    s.duties_after_trip = e->n.duties_after_trip;
+    s.faults_injected = e->n.faults_injected;
+    s.faults_untraced = e->n.faults_untraced;
     s.rows_dropped = e->have_ring ? e->ring.hdr->records_dropped : 0u;
     s.error_frames = c->error_frames;
     s.remote_frames = c->remote_frames;
@@ -316,6 +597,8 @@ void engine_default_config(engine_config_t *cfg)
     cfg->stats_every_cycles = 1000;
     cfg->record_frames = 1;
     cfg->link_fd = -1;
+    cfg->ch_faults = ENGINE_NO_CHANNEL;
+    cfg->record_every = 1;
 }
 
 int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *ring_mem,
@@ -377,6 +660,8 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
     }
     e->duties[0] = e->duties[1] = e->duties[2] = 0.5;
     e->cmd_seq = cfg->cmd_seq_start;
+    e->trip_cycle = -1;
+    elf_init(&e->lf, link_fault_acted, e);
     e->end = ENGINE_END_DONE;
     return 0;
 }
@@ -401,16 +686,98 @@ int engine_add_reference(engine_t *e, int kind, const void *config, size_t confi
     return 0;
 }
 
+/** Name a fault's trace and its detection window. */
+static int trace_setup(engine_t *e, int index, const char *name, const char *target,
+                       double detect_within_s, double delay_s)
+{
+    engine_trace_t *t;
+    if (index < 0 || index >= ENGINE_MAX_TRACES || !(detect_within_s >= 0.0)) {
+        set_message(e, "engine: fault index %d out of [0, %d) or a negative detection window",
+                    index, ENGINE_MAX_TRACES);
+        return -1;
+    }
+    t = &e->traces[index];
+    snprintf(t->name, sizeof t->name, "%s", name);
+    snprintf(t->target, sizeof t->target, "%s", target);
+    t->window_cycles = (long)ceil(detect_within_s / e->cfg.ts_s);
+    t->delay_s = delay_s;
+    t->seen_k = -1;
+    return 0;
+}
+
+static void add_full_rate_window(engine_t *e, long from, long to)
+{
+    if (e->cfg.record_every > 1 && e->n_full_rate < ENGINE_MAX_EVENTS + ENGINE_MAX_LINK_FAULTS) {
+        e->full_rate[e->n_full_rate][0] = from - e->cfg.pre_trigger_cycles;
+        e->full_rate[e->n_full_rate][1] = to + e->cfg.post_trigger_cycles;
+        e->n_full_rate++;
+    }
+}
+
 int engine_add_event(engine_t *e, const engine_event_t *ev)
 {
+    const int is_fault = ev->kind == ENGINE_EV_PLANT_FAULT ||
+                         ev->kind == ENGINE_EV_PLANT_FAULT_CLEAR ||
+                         ev->kind == ENGINE_EV_CONTROLLER_RESET;
     if (e->n_events >= ENGINE_MAX_EVENTS ||
         (e->n_events > 0 && ev->cycle < e->events[e->n_events - 1].cycle)) {
         set_message(e, "engine: too many events or events out of order");
         return -1;
     }
+    if (ev->kind == ENGINE_EV_PLANT_FAULT) {
+        plant_fault_t pf;
+        const char *why;
+        pf.kind = ev->fault_kind;
+        pf.phase = ev->fault_phase;
+        pf.phase2 = ev->fault_phase2;
+        pf.level = ev->fault_level;
+        pf.value = ev->value;
+        why = plant_fault_check(e->plant, &pf);
+        if (why != NULL) {
+            set_message(e, "engine: plant fault %s at cycle %ld: %s", ev->fault_name, ev->cycle, why);
+            return -1;
+        }
+    }
+    if (ev->kind == ENGINE_EV_CONTROLLER_RESET && ev->command <= 1) {
+        set_message(e, "engine: a controller reset needs the controller's process id");
+        return -1;
+    }
+    if (is_fault) {
+        if (ev->kind != ENGINE_EV_PLANT_FAULT_CLEAR &&
+            trace_setup(e, ev->fault_index, ev->fault_name,
+                        ev->kind == ENGINE_EV_CONTROLLER_RESET ? "controller" : "plant",
+                        ev->detect_within_s, 0.0) != 0) {
+            return -1;
+        }
+        add_full_rate_window(e, ev->cycle, ev->cycle);
+    }
     e->events[e->n_events] = *ev;
     e->events[e->n_events].text[ENGINE_EVENT_TEXT - 1] = '\0';
+    e->events[e->n_events].fault_name[sizeof ev->fault_name - 1] = '\0';
     e->n_events++;
+    return 0;
+}
+
+int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f)
+{
+    char why[320];
+    if (e->cfg.source != ENGINE_SOURCE_PLANT && e->cfg.source != ENGINE_SOURCE_REPLAY_CONTROLLER) {
+        set_message(e, "engine: link faults need a link (a live run or a replay into a controller)");
+        return -1;
+    }
+    if (elf_add(&e->lf, &f->lf, (int)e->link.kind, why, sizeof why) != 0) {
+        set_message(e, "engine: link fault %s: %s", f->name, why);
+        return -1;
+    }
+    e->lfc[e->lf.n - 1] = *f;
+    e->lfc[e->lf.n - 1].name[sizeof f->name - 1] = '\0';
+    if (trace_setup(e, f->fault_index, f->name, "link", f->detect_within_s,
+                    f->lf.kind == ELF_DELAY ? f->lf.delay_s : 0.0) != 0) {
+        e->lf.n--;
+        return -1;
+    }
+    add_full_rate_window(e, f->lf.cycle_on,
+                         f->lf.cycle_off > f->lf.cycle_on ? f->lf.cycle_off : f->lf.cycle_on);
     return 0;
 }
 
@@ -452,7 +819,7 @@ typedef struct {
 
 static void queue_frame(engine_t *e, uint16_t id, const uint8_t *data)
 {
-    (void)eng_link_queue(&e->link, id, data, 8u);
+    (void)link_tx(e, id, data, 8u);
     if (e->cfg.record_frames) {
         text_frame(e->tx_text, &e->tx_len, id, data, 8u);
     }
@@ -476,7 +843,7 @@ static void queue_resend(engine_t *e, const cycle_t *c)
             const engine_replay_frame_t *f = &e->cfg.replay_frames[c->replay->first_frame + i];
             if (f->id == HIL_SENSE_AUX_FRAME_ID || f->id == HIL_SENSE_DUAL_FRAME_ID ||
                 f->id == HIL_SENSE_FRAME_ID) {
-                (void)eng_link_queue(&e->link, f->id, f->data, f->dlc);
+                (void)link_tx(e, f->id, f->data, f->dlc);
                 if (e->cfg.record_frames) {
                     text_frame(e->tx_text, &e->tx_len, f->id, f->data, f->dlc);
                 }
@@ -510,6 +877,48 @@ static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
         case ENGINE_EV_DYNO_SPEED:
             plant_set_dyno_speed(e->plant, ev->value);
             break;
+        case ENGINE_EV_PLANT_FAULT: {
+            plant_fault_t pf;
+            char text[160];
+            pf.kind = ev->fault_kind;
+            pf.phase = ev->fault_phase;
+            pf.phase2 = ev->fault_phase2;
+            pf.level = ev->fault_level;
+            pf.value = ev->value;
+            if (plant_set_fault(e->plant, &pf) != 0) {
+                snprintf(text, sizeof text, "refused by the plant: %s",
+                         plant_fault_check(e->plant, &pf) ? plant_fault_check(e->plant, &pf)
+                                                           : "(no reason)");
+                record_fault(e, (int32_t)c->seq, ev->fault_index, "plant", ev->fault_name, "",
+                             "refused", text, ev->value);
+            } else {
+                snprintf(text, sizeof text, "%s", ev->text[0] ? ev->text : ev->fault_name);
+                record_fault(e, (int32_t)c->seq, ev->fault_index, "plant", ev->fault_name, "",
+                             "on", text, ev->value);
+                trace_act(e, ev->fault_index, 0);
+            }
+            full_rate_from_now(e, e->cfg.post_trigger_cycles);
+            break;
+        }
+        case ENGINE_EV_PLANT_FAULT_CLEAR:
+            plant_clear_fault(e->plant, ev->fault_kind, ev->fault_phase);
+            record_fault(e, (int32_t)c->seq, ev->fault_index, "plant", ev->fault_name, "", "off",
+                         ev->text[0] ? ev->text : ev->fault_name, ev->value);
+            full_rate_from_now(e, e->cfg.post_trigger_cycles);
+            break;
+        case ENGINE_EV_CONTROLLER_RESET: {
+            char text[128];
+            const int rc = kill((pid_t)ev->command, SIGUSR1);
+            snprintf(text, sizeof text, "SIGUSR1 to process %d%s", ev->command,
+                     rc == 0 ? "" : " failed: the process is gone");
+            record_fault(e, (int32_t)c->seq, ev->fault_index, "controller", ev->fault_name, "",
+                         rc == 0 ? "on" : "refused", text, 0.0);
+            if (rc == 0) {
+                trace_act(e, ev->fault_index, 0);
+            }
+            full_rate_from_now(e, e->cfg.post_trigger_cycles);
+            break;
+        }
         default:
             break;
         }
@@ -712,16 +1121,57 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
                         "unreadable", c->k, c->t_s, (unsigned)f->dlc, (unsigned)HIL_FAULT_CTRL_LENGTH);
             return -1;
         }
-        e->fault_code = (int)m.code;
-        e->fault_seq = (int)m.seq;
-        e->fault_detail = (long)m.detail;
+        e->n.ctrl_faults++;
+        if (e->trip_cycle < 0) {
+            e->fault_code = (int)m.code;
+            e->fault_seq = (int)m.seq;
+            e->fault_detail = (long)m.detail;
+        }
+        if (e->cfg.post_trip_cycles > 0) {
+            /* a fault run: record the trip, keep running to see the controller's reaction */
+            char text[160];
+            snprintf(text, sizeof text, "FAULT_CTRL code %u seq %u detail %ld",
+                     (unsigned)m.code, (unsigned)m.seq, (long)m.detail);
+            record_fault(e, (int32_t)m.seq, -1, "controller", "fault_ctrl", "", "trip", text,
+                         (double)m.code);
+            record_event(e, c->t_s, "controller_fault", text, (double)m.code);
+            if (e->trip_cycle < 0) {
+                e->trip_cycle = c->k;
+                full_rate_from_now(e, e->cfg.post_trip_cycles + e->cfg.post_trigger_cycles);
+            }
+            return 0;
+        }
         e->end = ENGINE_END_CONTROLLER_FAULT;
         set_message(e, "at cycle %ld (t = %.4f s): controller fault", c->k, c->t_s);
         return -1;
     }
-    case HIL_HEARTBEAT_CTRL_FRAME_ID:
+    case HIL_HEARTBEAT_CTRL_FRAME_ID: {
+        hil_heartbeat_ctrl_t h;
         e->n.heartbeats_rx++;
+        if (f->dlc == HIL_HEARTBEAT_CTRL_LENGTH &&
+            hil_heartbeat_ctrl_unpack(&h, f->data, f->dlc) == 0) {
+            const uint16_t back = (uint16_t)(e->hb_counter - h.counter);
+            /* the controller restarted: its heartbeat counter started over (not a wrap), or it
+             * says IDLE after its TELEM said it was running (a restart loses the session) */
+            const int running = e->last_state == (int)HIL_STATE_ALIGN ||
+                                e->last_state == (int)HIL_STATE_OPEN_LOOP ||
+                                e->last_state == (int)HIL_STATE_CLOSED_LOOP ||
+                                e->last_state == (int)HIL_STATE_INITIAL_POSITION;
+            if ((e->hb_have && h.counter < e->hb_counter && back < 0x8000u) ||
+                (running && h.state == (uint16_t)HIL_STATE_IDLE)) {
+                e->last_state = (int)HIL_STATE_IDLE;
+                e->n.ctrl_resets++;
+                e->hb_rx_base += e->hb_rx_last;
+                record_event(e, c->t_s, "controller_restart", "HEARTBEAT_CTRL counter started "
+                             "over: the controller restarted", (double)h.counter);
+            }
+            e->hb_rx_last = h.rx_errors;
+            e->n.ctrl_rx_errors = e->hb_rx_base + h.rx_errors;
+            e->hb_counter = h.counter;
+            e->hb_have = 1;
+        }
         return 0;
+    }
     default:
         e->n.unknown_ids++;
         return 0;
@@ -815,6 +1265,16 @@ static int take_duties(engine_t *e, const cycle_t *c)
         return 0;
     }
     e->consecutive_bad = 0;
+    if (e->trip_cycle >= 0 && c->k >= e->trip_cycle && !(d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0)) {
+        /* the controller declared a fault but drives the inverter: the plant sees it */
+        if (e->n.duties_after_trip++ == 0u) {
+            char text[128];
+            snprintf(text, sizeof text, "DUTY seq %u [%.4f, %.4f, %.4f] after the controller's "
+                     "FAULT_CTRL: not all legs off", (unsigned)c->seq, d[0], d[1], d[2]);
+            record_fault(e, (int32_t)c->seq, -1, "controller", "fault_ctrl", "",
+                         "duty_after_trip", text, (double)c->k);
+        }
+    }
     e->duties[0] = d[0];
     e->duties[1] = d[1];
     e->duties[2] = d[2];
@@ -831,6 +1291,10 @@ static void record_cycle(engine_t *e, cycle_t *c)
         text_reset(e->rx_text, &e->rx_len);
         return;
     }
+    if (!record_full(e, c->k)) {
+        goto state_change; /* decimated away: only what changed state is recorded */
+    }
+    e->n.state_rows++;
     {
         rec_plant_state_t r;
         r.t_s = c->t_s;
@@ -884,6 +1348,7 @@ static void record_cycle(engine_t *e, cycle_t *c)
         r.rx = e->rx_text;
         RECORD(e, cfg->ch_frames, c->t_s, 64u + e->tx_len + e->rx_len, rec_encode_frames, &r);
     }
+state_change:
     text_reset(e->rx_text, &e->rx_len);
     if (c->have_telem && c->st != e->last_state && c->st >= 0) {
         const char *name = (c->st < ENGINE_STATE_NAMES && cfg->state_names[c->st][0] != '\0')
@@ -934,9 +1399,13 @@ static void step_references(engine_t *e, const cycle_t *c, ref_voltage_t *v, int
         iv.y = (float)i_be;
         vv.x = (float)v_al;
         vv.y = (float)v_be;
+        const int full = record_full(e, c->k);
         for (i = 0; i < e->n_refs; ++i) {
             const est_output_t *o = eng_ref_step(&e->refs[i], iv, vv);
             rec_reference_t r;
+            if (!full) {
+                continue; /* the estimator steps every cycle; its row is decimated away */
+            }
             r.t_s = c->t_s;
             r.seq = c->seq;
             r.theta_hat_rad = (double)o->theta_e_rad;
@@ -963,6 +1432,8 @@ static void begin_cycle(engine_t *e, cycle_t *c, long k)
     c->k = k;
     c->seq = (uint16_t)(k & 0xFFFF);
     c->t_s = (double)k * e->cfg.ts_s;
+    e->cur_k = k;
+    e->cur_t_s = c->t_s;
     c->st = c->est = -1;
     c->crc0 = d->crc_errors;
     c->cobs0 = d->cobs_errors;
@@ -1001,6 +1472,44 @@ static void link_failed(engine_t *e, const cycle_t *c)
                 e->link.error[0] ? e->link.error : "link failed");
 }
 
+/** DELAY faults: a cycle whose measured round trip is at least the injected delay shows it. */
+static void rtt_evidence(engine_t *e, const cycle_t *c, int64_t sent_ns)
+{
+    int i;
+    if (!has_link_faults(e) || !c->have_duty) {
+        return;
+    }
+    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+        engine_trace_t *t = &e->traces[i];
+        if (t->state == 1 && t->delay_s > 0.0 &&
+            (double)(c->duty_t_ns - sent_ns) * 1e-9 >= t->delay_s) {
+            t->rtt_seen++;
+        }
+    }
+}
+
+/** A fault run: the controller tripped post_trip_cycles ago; its reaction is recorded, the run
+ *  ends now. 1 (e->end set) or 0. */
+static int trip_over(engine_t *e, const cycle_t *c)
+{
+    if (e->trip_cycle < 0 || c->k < e->trip_cycle + e->cfg.post_trip_cycles) {
+        return 0;
+    }
+    e->end = ENGINE_END_CONTROLLER_FAULT;
+    set_message(e, "at cycle %ld (t = %.4f s): controller fault (its reaction recorded for %ld "
+                "cycles after the FAULT_CTRL)", e->trip_cycle,
+                (double)e->trip_cycle * e->cfg.ts_s, c->k - e->trip_cycle);
+    return 1;
+}
+
+/** The start of cycle k, after its scenario events: link faults that start now. */
+static void faults_begin_cycle(engine_t *e, long k)
+{
+    if (has_link_faults(e)) {
+        elf_begin_cycle(&e->lf, &e->link, k, eng_now_ns());
+    }
+}
+
 /* ---- lockstep ---------------------------------------------------------------------------------- */
 
 /**
@@ -1013,7 +1522,7 @@ static int exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_
     const int64_t retry_ns = (int64_t)(cfg->retry_timeout_s * 1e9);
     int64_t deadline;
     int done = 0;
-    if (eng_link_flush(&e->link, c0 + NS_PER_S) != 0) {
+    if (link_flush(e, c0 + NS_PER_S) != 0) {
         link_failed(e, c);
         return -1;
     }
@@ -1022,7 +1531,7 @@ static int exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_
     while (!done) {
         eng_frame_t f;
         int r;
-        while (!done && eng_link_pop(&e->link, &f)) {
+        while (!done && link_pop(e, &f)) {
             r = handle_frame(e, c, &f, 1);
             if (r < 0) {
                 return -1;
@@ -1032,7 +1541,7 @@ static int exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_
         if (done) {
             break;
         }
-        r = eng_link_poll(&e->link, deadline);
+        r = link_poll(e, deadline);
         if (r < 0) {
             link_failed(e, c);
             return -1;
@@ -1052,7 +1561,7 @@ static int exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_
         c->retries++;
         e->n.retries++;
         queue_resend(e, c);
-        if (eng_link_flush(&e->link, eng_now_ns() + NS_PER_S) != 0) {
+        if (link_flush(e, eng_now_ns() + NS_PER_S) != 0) {
             link_failed(e, c);
             return -1;
         }
@@ -1079,6 +1588,7 @@ static int run_lockstep(engine_t *e)
         }
         begin_cycle(e, &c, k);
         apply_events(e, &next_event, &c);
+        faults_begin_cycle(e, k);
         if (build_sense(e, &c) != 0) {
             return e->end;
         }
@@ -1086,6 +1596,7 @@ static int run_lockstep(engine_t *e)
         if (exchange_lockstep(e, &c, c0, &sent_ns) != 0) {
             return e->end;
         }
+        rtt_evidence(e, &c, sent_ns);
         if (take_duties(e, &c) < 0) {
             return e->end;
         }
@@ -1098,7 +1609,7 @@ static int run_lockstep(engine_t *e)
             const int64_t c1 = eng_now_ns();
             rec_timing_t t;
             hist_add(&e->hist_cycle, (double)(c1 - c0) * 1e-3);
-            if (e->have_ring) {
+            if (e->have_ring && record_full(e, k)) {
                 t.t_s = c.t_s;
                 t.seq = c.seq;
                 t.start_err_us = (double)NAN;
@@ -1119,6 +1630,10 @@ static int run_lockstep(engine_t *e)
             engine_write_stats(e, (double)(k + 1) * cfg->ts_s, NULL);
         }
         if (!plant_finite(e, &c)) {
+            return e->end;
+        }
+        traces_step(e);
+        if (trip_over(e, &c)) {
             return e->end;
         }
     }
@@ -1195,6 +1710,7 @@ static int replay_begin(engine_t *e, cycle_t *c, long k, int64_t *c0, int64_t *s
     *c0 = replay_pace(e, k, start_err);
     begin_cycle(e, c, k);
     c->t_s = row->t_s;
+    e->cur_t_s = c->t_s;
     c->seq = (uint16_t)row->seq;
     c->s_i[0] = row->i_abc_a[0];
     c->s_i[1] = row->i_abc_a[1];
@@ -1244,9 +1760,10 @@ static int run_replay_controller(engine_t *e)
             return e->end;
         }
         c.replay = row;
+        faults_begin_cycle(e, k);
         for (i = 0u; i < row->n_frames; ++i) {
             const engine_replay_frame_t *f = &cfg->replay_frames[row->first_frame + i];
-            (void)eng_link_queue(&e->link, f->id, f->data, f->dlc);
+            (void)link_tx(e, f->id, f->data, f->dlc);
             if (cfg->record_frames) {
                 text_frame(e->tx_text, &e->tx_len, f->id, f->data, f->dlc);
             }
@@ -1274,6 +1791,7 @@ static int run_replay_controller(engine_t *e)
         }
         e->prev_had_duty = 1;
         replay_end(e, &c, k, c0, sent_ns, start_err);
+        traces_step(e);
     }
     return ENGINE_END_DONE;
 }
@@ -1396,7 +1914,7 @@ static void rt_record_timing(engine_t *e, const cycle_t *c, int64_t start_err_ns
                              int64_t sent_ns, int64_t t_k)
 {
     rec_timing_t t;
-    if (!e->have_ring) {
+    if (!e->have_ring || !record_full(e, c->k)) {
         return;
     }
     t.t_s = c->t_s;
@@ -1418,7 +1936,7 @@ static void rt_record_timing(engine_t *e, const cycle_t *c, int64_t start_err_ns
 static void rt_record_lost(engine_t *e, const cycle_t *c, int64_t late_ns)
 {
     rec_timing_t t;
-    if (!e->have_ring) {
+    if (!e->have_ring || !record_full(e, c->k)) {
         return;
     }
     t.t_s = c->t_s;
@@ -1469,7 +1987,7 @@ static int64_t wait_until(int64_t deadline_ns, int64_t spin_ns)
 static int drain_frames(engine_t *e, cycle_t *c, int cycle_open, int *completed)
 {
     eng_frame_t f;
-    while (eng_link_pop(&e->link, &f)) {
+    while (link_pop(e, &f)) {
         const int r = handle_frame(e, c, &f, cycle_open && !*completed);
         if (r < 0) {
             return -1;
@@ -1555,11 +2073,12 @@ static int run_realtime(engine_t *e)
             continue;
         }
         apply_events(e, &next_event, &c);
+        faults_begin_cycle(e, k);
         if (build_sense(e, &c) != 0) {
             return e->end;
         }
         queue_sense_group(e, &c);
-        if (eng_link_flush(&e->link, t_next) != 0) {
+        if (link_flush(e, t_next) != 0) {
             link_failed(e, &c);
             return e->end;
         }
@@ -1582,7 +2101,7 @@ static int run_realtime(engine_t *e)
             }
             /* busy_wait: read without sleeping until the DUTY or the deadline (the thread
              * never leaves the CPU, so it sees the DUTY the moment it lands) */
-            r = eng_link_poll(&e->link, cfg->busy_wait ? eng_now_ns() : t_next - guard_ns);
+            r = link_poll(e, cfg->busy_wait ? eng_now_ns() : t_next - guard_ns);
             if (cfg->busy_wait && r == 0 && eng_now_ns() < t_next - guard_ns) {
                 continue;
             }
@@ -1624,6 +2143,7 @@ static int run_realtime(engine_t *e)
                 }
             }
             hist_add(&e->hist_cycle, (double)(c.duty_t_ns - sent_ns) * 1e-3);
+            rtt_evidence(e, &c, sent_ns);
         } else {
             e->n.missed_duty++;
             e->consecutive_miss++;
@@ -1638,7 +2158,7 @@ static int run_realtime(engine_t *e)
                 m.detail = e->consecutive_miss;
                 if (hil_fault_plant_pack(buf, &m, sizeof buf) > 0) {
                     queue_frame(e, (uint16_t)HIL_FAULT_PLANT_FRAME_ID, buf);
-                    (void)eng_link_flush(&e->link, eng_now_ns() + 100000000LL);
+                    (void)link_flush(e, eng_now_ns() + 100000000LL);
                 }
                 after_telemetry(e, &c);
                 record_cycle(e, &c);
@@ -1675,6 +2195,10 @@ static int run_realtime(engine_t *e)
         if (cfg->stats_every_cycles > 0 && (k + 1) % cfg->stats_every_cycles == 0) {
             engine_write_stats(e, (double)(k + 1) * cfg->ts_s, NULL);
         }
+        traces_step(e);
+        if (trip_over(e, &c)) {
+            return e->end;
+        }
         /* until the next period: late frames, heartbeats, faults */
         for (;;) {
             int dummy = 1, r;
@@ -1684,7 +2208,7 @@ static int run_realtime(engine_t *e)
             if (eng_now_ns() >= t_next - spin_ns) {
                 break;
             }
-            r = eng_link_poll(&e->link, t_next - spin_ns);
+            r = link_poll(e, t_next - spin_ns);
             if (r < 0) {
                 link_failed(e, &c);
                 return e->end;
@@ -1695,6 +2219,21 @@ static int run_realtime(engine_t *e)
         }
     }
     return ENGINE_END_DONE;
+}
+
+/** The run ended: every trace still collecting is closed; an end that is itself a reaction to
+ *  the fault (the controller faulted, went silent, the watchdog, a link failure) is evidence. */
+static void traces_end(engine_t *e)
+{
+    int i;
+    const int evidence = e->end == ENGINE_END_NO_DUTY || e->end == ENGINE_END_CONTROLLER_FAULT ||
+                         e->end == ENGINE_END_WATCHDOG || e->end == ENGINE_END_LINK ||
+                         e->end == ENGINE_END_BAD_DUTIES || e->end == ENGINE_END_PROTOCOL;
+    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+        if (e->traces[i].state == 1) {
+            trace_close(e, i, evidence ? e->message : NULL);
+        }
+    }
 }
 
 int engine_send(engine_t *e, uint16_t id, const uint8_t *data, uint16_t dlc)
@@ -1727,5 +2266,6 @@ int engine_run(engine_t *e)
     if (e->end == ENGINE_END_DONE) {
         set_message(e, "ran %ld/%ld cycles", (long)e->cycles_done, e->cfg.n_cycles);
     }
+    traces_end(e);
     return e->end;
 }

@@ -51,6 +51,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "engine_faults.h"
 #include "engine_link.h"
 #include "engine_refs.h"
 #include "plant.h"
@@ -91,7 +92,10 @@ typedef enum {
     ENGINE_EV_CMD = 0,        /* send CMD (command, value) with the SENSE frames of the cycle */
     ENGINE_EV_LOAD = 1,       /* plant load torque [N m] from this cycle on */
     ENGINE_EV_DYNO_SPEED = 2, /* dynamometer set speed [rad/s mechanical] */
-    ENGINE_EV_NOTE = 3        /* only the /events row */
+    ENGINE_EV_NOTE = 3,       /* only the /events row */
+    ENGINE_EV_PLANT_FAULT = 4,       /* plant_set_fault(fault_kind, phase, phase2, level, value) */
+    ENGINE_EV_PLANT_FAULT_CLEAR = 5, /* plant_clear_fault(fault_kind, fault_phase) */
+    ENGINE_EV_CONTROLLER_RESET = 6   /* SIGUSR1 to process `command` (the stub restarts) */
 } engine_event_kind_t;
 
 typedef struct {
@@ -102,7 +106,35 @@ typedef struct {
     int record;       /* 1: write an /events row (kind "scenario") with text, record_value */
     double record_value;
     char text[ENGINE_EVENT_TEXT];
+    /* plant faults (ENGINE_EV_PLANT_FAULT*): plant_fault_t fields; fault_index: the scenario's
+     * [[faults]] entry (the /faults rows name it); fault_name: its kind's name */
+    int fault_kind, fault_phase, fault_phase2, fault_level, fault_index;
+    char fault_name[24];
+    double detect_within_s;   /* a fault's evidence counts until this long after it is set */
 } engine_event_t;
+
+#define ENGINE_MAX_TRACES 64
+#define ENGINE_TRACE_COUNTERS 21
+
+/** What became of one fault: evidence in the counters (engine.c trace_counters). */
+typedef struct {
+    int state;                /* 0: nothing yet; 1: collecting; 2: closed (its row written) */
+    char name[24];
+    char target[12];          /* "plant", "link", "controller" */
+    long first_k, close_k, seen_k;  /* first action, window end, first evidence (-1: none) */
+    long window_cycles;       /* detection window after an action */
+    double delay_s;           /* DELAY: a round trip at least this long is evidence */
+    uint64_t rtt_seen;        /* DELAY: cycles whose measured round trip showed it */
+    uint64_t snap[ENGINE_TRACE_COUNTERS];
+} engine_trace_t;
+
+/** A link fault (engine_faults.h) with what the bench records of it. */
+typedef struct {
+    elf_config_t lf;
+    int fault_index;          /* the scenario's [[faults]] entry */
+    char name[24];            /* kind name for /faults rows */
+    double detect_within_s;   /* evidence counts until this long after the last action */
+} engine_link_fault_t;
 
 /**
  * Replay (bench replay, docs/replay.md). What the engine steps on instead of, or beside, the live
@@ -203,6 +235,15 @@ typedef struct {
      * ch_serial_raw: payload = direction (0 written, 1 read) then the octets; time = eng_now_ns */
     int capture_serial;
     uint16_t ch_serial_raw;
+    /* faults (docs/faults.md): /faults rows; a FAULT_CTRL ends the run post_trip_cycles after it
+     * (0: at once), the cycles between record the controller's reaction */
+    uint16_t ch_faults;
+    long post_trip_cycles;
+    /* decimated recording: the per-cycle rows of every record_every-th cycle only, except within
+     * pre_trigger_cycles before and post_trigger_cycles after each fault (and after a trip),
+     * where every cycle is recorded (1: every cycle) */
+    long record_every;
+    long pre_trigger_cycles, post_trigger_cycles;
 } engine_config_t;
 
 typedef struct {
@@ -210,6 +251,9 @@ typedef struct {
     uint64_t duplicates, stale_frames, retries, late_duty, missed_duty, estimator_mismatch;
     uint64_t rows_dropped;
     uint64_t rt_overruns;   /* real time: periods the bench itself lost (it fell behind) */
+    uint64_t ctrl_rx_errors, ctrl_resets, ctrl_faults, duties_after_trip;
+    uint64_t faults_injected, faults_untraced;
+    uint64_t state_rows;    /* /plant/state rows the engine wrote (decimation: fewer than cycles) */
 } engine_counters_t;
 
 typedef struct {
@@ -229,6 +273,23 @@ typedef struct engine {
     int n_refs;
     engine_event_t events[ENGINE_MAX_EVENTS];
     int n_events;
+    /* link faults (engine_faults.h) */
+    elf_t lf;
+    engine_link_fault_t lfc[ENGINE_MAX_LINK_FAULTS];
+    /* the trace of every fault of the scenario (by its [[faults]] index): the counters that
+     * moved between the fault's first action and the end of its detection window */
+    engine_trace_t traces[ENGINE_MAX_TRACES];
+    /* full-rate recording windows [start, end) in cycles (faults), and after a trip */
+    long full_rate[ENGINE_MAX_EVENTS + ENGINE_MAX_LINK_FAULTS][2];
+    int n_full_rate;
+    long full_rate_until;
+    long trip_cycle;             /* the controller's first FAULT_CTRL (-1: none) */
+    int hb_have;
+    uint16_t hb_counter;
+    uint64_t hb_rx_base;         /* rx_errors reported before the controller's last restart */
+    uint16_t hb_rx_last;
+    long cur_k;                  /* the cycle running now */
+    double cur_t_s;
     /* live (read by the bench while it runs) */
     volatile int stop_requested;
     volatile long cycles_done;
@@ -271,6 +332,9 @@ int engine_add_reference(engine_t *e, int kind, const void *config, size_t confi
                          uint16_t channel);
 /** Add a scheduled event; events must be added in cycle order. 0 or -1 (full, out of order). */
 int engine_add_event(engine_t *e, const engine_event_t *ev);
+/** Add a link fault (engine_faults.h). 0, or -1 with e->message (bad values, full, not possible
+ *  on this link). */
+int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f);
 /** Run every cycle (or until something ends the run). Returns engine_end_t. */
 int engine_run(engine_t *e);
 /** Ask a running engine to stop at the end of the present cycle (any thread). */

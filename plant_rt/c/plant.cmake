@@ -31,6 +31,7 @@ add_test(NAME plant_nonideal COMMAND test_plant_nonideal)
 # reference estimators (the firmware's library) and the recording ring, once per cycle in C.
 add_library(hil_engine STATIC
   ${HIL_ROOT}/plant_rt/c/engine.c
+  ${HIL_ROOT}/plant_rt/c/engine_faults.c
   ${HIL_ROOT}/plant_rt/c/engine_link.c
   ${HIL_ROOT}/plant_rt/c/engine_refs.c
   ${HIL_ROOT}/plant_rt/c/rec_ring.c

@@ -92,6 +92,7 @@ REC_DEFINE_ENCODER(rec_encode_timing, rec_timing_t, REC_TIMING, TI)
 REC_DEFINE_ENCODER(rec_encode_link_stats, rec_link_stats_t, REC_LINK_STATS, LS)
 REC_DEFINE_ENCODER(rec_encode_replay_controller, rec_replay_controller_t, REC_REPLAY_CONTROLLER, RC)
 REC_DEFINE_ENCODER(rec_encode_replay_plant, rec_replay_plant_t, REC_REPLAY_PLANT, RP)
+REC_DEFINE_ENCODER(rec_encode_fault, rec_fault_t, REC_FAULT, FA)
 
 /* ---- the layout string --------------------------------------------------------------------- */
 

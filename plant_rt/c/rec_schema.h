@@ -85,7 +85,11 @@
 
 /** /link/stats, hil.LinkStats: cumulative counters of the link, the cycle engine and the
  *  recorder, and wall-clock percentiles of the cycle time (lockstep) / period-start error
- *  (real time) so far. */
+ *  (real time) so far. ctrl_rx_errors: the frames the controller rejected, as its last
+ *  HEARTBEAT_CTRL reported; ctrl_resets: times its heartbeat counter started over (it
+ *  restarted); ctrl_faults: FAULT_CTRL frames received; duties_after_trip: duties applied
+ *  after the controller's FAULT_CTRL that were not all legs OFF; faults_injected /
+ *  faults_untraced: link-fault actions taken, and link faults that left no trace (/faults). */
 #define REC_LINK_STATS(X, P)                                                                   \
     X(P, F64, t_s) X(P, CNT, cycles) X(P, CNT, frames_tx) X(P, CNT, frames_rx)                 \
     X(P, CNT, bytes_tx) X(P, CNT, bytes_rx) X(P, CNT, frames_ok) X(P, CNT, crc_errors)         \
@@ -97,6 +101,8 @@
     X(P, CNT, rt_overruns)                                                                     \
     X(P, CNT, can_unknown_ids) X(P, CNT, error_frames) X(P, CNT, bus_state_changes)            \
     X(P, CNT, send_failures) X(P, CNT, remote_frames) X(P, CNT, rx_malformed)                  \
+    X(P, CNT, ctrl_rx_errors) X(P, CNT, ctrl_resets) X(P, CNT, ctrl_faults)                    \
+    X(P, CNT, duties_after_trip) X(P, CNT, faults_injected) X(P, CNT, faults_untraced)         \
     X(P, F64, cycle_wall_p50_us) X(P, F64, cycle_wall_p99_us) X(P, F64, cycle_wall_max_us)     \
     X(P, F64, jitter_p50_us) X(P, F64, jitter_p99_us) X(P, F64, jitter_p999_us)                \
     X(P, F64, jitter_max_us)
@@ -114,6 +120,18 @@
     X(P, F64, t_s) X(P, U32, seq) X(P, F64, i_a_rec_a) X(P, F64, i_a_a) X(P, F64, i_b_rec_a)    \
     X(P, F64, i_b_a) X(P, F64, i_c_rec_a) X(P, F64, i_c_a)
 
+/** /faults, hil.Fault: every fault the run injected and what came of it (docs/faults.md).
+ *  target: "plant", "link" or "controller"; kind: the fault's kind (open_phase, drop, ...);
+ *  direction: "to_controller" / "from_controller" / "both" (link faults), "" otherwise;
+ *  action: "on", "off" (plant faults switched), "drop", "duplicate", ... (a link fault acting on
+ *  one frame, whose id and seq the text names), "trip" (the controller's FAULT_CTRL: value =
+ *  its code), "trace" (a link fault's evidence once its detection window closed: the counters
+ *  that moved, value = seconds from the first injection to the first evidence, NaN = none);
+ *  index: the fault's number in the scenario's [[faults]] (-1: none). */
+#define REC_FAULT(X, P)                                                                        \
+    X(P, F64, t_s) X(P, I32, seq) X(P, I32, index) X(P, STR, target) X(P, STR, kind)           \
+    X(P, STR, direction) X(P, STR, action) X(P, STR, text) X(P, F64, value)
+
 /** Every channel: X(P, kind, schema name, field list macro). Kind ids are the order below. */
 #define REC_CHANNELS(C)                                                                        \
     C(PLANT_STATE, "hil.PlantState", REC_PLANT_STATE)                                          \
@@ -125,7 +143,8 @@
     C(TIMING, "hil.Timing", REC_TIMING)                                                        \
     C(LINK_STATS, "hil.LinkStats", REC_LINK_STATS)                                             \
     C(REPLAY_CONTROLLER, "hil.ReplayController", REC_REPLAY_CONTROLLER)                        \
-    C(REPLAY_PLANT, "hil.ReplayPlant", REC_REPLAY_PLANT)
+    C(REPLAY_PLANT, "hil.ReplayPlant", REC_REPLAY_PLANT)                                       \
+    C(FAULT, "hil.Fault", REC_FAULT)
 
 /* ---- generated from the lists ------------------------------------------------------------- */
 
@@ -156,6 +175,7 @@ typedef struct { REC_TIMING(REC_STRUCT_FIELD_, x) } rec_timing_t;
 typedef struct { REC_LINK_STATS(REC_STRUCT_FIELD_, x) } rec_link_stats_t;
 typedef struct { REC_REPLAY_CONTROLLER(REC_STRUCT_FIELD_, x) } rec_replay_controller_t;
 typedef struct { REC_REPLAY_PLANT(REC_STRUCT_FIELD_, x) } rec_replay_plant_t;
+typedef struct { REC_FAULT(REC_STRUCT_FIELD_, x) } rec_fault_t;
 
 /** Largest encoded size of a row whose strings total str_len octets. */
 #define REC_MAX_FIXED_SIZE 512u
@@ -173,6 +193,7 @@ size_t rec_encode_timing(uint8_t *out, size_t cap, const rec_timing_t *m);
 size_t rec_encode_link_stats(uint8_t *out, size_t cap, const rec_link_stats_t *m);
 size_t rec_encode_replay_controller(uint8_t *out, size_t cap, const rec_replay_controller_t *m);
 size_t rec_encode_replay_plant(uint8_t *out, size_t cap, const rec_replay_plant_t *m);
+size_t rec_encode_fault(uint8_t *out, size_t cap, const rec_fault_t *m);
 
 /**
  * Layout of every channel, one line per kind in rec_kind_t order:

@@ -12,7 +12,7 @@
  *                                            socketcand server (python-can "socketcand"), bus hil0
  *   hil_stub --socketcan IFACE               raw SocketCAN socket (can0, vcan0)
  *            [--idle-timeout-s S] [--quiet] [--echo] [--inject KIND@CYCLE]
- *            [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N]
+ *            [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N] [--heartbeat-always]
  *
  * --isr chooses what fires the control ISR, as on a DSP drive (docs/protocol.md 6.4):
  *   sense (default)  the arrival of SENSE (the bench's frame is the ADC-complete interrupt);
@@ -43,6 +43,14 @@
  *                in real time its DUTY frames arrive after their period)
  *   bus-off      the controller goes bus-off: reported the way the link can (socketcand
  *                "< error 040 ... >", a SocketCAN error frame, SLCAN status flags) and silent after
+ * --heartbeat-always: HEARTBEAT_CTRL every 100 ms also while cycles flow (docs/protocol.md 6.7
+ * "may"), and at once after a rejected frame, so the frames the controller rejected (rx_errors)
+ * reach the bench during a run: a fault on the frames the bench sends then leaves a trace there
+ * (docs/faults.md).
+ * SIGUSR1 restarts the controller as a power cycle would (the session and the controller back
+ * to their state at power-up: no handshake, no configuration, heartbeat counter from 0): the
+ * bench's controller_reset fault.
+ *
  * --echo sends every received frame straight back instead of running the controller (a loopback
  * for testing the link codecs byte for byte).
  *
@@ -103,11 +111,18 @@ typedef struct {
 } app_t;
 
 static volatile sig_atomic_t g_stop = 0;
+static volatile sig_atomic_t g_reset = 0;
 
 static void on_signal(int sig)
 {
     (void)sig;
     g_stop = 1;
+}
+
+static void on_reset_signal(int sig)
+{
+    (void)sig;
+    g_reset = 1;
 }
 
 static long long now_ms(void)
@@ -280,7 +295,8 @@ static void usage(void)
             "--socketcand [HOST:]PORT|fd:N [--bus NAME] | --socketcan IFACE)\n"
             "                [--idle-timeout-s S] [--quiet] [--echo]\n"
             "                [--inject silent|crash|garbage|bad-duty|unknown-id|wrong-dlc|bus-off|slow@CYCLE]\n"
-            "                [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N] [--busy-poll]\n");
+            "                [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N] [--busy-poll]\n"
+            "                [--heartbeat-always]\n");
 }
 
 static int parse_inject(const char *arg, inject_t *kind, unsigned long *cycle)
@@ -328,7 +344,8 @@ int main(int argc, char **argv)
     int was_open = 0;
     const char *exit_reason = "host closed the link";
     transport_t *t;
-    int rt_priority = 0, rt_cpu = -1, busy_poll = 0;
+    int rt_priority = 0, rt_cpu = -1, busy_poll = 0, hb_always = 0;
+    unsigned long last_hb_errors = 0ul;
     long long last_busy_ms = 0;
 
     app.inject = INJECT_NONE;
@@ -377,6 +394,8 @@ int main(int argc, char **argv)
             rt_priority = (int)strtol(argv[++i], NULL, 10);
         } else if (strcmp(argv[i], "--busy-poll") == 0) {
             busy_poll = 1;
+        } else if (strcmp(argv[i], "--heartbeat-always") == 0) {
+            hb_always = 1;
         } else if (strcmp(argv[i], "--cpu") == 0 && i + 1 < argc) {
             rt_cpu = (int)strtol(argv[++i], NULL, 10);
         } else if (strcmp(argv[i], "--echo") == 0) {
@@ -401,6 +420,7 @@ int main(int argc, char **argv)
 
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
+    signal(SIGUSR1, on_reset_signal);
     signal(SIGPIPE, SIG_IGN);
     if (rt_cpu >= 0) {
         cpu_set_t set;
@@ -446,6 +466,20 @@ int main(int argc, char **argv)
 
     while (!g_stop) {
         struct pollfd pf[2];
+        if (g_reset) {
+            /* a power cycle: the portable code starts over, the link stays */
+            g_reset = 0;
+            hil_session_init(&app.session, &port);
+            app.isr.have_sense = 0;
+            if (app.isr.fd >= 0) {
+                close(app.isr.fd);
+                app.isr.fd = -1;
+            }
+            last_cycles = 0u;
+            last_hb_ms = now_ms() - HEARTBEAT_PERIOD_MS; /* announce itself at once */
+            fprintf(stderr, "hil_stub: reset (SIGUSR1): session and controller back to "
+                            "power-up\n");
+        }
         struct pollfd p;
         int pr;
         nfds_t nfds = 1u;
@@ -513,16 +547,27 @@ int main(int argc, char **argv)
             last_hb_ms = now; /* no frame right behind the channel-open answer */
         }
         was_open = t->open;
-        /* heartbeat while no cycles flow */
-        if (t->open && !app.echo && app.session.stats.cycles == last_cycles &&
-            now - last_hb_ms >= HEARTBEAT_PERIOD_MS && !app.off_bus) {
-            hil_session_heartbeat(&app.session, (uint32_t)t->rx_errors);
-            (void)transport_flush(t);
-            last_hb_ms = now;
+        /* heartbeat while no cycles flow; with --heartbeat-always also while they flow, and at
+         * once when a frame was rejected (the bench sees the error within the cycle) */
+        {
+            const unsigned long errors = (unsigned long)t->rx_errors +
+                                         (unsigned long)app.session.stats.unknown_ids +
+                                         (unsigned long)app.session.stats.length_errors;
+            const int due = now - last_hb_ms >= HEARTBEAT_PERIOD_MS ||
+                            (hb_always && errors != last_hb_errors);
+            if (t->open && !app.echo && (hb_always || app.session.stats.cycles == last_cycles) &&
+                due && !app.off_bus) {
+                hil_session_heartbeat(&app.session, (uint32_t)t->rx_errors);
+                (void)transport_flush(t);
+                last_hb_ms = now;
+                last_hb_errors = errors;
+            }
         }
         if (app.session.stats.cycles != last_cycles) {
             last_cycles = app.session.stats.cycles;
-            last_hb_ms = now;
+            if (!hb_always) {
+                last_hb_ms = now;
+            }
         }
         if (idle_timeout_s > 0.0 && (double)(now - last_rx_ms) > idle_timeout_s * 1000.0) {
             exit_reason = "idle timeout";
