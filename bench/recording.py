@@ -15,6 +15,9 @@ channels) are read too.
 Damage. Every chunk's CRC is checked. A chunk whose data is damaged is counted in
 ``unreadable_chunks`` and skipped, and reading goes on with the next record; damage to the
 record framing itself, or a file cut short, stops the reading there: ``truncated`` says where.
+The channels and schemas a damaged chunk held are taken from the summary section when a later
+message needs them; without a summary such messages are counted (``orphan_messages``, with the
+byte offset in ``damage``) and reading goes on.
 ``bench recover`` copies every intact chunk of such a file into a new one.
 """
 from __future__ import annotations
@@ -54,6 +57,8 @@ class Recording:
     truncated: str | None = None    # why reading stopped early, if it did
     unreadable_chunks: int = 0      # chunks skipped because their data was damaged
     damage: list[str] = field(default_factory=list)
+    #: messages on a channel whose Channel record was lost with a damaged chunk (not decoded)
+    orphan_messages: int = 0
     messages: int = 0
     bytes_read: int = 0
     file_size: int = 0
@@ -74,7 +79,8 @@ class Recording:
 
     @property
     def damaged(self) -> bool:
-        return self.truncated is not None or self.unreadable_chunks > 0
+        return (self.truncated is not None or self.unreadable_chunks > 0
+                or self.orphan_messages > 0)
 
     def attachment_text(self, prefix: str) -> tuple[str, str] | None:
         for name, data in self.attachments.items():
@@ -248,11 +254,42 @@ def load_recording(path: str | Path, topics: Iterable[str] | None = None,
             return True
         return topic.startswith(chans.REFERENCE_PREFIX) and "/reference/*" in wanted
 
+    summary_tried = [False]
+    orphans: dict[int, int] = {}     # channel id -> messages whose Channel record was lost
+
+    def from_summary() -> None:
+        """Schemas and channels from the summary section (a damaged chunk may have held the
+        only other copy of them)."""
+        summary_tried[0] = True
+        from mcap.reader import make_reader
+
+        try:
+            with open(path, "rb") as g:
+                summary = make_reader(g).get_summary()
+        except Exception:  # noqa: BLE001 - no usable summary (a cut file): nothing to take
+            return
+        if summary is None:
+            return
+        for sch in summary.schemas.values():
+            on_record(sch)
+        for chan in summary.channels.values():
+            on_record(chan)
+
     def on_record(r) -> None:
         if isinstance(r, Message):
             chan = channels.get(r.channel_id)
+            if chan is None and not summary_tried[0]:
+                from_summary()
+                chan = channels.get(r.channel_id)
             if chan is None:
-                raise RecordingError(f"{path}: message on unknown channel id {r.channel_id}")
+                if r.channel_id not in orphans:
+                    rec.damage.append(f"chunk or record ending at byte {f.tell()}: messages on "
+                                      f"channel id {r.channel_id}, "
+                                      f"whose Channel record is in no readable chunk nor in a "
+                                      f"summary: not decoded")
+                orphans[r.channel_id] = orphans.get(r.channel_id, 0) + 1
+                rec.orphan_messages += 1
+                return
             rec.counts[chan.topic] = rec.counts.get(chan.topic, 0) + 1
             rec.messages += 1
             buf = buffers.get(r.channel_id)

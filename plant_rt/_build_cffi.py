@@ -214,6 +214,7 @@ typedef struct {
     int32_t has_duty, has_telem, has_theta;
     double i_abc_a[3]; double v_dc_v; double theta_rad; uint32_t duty_raw[3];
     double theta_hat_rad; double omega_hat_rad_s;
+    int32_t state, estimator; int32_t has_emf; double e_alpha_v, e_beta_v, i_q_ref_a;
 } engine_replay_cycle_t;
 typedef struct {
     int mode; int duty_update; long n_cycles; double ts_s; double t_delay_s;

@@ -23,12 +23,15 @@ Anomaly kinds (docs/replay.md "Anomalies"):
                     answers); the first one is used
 ``out_of_order``    a frame that is not where the protocol puts it (a late frame of an earlier
                     cycle, a SENSE seq going backwards, TELEM after DUTY, time going
-                    backwards); late frames are left out, never moved
+                    backwards: one event per step back, each frame against the one before
+                    it); late frames are left out, never moved
 ``unknown_ids``     frames whose id is not in protocol/hil.dbc (per id in ``unknown_id_counts``)
 ``wrong_length``    frames of a known id with another length (never decoded)
 ``not_protocol``    CAN frames that cannot be the protocol's: 29-bit ids, remote and error frames
 ``damaged``         octets or records of the file itself that could not be read (serial: CRC,
-                    COBS, length errors and overruns of the deframer; text formats: bad lines)
+                    COBS, length errors and overruns of the deframer; CAN logs: bad lines, a
+                    cut line, cut or corrupt compression, a short BLF: bench/replay/canlog.py),
+                    and a time stamp that jumps forward more than IMPLAUSIBLE_JUMP_S
 ==================  ===========================================================================
 """
 from __future__ import annotations
@@ -46,6 +49,10 @@ from protocol.messages import BY_ID, DUTY_RAW_OFF, MESSAGES, Command, Param, Sen
 ANOMALY_KINDS = ("gaps", "cycles_missing", "drops", "duplicates", "out_of_order", "unknown_ids",
                  "wrong_length", "not_protocol", "damaged")
 MAX_DETAILS = 50          #: anomalies described one by one (all are counted)
+#: a step forward in time between two frames, once the cycles run, that no session makes: lockstep
+#: gives up on a cycle after retry_timeout_s x (max_retries + 1) (0.2 s by default), a real-time
+#: drive sends every Ts. More than this is a corrupt time stamp or a logger that stopped: damaged.
+IMPLAUSIBLE_JUMP_S = 10.0
 
 _SENSE = MESSAGES["SENSE"]
 _AUX = MESSAGES["SENSE_AUX"]
@@ -227,9 +234,17 @@ class CycleAssembler:
             self.ignored_sessions_frames += 1
             return
         if self.last_t is not None and t_s < self.last_t:
+            # one event per step backwards: each frame is compared with the one before it, so
+            # one corrupt time stamp costs one event (and its jump forward one), not thousands
             self.an.add("out_of_order", f"{where}: time goes backwards ({t_s:.6f} s after "
                                         f"{self.last_t:.6f} s); kept in capture order", t_s)
-        self.last_t = t_s if self.last_t is None else max(self.last_t, t_s)
+        elif (self.last_t is not None and self.cycles
+              and t_s - self.last_t > IMPLAUSIBLE_JUMP_S):
+            self.an.add("damaged", f"{where}: time jumps forward {t_s - self.last_t:.6g} s "
+                                   f"(from {self.last_t:.6f} s) within the cycles: a corrupt time "
+                                   f"stamp or a logger that stopped; the frame is used (cycles "
+                                   f"take their time from the SENSE seq)", t_s)
+        self.last_t = t_s
         msg = BY_ID.get(fid)
         if msg is None:
             self.an.unknown_id_counts[fid] += 1
@@ -450,11 +465,15 @@ class CycleAssembler:
                 r["has_telem"] = 1
                 r["theta_hat_rad"] = c.telem["theta_hat_rad"]
                 r["omega_hat_rad_s"] = c.telem["omega_hat_rad_s"]
+                r["state"] = c.telem["state"]
+                r["estimator"] = c.telem["estimator"]
                 for key in ("theta_hat_rad", "omega_hat_rad_s", "state", "estimator"):
                     telem[key][i] = c.telem[key]
             if c.emf is not None:
+                r["has_emf"] = 1
                 for key, v in c.emf.items():
                     telem[key][i] = v
+                    r[key] = v
             r["first_frame"] = pos
             r["n_frames"] = len(c.up)
             for fid, data in c.up:

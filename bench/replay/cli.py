@@ -146,8 +146,8 @@ def print_result(res, out: Console, err: Console) -> None:
               f"({res.cycles / max(res.wall_s, 1e-9):.0f} cycles/s); recording {res.out}")
     p = res.pacing
     if "start_err_p99_us" in p:
-        out.print(f"paced at {res.capture.ts_s / p['pace_s']:g} x the recorded rate (one cycle "
-                  f"every {p['pace_s'] * 1e6:g} us, absolute deadlines): pacing error p50 "
+        out.print(f"paced at {res.capture.ts_s / p['pace_s']:g} x the recorded rate (each cycle "
+                  f"at its recorded time / rate, absolute deadlines): pacing error p50 "
                   f"{p['start_err_p50_us']:.1f} us, p99 {p['start_err_p99_us']:.1f} us, max "
                   f"{p['start_err_max_us']:.1f} us")
     for n in res.notes:
@@ -173,13 +173,14 @@ def print_result(res, out: Console, err: Console) -> None:
                       f"{fd['row']}, t = {fd['t_s']:.6g} s): {fd['field']} recorded "
                       f"{fd['recorded']:.9g}, now {fd['now']:.9g}")
         else:
+            fields = [n for n, s in c["fields"].items() if s["compared"]]
             out.print(f"[green]the controller's answers equal the recorded ones[/green] in all "
-                      f"{c['cycles']} cycles (duties, angle, speed)")
-        t = Table(title="controller now - recorded")
-        for col in ("field", "cycles differing", "max |diff|", "RMS diff"):
+                      f"{c['cycles']} cycles ({', '.join(fields)}, wherever the capture has them)")
+        t = Table(title="controller now - recorded (in the cycles the capture recorded the field)")
+        for col in ("field", "cycles compared", "cycles differing", "max |diff|", "RMS diff"):
             t.add_column(col)
         for name, s in c["fields"].items():
-            t.add_row(name, str(s["differ"]), _f(s["max_abs"]), _f(s["rms"]))
+            t.add_row(name, str(s["compared"]), str(s["differ"]), _f(s["max_abs"]), _f(s["rms"]))
         out.print(t)
     if res.mode == "plant" and c.get("cycles"):
         t = Table(title=f"plant currents - recorded over {c['cycles']} cycles")

@@ -19,10 +19,16 @@ from .modes import (NO_CHANNEL, RPM_PER_RAD_S, ReplayError, ReplayOptions, Repla
                     engine_summary, finish)
 
 _CMD = MESSAGES["CMD"]
-#: fields compared: recorded, replayed (columns of /replay/controller)
-COMPARED = (("duty_a", "duty_a_rec", "duty_a"), ("duty_b", "duty_b_rec", "duty_b"),
-            ("duty_c", "duty_c_rec", "duty_c"), ("theta_hat", "theta_hat_rec_rad", "theta_hat_rad"),
-            ("omega_hat", "omega_hat_rec_rad_s", "omega_hat_rad_s"))
+#: fields compared (name, recorded column, live column of /replay/controller, kind): the DUTY
+#: duties, TELEM's angle, speed, state and estimator, TELEM_EMF's EMF and current reference
+COMPARED = (("duty_a", "duty_a_rec", "duty_a", "value"), ("duty_b", "duty_b_rec", "duty_b", "value"),
+            ("duty_c", "duty_c_rec", "duty_c", "value"),
+            ("theta_hat", "theta_hat_rec_rad", "theta_hat_rad", "angle"),
+            ("omega_hat", "omega_hat_rec_rad_s", "omega_hat_rad_s", "value"),
+            ("state", "state_rec", "state", "code"), ("estimator", "estimator_rec", "estimator", "code"),
+            ("e_alpha", "e_alpha_rec_v", "e_alpha_v", "value"),
+            ("e_beta", "e_beta_rec_v", "e_beta_v", "value"),
+            ("i_q_ref", "i_q_ref_rec_a", "i_q_ref_a", "value"))
 
 
 def run_controller(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
@@ -107,19 +113,14 @@ def run_controller(cap: Capture, opts: ReplayOptions, profile, out, window, pace
                 res.error = f"after the replay: {opened.stub.death_message()}"
         finish(o, e, res)
     res.compare = compare_controller(res.out)
-    if res.compare.get("first_divergence"):
-        o2 = None   # the summary is in the result and printed; the MCAP has every row already
-
-
-def _same(a: np.ndarray, b: np.ndarray, tol: float) -> np.ndarray:
-    both_nan = np.isnan(a) & np.isnan(b)
-    return both_nan | (np.abs(a - b) <= tol)
 
 
 def compare_controller(path, tol: float = 0.0) -> dict:
     """The live controller's answers against the recorded, from /replay/controller: the first
-    cycle where they differ and, per field, how many cycles differ and by how much. The wire
-    values are compared exactly (tol 0): the same build answers the same octets."""
+    cycle where they differ and, per field, in how many cycles it was compared (those where the
+    capture recorded it), how many differ and by how much. A cycle where the capture has the
+    value and the controller did not answer it differs. The wire values are compared exactly
+    (tol 0): the same build answers the same octets."""
     from bench.recording import load_recording
 
     rec = load_recording(path, topics=[ch.REPLAY_CONTROLLER])
@@ -129,18 +130,20 @@ def compare_controller(path, tol: float = 0.0) -> dict:
     n = len(cols["t_s"])
     out: dict = {"cycles": n, "fields": {}}
     first = None
-    for name, rec_col, now_col in COMPARED:
+    for name, rec_col, now_col, kind in COMPARED:
+        if rec_col not in cols:          # a recording of an older layout
+            continue
         a = np.asarray(cols[rec_col], float)
         b = np.asarray(cols[now_col], float)
-        if name == "theta_hat":
-            diff = (b - a + math.pi) % (2 * math.pi) - math.pi
-            same = np.isnan(a) & np.isnan(b) | (np.abs(diff) <= tol)
-        else:
-            diff = b - a
-            same = _same(a, b, tol)
-        bad = np.flatnonzero(~same)
-        fin = np.isfinite(diff)
+        recorded = (a >= 0) if kind == "code" else np.isfinite(a)
+        if kind == "code":
+            b = np.where(b >= 0, b, np.nan)
+        diff = (b - a + math.pi) % (2 * math.pi) - math.pi if kind == "angle" else b - a
+        same = np.abs(diff) <= tol            # NaN (no answer now) is not the same
+        bad = np.flatnonzero(recorded & ~same)
+        fin = recorded & np.isfinite(diff)
         out["fields"][name] = {
+            "compared": int(recorded.sum()),
             "differ": int(bad.size),
             "max_abs": float(np.max(np.abs(diff[fin]))) if fin.any() else math.nan,
             "rms": float(np.sqrt(np.mean(diff[fin] ** 2))) if fin.any() else math.nan,

@@ -9,8 +9,9 @@ a new recording with the topics of a live run (docs/replay.md "Modes"):
 * ``plant``      the capture's duties drive the plant open loop (``replay_plant``); its sampled
                  currents against the recorded.
 
-As fast as possible by default; ``rate`` paces one cycle every Ts / rate of wall time from
-absolute deadlines (``pace_s``), and the pacing error's p99 is reported.
+As fast as possible by default; ``rate`` paces each cycle at its recorded time / rate from
+absolute deadlines (``pace_s`` = Ts / rate of wall time per recorded period, so a gap in the
+capture is a pause of its recorded length), and the pacing error's p99 is reported.
 """
 from __future__ import annotations
 
@@ -137,21 +138,89 @@ def t_delay_of(cap: Capture, profile) -> float:
     return float(profile.t_delay_s)
 
 
-def reference_list(cap: Capture, opts: ReplayOptions) -> dict[str, dict[str, float]]:
-    """Estimator entry -> configuration: --estimators (+ --est-config), else the recording's."""
+#: CONFIG parameter -> reference estimator setting, for the estimator the captured controller ran:
+#: what the firmware's controller does with each (firmware_stub/src/controller.c, the estimator
+#: set-up); PLL gains only when set (> 0: the controller's own default otherwise)
+CONFIG_TO_REFERENCE: dict[str, dict[Param, str]] = {
+    "SMO_SIGN": {Param.SMO_K_V: "k_v", Param.SMO_K_FACTOR: "k_factor",
+                 Param.SMO_K_MIN_V: "k_min_v", Param.SMO_WC_RAD_S: "wc_rad_s",
+                 Param.SPEED_LPF_RAD_S: "speed_lpf_rad_s", Param.PLL_KP: "pll_kp",
+                 Param.PLL_KI: "pll_ki"},
+    "SMO_SIGMOID": {Param.SMO_K_V: "k_v", Param.SMO_SIGMOID_A_PER_A: "a_per_a",
+                    Param.SMO_WC_RAD_S: "wc_rad_s", Param.SMO_LAG_COMP: "lag_comp",
+                    Param.SPEED_LPF_RAD_S: "speed_lpf_rad_s", Param.PLL_KP: "pll_kp",
+                    Param.PLL_KI: "pll_ki"},
+    "SMO_TANH": {Param.SMO_K_V: "k_v", Param.SMO_M_PER_A: "m_per_a",
+                 Param.SPEED_LPF_RAD_S: "speed_lpf_rad_s", Param.PLL_KP: "pll_kp",
+                 Param.PLL_KI: "pll_ki"},
+}
+_INT_SETTINGS = {"lag_comp"}
+
+
+def captured_estimator(cap: Capture) -> str | None:
+    """The estimator the captured controller ran (HELLO), if the capture says."""
+    if cap.hello is None:
+        return None
+    try:
+        return Estimator(int(cap.hello["estimator"])).name
+    except ValueError:
+        return None
+
+
+def reference_list(cap: Capture, opts: ReplayOptions,
+                   notes: list[str] | None = None) -> dict[str, dict[str, float]]:
+    """Estimator entry -> configuration: --estimators (+ --est-config), else the recording's.
+
+    An entry of the estimator the captured controller ran (HELLO) takes the settings --est-config
+    does not give from the capture's CONFIG frames (the values that controller was told, see
+    CONFIG_TO_REFERENCE): it then runs as the controller did. Every other setting is the
+    estimator's own default for the profile. ``notes`` gets a line per entry saying which."""
     if opts.estimators:
         out = {e: dict(opts.est_config.get(e, {})) for e in opts.estimators}
         for key in opts.est_config:
             if key not in out:
                 raise ReplayError(f"--est-config {key}: {key!r} is not in --estimators "
                                   f"({', '.join(out)})")
+        ran = captured_estimator(cap)
+        for entry, cfg in out.items():
+            name = entry.partition(":")[0]
+            given = sorted(cfg)
+            taken = []
+            if name == ran:
+                for param, key in CONFIG_TO_REFERENCE.get(name, {}).items():
+                    if key in cfg or param not in cap.config:
+                        continue
+                    v = float(cap.config[param])
+                    if param in (Param.PLL_KP, Param.PLL_KI) and not v > 0:
+                        continue
+                    cfg[key] = int(round(v)) if key in _INT_SETTINGS else v
+                    taken.append(f"{key} = {v:.7g}")
+            if notes is not None:
+                parts = []
+                if given:
+                    parts.append("--est-config " + ", ".join(f"{k} = {cfg[k]:g}" for k in given))
+                if taken:
+                    parts.append("the capture's CONFIG: " + ", ".join(taken))
+                if parts:
+                    parts.append("the rest: its defaults for the profile")
+                else:
+                    why = ("the capture names no estimator" if ran is None else
+                           f"the captured controller ran {ran}" if ran != name else
+                           "the capture has no CONFIG for it")
+                    parts.append(f"its defaults for the profile ({why}; no --est-config)")
+                notes.append(f"{entry}: " + "; ".join(parts))
         return out
     if cap.recording is not None:
         try:
-            return {k: dict(v) for k, v in json.loads(
+            out = {k: dict(v) for k, v in json.loads(
                 cap.recording.run.get("reference_estimators", "{}")).items()}
         except ValueError:
-            pass
+            return {}
+        if notes is not None and out:
+            notes.append("estimators: the recording's own [reference], with its settings: "
+                         + "; ".join(f"{e} ({', '.join(f'{k} = {v:g}' for k, v in c.items()) or 'defaults'})"
+                                     for e, c in out.items()))
+        return out
     return {}
 
 
@@ -319,6 +388,18 @@ def _write_metadata(o: _Out, cap: Capture, mode: str, profile, plant, refs_cfg, 
     from bench.runner import git_revision
 
     run = dict(cap.recording.run) if cap.recording is not None else {}
+    if plant is None and not cap.plant_params:
+        # offline / controller on a frame or CSV capture: the plant the run's figures refer to
+        # is the profile's with the capture's period (and delay, bus voltage where captured),
+        # written as a live run writes it (bench check reads pole pairs and Ts from it)
+        from plant_rt.plant import Plant
+        from plant_rt.profile import ProfileError
+
+        try:
+            plant = Plant(profile, **plant_overrides(cap, profile))
+        except (ProfileError, ValueError) as exc:
+            raise ReplayError(f"{cap.path}: the profile's plant with the capture's period: "
+                              f"{exc}") from None
     params = plant.params.as_dict() if plant is not None else {}
     run.update({
         "scenario": run.get("scenario", f"replay-{cap.path.name}"),

@@ -17,7 +17,7 @@ from .modes import (NO_CHANNEL, RPM_PER_RAD_S, ReplayError, ReplayOptions, Repla
 
 def run_offline(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
                 res: ReplayResult) -> None:
-    refs_cfg = reference_list(cap, opts)
+    refs_cfg = reference_list(cap, opts, res.notes)
     if not refs_cfg:
         raise ReplayError(f"{cap.path}: no estimators to run: name them with --estimators "
                           f"SMO_SIGN,SMO_TANH:m1 (a recording replays its scenario's own)")

@@ -37,7 +37,7 @@ def run_plant(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
     theta0 = float(st["theta_e_rad"][0]) if np.isfinite(st["theta_e_rad"][0]) else 0.0
     w0 = float(st["omega_m_rad_s"][0]) if np.isfinite(st["omega_m_rad_s"][0]) else 0.0
     plant.set_initial(theta0, w0)
-    refs_cfg = reference_list(cap, opts) if opts.estimators else {}
+    refs_cfg = reference_list(cap, opts, res.notes) if opts.estimators else {}
     refs = make_estimators(refs_cfg, profile, cap.ts_s)
     o = _Out(cap, "plant", out, opts.force, refs, ch.REPLAY_PLANT)
     e = None
@@ -57,13 +57,20 @@ def run_plant(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
             if len(changes) > 200:
                 res.notes.append(f"the recorded load changes {len(changes)} times; the first 200 "
                                  f"are applied")
+            # the engine counts the plant's own steps (a gap in the capture is stepped through)
+            step = np.rint((cap.rows["t_s"] - cap.rows["t_s"][0]) / cap.ts_s).astype(np.int64)
             for k in changes[:200]:
-                e.add_event(int(k), eng.EV_LOAD, value=float(load[k]))
+                e.add_event(int(step[k]), eng.EV_LOAD, value=float(load[k]))
         else:
             res.notes.append("the capture does not say the load torque: the plant runs without "
                              "load (profile load_profile only)")
         for (_n, kind, est), chan in zip(refs, o.refs):
             e.add_reference(kind, est, chan.index)
+        gap_cycles = int(np.sum(np.maximum(np.rint(np.diff(cap.rows["t_s"]) / cap.ts_s) - 1, 0)))
+        if gap_cycles:
+            res.notes.append(f"{gap_cycles} cycle(s) missing in the capture: the plant steps "
+                             f"through them with the last duties held (counted as missed duties; "
+                             f"/replay/plant has no recorded currents there)")
         interrupted = _watch(e, o, cap.n, opts.progress)
         engine_summary(e, res, pace_s)
         if interrupted:

@@ -9,7 +9,6 @@ replayed. Only a capture with nothing replayable raises :class:`CaptureError`.
 from __future__ import annotations
 
 import csv
-import io
 import json
 import math
 import tomllib
@@ -54,11 +53,14 @@ def capture_kind(path: Path, mapping: Path | None) -> str:
 
 
 def _is_can_csv(path: Path) -> bool:
-    import gzip
+    from .canlog import _Source
 
-    opener = gzip.open if path.name.lower().endswith(".gz") else open
-    with opener(path, "rt", errors="replace") as f:
-        return f.readline().strip().lower().startswith("timestamp,arbitration_id")
+    src = _Source(path, path.name.lower().endswith(".gz"))
+    try:
+        first = src.readline().decode("utf-8", errors="replace")
+    finally:
+        src.really_close()
+    return first.strip().lower().startswith("timestamp,arbitration_id")
 
 
 def read_capture(path: str | Path, *, ts_s: float | None = None,
@@ -108,65 +110,40 @@ def _from_assembler(path: Path, kind: str, asm: CycleAssembler, an: Anomalies,
 
 
 def read_can_log(path: Path, ts_s: float | None = None) -> Capture:
-    """A CAN log through python-can's ``can.LogReader`` (never a parser of our own). A reader
-    that fails on a damaged record is resumed after it where the format allows (text formats);
-    the damage is said with its position."""
-    import can
+    """A CAN log through python-can's own reader for its format (never a parser of our own);
+    damage is found, located and read past as ``bench/replay/canlog.py`` says."""
+    from .canlog import read_log
 
     an = Anomalies()
-    problems: list[str] = []
     asm = CycleAssembler(an)
+    state = {"t0": None}
+
+    def on_message(msg, where_line: str) -> None:
+        t = float(msg.timestamp)
+        if state["t0"] is None:
+            state["t0"] = t
+        rel = t - state["t0"]
+        where = f"{where_line} (t = {rel:.6f} s)"
+        if msg.is_error_frame or msg.is_remote_frame or msg.is_extended_id:
+            what = ("an error frame" if msg.is_error_frame else
+                    "a remote frame" if msg.is_remote_frame else
+                    f"a 29-bit id 0x{msg.arbitration_id:08X}")
+            an.add("not_protocol", f"{where}: {what}", rel)
+            return
+        asm.feed(int(msg.arbitration_id), bytes(msg.data), rel, where)
+
     try:
-        reader = can.LogReader(str(path))
-    except NotImplementedError as exc:    # e.g. .mf4 without asammdf
-        raise CaptureError(f"{path}: python-can cannot read this format here: {exc}") from None
-    except Exception as exc:  # noqa: BLE001 - python-can raises many kinds on a bad header
-        raise CaptureError(f"{path}: python-can cannot open it: {type(exc).__name__}: "
-                           f"{exc}") from None
-    i = 0
-    t0 = None
-    last_t = math.nan
-    try:
-        while True:
-            it = iter(reader)
-            try:
-                for msg in it:
-                    i += 1
-                    t = float(msg.timestamp)
-                    if t0 is None:
-                        t0 = t
-                    last_t = t - t0
-                    where = f"message {i} (t = {last_t:.6f} s)"
-                    if msg.is_error_frame or msg.is_remote_frame or msg.is_extended_id:
-                        what = ("an error frame" if msg.is_error_frame else
-                                "a remote frame" if msg.is_remote_frame else
-                                f"a 29-bit id 0x{msg.arbitration_id:08X}")
-                        an.add("not_protocol", f"{where}: {what}", last_t)
-                        continue
-                    asm.feed(int(msg.arbitration_id), bytes(msg.data), last_t, where)
-                break
-            except Exception as exc:  # noqa: BLE001 - python-can raises ValueError, struct.error ...
-                an.add("damaged", f"after message {i} (t = {last_t:.6f} s): unreadable record "
-                                  f"({type(exc).__name__}: {exc})", last_t)
-                problems.append(f"{path}: the record after message {i} (t = {last_t:.6f} s) is "
-                                f"unreadable ({type(exc).__name__}: {exc})")
-                fh = getattr(reader, "file", None)
-                if fh is None or getattr(fh, "closed", True) or isinstance(fh, io.BufferedIOBase) \
-                        or "b" in getattr(fh, "mode", ""):
-                    problems[-1] += "; the capture is read up to there"
-                    break
-                try:   # text formats: the same python-can reader class on the rest of the file
-                    reader = type(reader)(fh)
-                except Exception:  # noqa: BLE001
-                    problems[-1] += "; the capture is read up to there"
-                    break
-                problems[-1] += "; reading resumes after it"
-    finally:
-        try:
-            reader.stop()
-        except Exception:  # noqa: BLE001
-            pass
-    return _from_assembler(path, "can", asm, an, problems, ts_s, f"end of file (message {i})")
+        res = read_log(path, on_message)
+    except ValueError as exc:
+        raise CaptureError(f"{path}: {exc}") from None
+    except OSError as exc:
+        raise CaptureError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    for where, what in res.damaged:
+        an.add("damaged", f"{where}: {what}")
+    cap = _from_assembler(path, "can", asm, an, res.problems, ts_s,
+                          f"end of the log (message {res.messages})")
+    cap.notes.extend(res.notes)
+    return cap
 
 
 def read_serial(path: Path, ts_s: float | None = None) -> Capture:
@@ -275,6 +252,13 @@ def read_mcap(path: Path) -> Capture:
         for key in telem:
             if key in te:
                 telem[key][ok] = te[key][j]
+        # what a replay into a controller compares beside the duties (/replay/controller)
+        rows["state"][ok] = np.where(has_t, te["state"][j], -1)
+        rows["estimator"][ok] = np.where(has_t, te["estimator"][j], -1)
+        has_emf = np.isfinite(te["e_alpha_v"][j])
+        rows["has_emf"][np.flatnonzero(ok)[has_emf]] = 1
+        for key in ("e_alpha_v", "e_beta_v", "i_q_ref_a"):
+            rows[key][ok] = te[key][j]
         missing = int((~ok).sum())
         if missing:
             an.add("drops", f"{missing} cycle(s) of /plant/sense have no /controller/telemetry row",
@@ -455,8 +439,20 @@ def read_csv(path: Path, mapping_path: Path, *, profile=None, ts_s: float | None
     skip = int(m["csv"].get("skip_rows", 0))
     an = Anomalies()
     problems: list[str] = []
-    with open(path, newline="", errors="replace") as f:
-        lines = f.read().splitlines()
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise CaptureError(f"{path}: cannot read: {exc.strerror}") from None
+    if raw and not raw.endswith(b"\n"):
+        # the file ends inside its last line: a cut export; its last field may be a prefix of
+        # the number that was there (12.34 of 12.3456), so the line is left out, never read half
+        cut = raw.rfind(b"\n") + 1
+        n_last = raw.count(b"\n") + 1
+        problems.append(f"{path}: file ends inside line {n_last} (byte {cut}): truncated; that "
+                        f"line is left out")
+        an.add("damaged", f"line {n_last} (byte {cut}): the file ends inside it; left out")
+        raw = raw[:cut]
+    lines = raw.decode("utf-8", errors="replace").splitlines()
     if len(lines) <= skip:
         raise CaptureError(f"{path}: line {skip + 1}: no header line")
     header = next(csv.reader([lines[skip]], delimiter=delim))

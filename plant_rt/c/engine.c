@@ -1652,8 +1652,10 @@ static double duty_of_raw(const engine_t *e, uint32_t raw)
     return (raw <= e->cfg.duty_raw_full) ? (double)raw / (double)e->cfg.duty_raw_full : (double)NAN;
 }
 
-/** Replay rows as fast as possible, or one every pace_s (absolute deadlines); the pacing error
- *  of each row goes to the jitter histogram. */
+/** Replay rows as fast as possible, or paced: row k starts at t0 + (its recorded time - the
+ *  first row's) * pace_s / ts_s (absolute deadlines; pace_s = Ts / rate), so a gap in the
+ *  capture is a pause of its recorded length, not one period. The pacing error of each row goes
+ *  to the jitter histogram. */
 static int64_t replay_pace(engine_t *e, long k, int64_t *start_err_ns)
 {
     int64_t now;
@@ -1665,7 +1667,9 @@ static int64_t replay_pace(engine_t *e, long k, int64_t *start_err_ns)
         e->t0_ns = eng_now_ns() + 1000000LL;
     }
     {
-        const int64_t deadline = e->t0_ns + (int64_t)llround((double)k * e->cfg.pace_s * 1e9);
+        const double dt_rec = e->cfg.replay_cycles[k].t_s - e->cfg.replay_cycles[0].t_s;
+        const int64_t deadline =
+            e->t0_ns + (int64_t)llround(dt_rec * (e->cfg.pace_s / e->cfg.ts_s) * 1e9);
         now = wait_until(deadline, (int64_t)(e->cfg.spin_s * 1e9));
         *start_err_ns = now - deadline;
         hist_add(&e->hist_jitter, (double)*start_err_ns * 1e-3);
@@ -1787,6 +1791,16 @@ static int run_replay_controller(engine_t *e)
             r.omega_hat_rec_rad_s = row->has_telem ? row->omega_hat_rad_s : (double)NAN;
             r.theta_hat_rad = c.have_telem ? c.th_hat : (double)NAN;
             r.omega_hat_rad_s = c.have_telem ? c.w_hat : (double)NAN;
+            r.state_rec = row->has_telem ? row->state : -1;
+            r.estimator_rec = row->has_telem ? row->estimator : -1;
+            r.state = c.have_telem ? c.st : -1;
+            r.estimator = c.have_telem ? c.est : -1;
+            r.e_alpha_rec_v = row->has_emf ? row->e_alpha_v : (double)NAN;
+            r.e_beta_rec_v = row->has_emf ? row->e_beta_v : (double)NAN;
+            r.i_q_ref_rec_a = row->has_emf ? row->i_q_ref_a : (double)NAN;
+            r.e_alpha_v = c.have_emf ? c.e_a : (double)NAN;
+            r.e_beta_v = c.have_emf ? c.e_b : (double)NAN;
+            r.i_q_ref_a = c.have_emf ? c.iq_ref : (double)NAN;
             RECORD(e, cfg->ch_replay, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_replay_controller, &r);
         }
         e->prev_had_duty = 1;
@@ -1796,41 +1810,71 @@ static int run_replay_controller(engine_t *e)
     return ENGINE_END_DONE;
 }
 
+/** The plant's part of a replayed cycle: its sampled currents beside the recorded ones (NaN for a
+ *  cycle the capture misses). */
+static void replay_plant_row(engine_t *e, const cycle_t *c, const engine_replay_cycle_t *row)
+{
+    rec_replay_plant_t r;
+    if (!e->have_ring) {
+        return;
+    }
+    r.t_s = c->t_s;
+    r.seq = c->seq;
+    r.i_a_rec_a = row != NULL ? row->i_abc_a[0] : (double)NAN;
+    r.i_b_rec_a = row != NULL ? row->i_abc_a[1] : (double)NAN;
+    r.i_c_rec_a = row != NULL ? row->i_abc_a[2] : (double)NAN;
+    r.i_a_a = c->s_i[0];
+    r.i_b_a = c->s_i[1];
+    r.i_c_a = c->s_i[2];
+    RECORD(e, e->cfg.ch_replay, c->t_s, REC_MAX_FIXED_SIZE, rec_encode_replay_plant, &r);
+}
+
 /** The recorded duties drive the plant open loop (no link); its currents beside the recorded,
- *  reference estimators on its samples. */
+ *  reference estimators on its samples. The plant keeps its own time (step * Ts): a cycle the
+ *  capture misses (a gap in the rows' times) is stepped through with the last duties held, as
+ *  a drive whose DUTY did not come (counted in missed_duty), and recorded without recorded
+ *  currents beside it. */
 static int run_replay_plant(engine_t *e)
 {
     const engine_config_t *cfg = &e->cfg;
     ref_voltage_t rv;
     int next_event = 0;
-    long k;
+    long k, step = 0;
     memset(&rv, 0, sizeof rv);
     rv.w_split = cfg->t_delay_s / cfg->ts_s;
     for (k = 0; k < cfg->n_cycles; ++k) {
         const engine_replay_cycle_t *row = &cfg->replay_cycles[k];
         cycle_t c;
         int64_t start_err, c0;
+        long missing = (k == 0) ? 0 : (long)llround((row->t_s - row[-1].t_s) / cfg->ts_s) - 1;
         if (replay_begin(e, &c, k, &c0, &start_err) != 0) {
             return e->end;
         }
-        c.t_s = (double)k * cfg->ts_s;           /* the plant's own time */
+        for (; missing > 0; --missing, ++step) {
+            cycle_t g;
+            begin_cycle(e, &g, step);
+            apply_events(e, &next_event, &g);
+            if (build_sense(e, &g) != 0) {
+                return e->end;
+            }
+            e->n.missed_duty++;
+            record_cycle(e, &g);
+            replay_plant_row(e, &g, NULL);
+            step_references(e, &g, &rv, 1);
+            plant_step(e->plant, e->duties);
+            if (!plant_finite(e, &g)) {
+                return e->end;
+            }
+        }
+        c.k = step;
+        c.t_s = (double)step * cfg->ts_s;       /* the plant's own time */
+        ++step;
         apply_events(e, &next_event, &c);
         if (build_sense(e, &c) != 0 || take_recorded_duties(e, &c, row) != 0) {
             return e->end;
         }
         record_cycle(e, &c);
-        if (e->have_ring) {
-            rec_replay_plant_t r;
-            r.t_s = c.t_s;
-            r.seq = c.seq;
-            r.i_a_rec_a = row->i_abc_a[0];
-            r.i_b_rec_a = row->i_abc_a[1];
-            r.i_c_rec_a = row->i_abc_a[2];
-            r.i_a_a = c.s_i[0];
-            r.i_b_a = c.s_i[1];
-            r.i_c_a = c.s_i[2];
-            RECORD(e, cfg->ch_replay, c.t_s, REC_MAX_FIXED_SIZE, rec_encode_replay_plant, &r);
-        }
+        replay_plant_row(e, &c, row);
         step_references(e, &c, &rv, 1);
         plant_step(e->plant, e->duties);
         e->speed_rpm = e->plant->y[2] * cfg->rpm_per_rad_s;

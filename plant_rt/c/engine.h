@@ -173,6 +173,9 @@ typedef struct {
     uint32_t duty_raw[3];       /* the recorded DUTY */
     double theta_hat_rad;       /* the recorded TELEM (has_telem) */
     double omega_hat_rad_s;
+    int32_t state, estimator;   /* the recorded TELEM's state and estimator (has_telem) */
+    int32_t has_emf;            /* the recorded TELEM_EMF: */
+    double e_alpha_v, e_beta_v, i_q_ref_a;
 } engine_replay_cycle_t;
 
 /** Linear wire scaling of one signal (from the DBC): raw = round((phys - offset) / scale). */
@@ -229,7 +232,9 @@ typedef struct {
     const engine_replay_cycle_t *replay_cycles;
     const engine_replay_frame_t *replay_frames;
     long replay_n_frames;
-    double pace_s;              /* replay: one row every pace_s of wall time (0: at once) */
+    double pace_s;              /* replay: wall time per ts_s of recorded time (Ts / rate): row k
+                                 * starts pace_s / ts_s x (its t_s - row 0's) after the start
+                                 * (absolute deadlines); 0: as fast as possible */
     uint16_t ch_replay;         /* /replay/controller or /replay/plant */
     /* serial byte capture (docs/replay.md): every octet of a serial link as a ring record on
      * ch_serial_raw: payload = direction (0 written, 1 read) then the octets; time = eng_now_ns */

@@ -108,11 +108,15 @@
     X(P, F64, jitter_max_us)
 
 /** /replay/controller, hil.ReplayController: a live controller's answer to a recorded cycle
- *  beside the recorded answer (duties: -1 = leg off, NaN = no DUTY; angles: NaN = no TELEM). */
+ *  beside the recorded answer: DUTY (-1 = leg off, NaN = no DUTY), TELEM (angle, speed: NaN,
+ *  state, estimator: -1 = no TELEM), TELEM_EMF (NaN = none). */
 #define REC_REPLAY_CONTROLLER(X, P)                                                            \
     X(P, F64, t_s) X(P, U32, seq) X(P, F64, duty_a_rec) X(P, F64, duty_a) X(P, F64, duty_b_rec) \
     X(P, F64, duty_b) X(P, F64, duty_c_rec) X(P, F64, duty_c) X(P, F64, theta_hat_rec_rad)      \
-    X(P, F64, theta_hat_rad) X(P, F64, omega_hat_rec_rad_s) X(P, F64, omega_hat_rad_s)
+    X(P, F64, theta_hat_rad) X(P, F64, omega_hat_rec_rad_s) X(P, F64, omega_hat_rad_s)         \
+    X(P, I32, state_rec) X(P, I32, state) X(P, I32, estimator_rec) X(P, I32, estimator)        \
+    X(P, F64, e_alpha_rec_v) X(P, F64, e_alpha_v) X(P, F64, e_beta_rec_v) X(P, F64, e_beta_v)  \
+    X(P, F64, i_q_ref_rec_a) X(P, F64, i_q_ref_a)
 
 /** /replay/plant, hil.ReplayPlant: the plant driven by the recorded duties; its sampled phase
  *  currents (wire values) beside the recorded ones. */
