@@ -426,3 +426,64 @@ def test_real_time_cpu_layout(monkeypatch):
                                  .replace('mode = "realtime"', 'mode = "lockstep"'),
                                  Path("lock.toml")), progress=False)
     assert lock.cpu is None and lock._recorder_cpus() == () and lock._stub_cpu() is None
+
+
+def test_a_link_stall_in_real_time_trips_the_free_running_controller(tmp_path):
+    """Issue 12: the engine stalls the link for 30 periods (nothing crosses either way) while the
+    stub's ISR runs on its own timer. The stub's link-timeout check (10 periods without a SENSE,
+    docs/faults.md) sends FAULT_CTRL LINK_TIMEOUT with the gap it measured; the bench records the
+    stall, counts the missed duties, keeps recording the reaction (post_trip_s) and ends the run
+    on the controller's fault. The engine's watchdog is set out of reach."""
+    out = tmp_path / "stall.mcap"
+    scn = rt_scenario(rate_hz=5000, duration=1.0, misses=1_000_000,
+                      extra='stub_isr = "timer"\nstub_phase_us = 40')
+    text = scn.text + ('\n[[faults]]\nkind = "stall"\nstall_periods = 30\nt_s = 0.8\n'
+                       'detect_within_s = 0.05\n')
+    scn = parse_scenario(text, Path("stall.toml"))
+    for attempt in (1, 2):
+        out.unlink(missing_ok=True)
+        result = run_scenario(scn, out_path=out, progress=False, force=True)
+        rec = load_recording(out)
+        timing = rec.topic(ch.TIMING)
+        before = timing["t_s"] < 0.8
+        lost = (np.count_nonzero(timing["missed"][before]) +
+                np.count_nonzero(timing["overrun"][before])) / max(np.count_nonzero(before), 1)
+        if lost <= LOST_PERIODS_LIMIT and result.end == "CONTROLLER_FAULT":
+            break
+    else:
+        pytest.skip(f"this machine could not keep real time before the stall: {lost:.1%} of the "
+                    f"periods lost twice ({result.error})")
+    assert "LINK_TIMEOUT" in result.error, result.error
+    from bench.faults import outcomes
+
+    (o,) = outcomes(rec)
+    assert o.kind == "stall" and o.t_on_s == pytest.approx(0.8)
+    assert o.detected and o.trip_code == "LINK_TIMEOUT"
+    # the stub's timer notices 10 periods without SENSE; the stall is 30: it trips inside it
+    assert 10 * 2e-4 <= o.trip_s <= 30 * 2e-4 + 0.01, o.trip_s
+    faults = rec.topic(ch.FAULTS)
+    trips = [v for a, v in zip(faults["action"], faults["text"]) if a == "trip"]
+    detail_us = int(trips[0].split("detail ")[1])
+    assert 10 * 200 <= detail_us <= 30 * 200 + 5000, trips[0]   # the gap it measured [us]
+    assert "missed_duty" in o.evidence or "ctrl_faults" in o.evidence, o.evidence
+
+
+def test_soak_miss_classifier_on_synthetic_timing():
+    """bench.perf.loop's real-time soak explains every miss: in a host stall, after a late start,
+    answered after its deadline, or unexplained (no answer ever)."""
+    from bench.perf.loop import classify_misses
+
+    n = 40
+    missed = np.zeros(n, dtype=np.uint32)
+    overrun = np.zeros(n, dtype=np.uint32)
+    start = np.zeros(n)
+    late = np.zeros(n)
+    missed[3:6] = 1                      # three in a row: a host stall
+    missed[10] = 1
+    start[10] = 80.0                     # started 80 us late in a 200 us period
+    missed[20] = 1
+    late[21:] = 1.0                      # its DUTY came in the next period: late
+    missed[30] = 1                       # nothing explains it
+    timing = {"missed": missed, "overrun": overrun, "start_err_us": start, "late_total": late}
+    assert classify_misses(timing, 200.0) == {"missed": 6, "host_stall": 3, "late_start": 1,
+                                              "late_answer": 1, "unanswered": 1}

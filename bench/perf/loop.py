@@ -2,6 +2,7 @@
 
     python -m bench.perf.loop [--quick] [--no-can] [--engine-cpu N] [--stub-cpu N]
     python -m bench.perf.loop --soak 10          # 10-minute lockstep run: memory of every process
+    python -m bench.perf.loop --soak-realtime 10 # 10 minutes real time (5 kHz): memory, every miss explained
     python -m bench.perf.loop --quick --tuned    # adds 10 kHz real time with the tuned set-up
 
 Everything is measured in one run on one machine, and compared as ratios:
@@ -257,6 +258,116 @@ def soak(minutes: float) -> int:
     return 0
 
 
+def classify_misses(timing: dict, period_us: float) -> dict[str, int]:
+    """Every missed DUTY of a real-time recording, by what explains it (docs/realtime.md):
+
+    * ``host_stall``: inside a streak of >= 3 periods lost in a row (misses or periods the bench
+      itself lost): the host stopped scheduling the bench or the stub for a while;
+    * ``late_start``: the period started more than a quarter period late (the engine woke late),
+      leaving the round trip less than its budget;
+    * ``late_answer``: the DUTY did come, after its deadline (counted late within two periods):
+      a round trip longer than the budget -- the pty's and the scheduler's latency tail;
+    * ``unanswered``: none of these: no answer ever came although the period started on time --
+      a lost frame or a controller that skipped a SENSE. Unexplained.
+    """
+    import numpy as np
+
+    missed = np.asarray(timing["missed"]).astype(bool)
+    overrun = np.asarray(timing["overrun"]).astype(bool)
+    start = np.asarray(timing["start_err_us"], dtype=float)
+    late = np.asarray(timing["late_total"], dtype=float)
+    lost = missed | overrun
+    stall = np.zeros(len(lost), dtype=bool)
+    k = 0
+    while k < len(lost):
+        if lost[k]:
+            j = k
+            while j < len(lost) and lost[j]:
+                j += 1
+            if j - k >= 3:
+                stall[k:j] = True
+            k = j
+        else:
+            k += 1
+    later = np.concatenate([late[2:], np.repeat(late[-1:], 2)]) if len(late) else late
+    answered_late = later > late
+    out = {"missed": int(missed.sum()), "host_stall": 0, "late_start": 0, "late_answer": 0,
+           "unanswered": 0}
+    for i in np.flatnonzero(missed):
+        if stall[i]:
+            out["host_stall"] += 1
+        elif start[i] > 0.25 * period_us:
+            out["late_start"] += 1
+        elif answered_late[i]:
+            out["late_answer"] += 1
+        else:
+            out["unanswered"] += 1
+    return out
+
+
+def soak_realtime(minutes: float, rate_hz: float) -> int:
+    """Real time for ``minutes`` at ``rate_hz``, recording on: resident memory of every process
+    at start and end, and every miss explained (classify_misses)."""
+    from bench import channels as ch
+    from bench.recording import load_recording
+    from bench.runner import Runner
+
+    samples: list[tuple[float, dict]] = []
+    stop = threading.Event()
+    scn = scenario(minutes * 60.0, "realtime", rate_hz)
+
+    def watch(r):
+        while not stop.is_set() and (getattr(r, "engine", None) is None
+                                     or r.engine.cycles_done < 1000):
+            time.sleep(0.05)
+        t0 = time.monotonic()
+        while not stop.is_set() and r.engine.running():
+            pids = {"bench": os.getpid(), "recorder": r.rec.pid, "stub": r.opened.stub.proc.pid}
+            samples.append((time.monotonic() - t0, {k: rss_kb(p) for k, p in pids.items()}))
+            stop.wait(5.0)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "soak_rt.mcap"
+        r = Runner(scn, out_path=out, progress=False)
+        th = threading.Thread(target=watch, args=(r,), daemon=True)
+        th.start()
+        result = r.run()
+        stop.set()
+        size = out.stat().st_size if out.exists() else 0
+        fields = ["t_s", "missed", "overrun", "start_err_us", "late_total"]
+        timing = load_recording(out, topics=[ch.TIMING], fields={ch.TIMING: fields}).topic(ch.TIMING)
+    if len(samples) < 2:
+        sys.exit(f"soak: the run ended after {result.cycles_done} cycles, too short for two memory "
+                 f"samples: {result.error}")
+    t = result.timing
+    why = classify_misses(timing, 1e6 / rate_hz)
+    first, last = samples[1][1], samples[-1][1]
+    print(f"soak (real time, {rate_hz / 1000:g} kHz): {result.cycles_done} of "
+          f"{result.cycles_planned} periods in {result.engine_s / 60:.1f} min, recording "
+          f"{size / 1e6:.0f} MB, rows dropped {result.link_stats.get('rows_dropped', 0)}"
+          + (f"; ended: {result.error}" if result.error else ""))
+    print(f"period start error p50 {t['jitter_p50_us']:.1f} us, p99 {t['jitter_p99_us']:.1f} us, "
+          f"p99.9 {t['jitter_p999_us']:.1f} us, max {t['jitter_max_us']:.1f} us; "
+          f"{t['overruns']} periods lost by the bench")
+    print(f"missed duties {why['missed']} (rate {why['missed'] / max(result.cycles_done, 1):.2e}): "
+          f"{why['host_stall']} in host stalls, {why['late_start']} after a late start, "
+          f"{why['late_answer']} answered after the deadline, {why['unanswered']} unexplained")
+    print(f"{'process':10s} {'RSS start kB':>13s} {'RSS end kB':>11s} {'change':>8s}")
+    out_json = {"soak_rt_minutes": result.engine_s / 60, "soak_rt_cycles": result.cycles_done,
+                "soak_rt_rate_hz": rate_hz, "soak_rt_error": result.error or "",
+                **{f"soak_rt_{k}": v for k, v in why.items()},
+                "soak_rt_overruns": t["overruns"], "soak_rt_jitter_p99_us": t["jitter_p99_us"],
+                "soak_rt_rows_dropped": result.link_stats.get("rows_dropped", 0)}
+    for k in first:
+        change = (last[k] - first[k]) / first[k]
+        print(f"{k:10s} {first[k]:13d} {last[k]:11d} {change:+8.1%}")
+        out_json[f"rss_{k}_start_kb"] = first[k]
+        out_json[f"rss_{k}_end_kb"] = last[k]
+        out_json[f"rss_{k}_change"] = change
+    print(json.dumps(out_json))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="the whole run under a minute")
@@ -267,9 +378,15 @@ def main(argv: list[str] | None = None) -> int:
                     help="also 10 kHz real time with docs/realtime.md's tuned set-up")
     ap.add_argument("--soak", type=float, default=None, metavar="MINUTES",
                     help="only the lockstep soak: memory of every process at start and end")
+    ap.add_argument("--soak-realtime", type=float, default=None, metavar="MINUTES",
+                    help="only the real-time soak: memory, and every missed duty explained")
+    ap.add_argument("--soak-rate", type=float, default=5000.0, metavar="HZ",
+                    help="control rate of the real-time soak (default 5000)")
     args = ap.parse_args(argv)
     if args.soak is not None:
         return soak(args.soak)
+    if args.soak_realtime is not None:
+        return soak_realtime(args.soak_realtime, args.soak_rate)
     quick = args.quick
     cycles = 20000 if quick else 50000
     repeat = 1 if quick else 3

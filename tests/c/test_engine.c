@@ -384,6 +384,16 @@ static void test_realtime_closed_loop(void)
     /* the engine on the wall clock at 10 kHz with the session answering in a thread: asserts
      * the loop, not the timing (a loaded machine may miss deadlines; they are counted) */
     loop_result_t r = closed_loop(ENGINE_REALTIME, 3000, -1, -1);
+    const double lost = (double)(r.n.missed_duty + r.n.rt_overruns) / (double)(r.cycles ? r.cycles : 1);
+    if (r.end != ENGINE_END_DONE && (lost > 0.01 || strstr(r.message, "clock jumped") != NULL)) {
+        /* as tests/test_realtime.py: a run the machine could not keep in real time says nothing
+         * about the loop (the benchmark measures the machine: python -m bench.perf.loop) */
+        printf("test_realtime_closed_loop: skipped: this machine could not keep real time "
+               "(%.1f %% of %ld periods lost: %llu missed, %llu overruns): %s\n", 100.0 * lost,
+               r.cycles, (unsigned long long)r.n.missed_duty,
+               (unsigned long long)r.n.rt_overruns, r.message);
+        return;
+    }
     CHECK(r.end == ENGINE_END_DONE, "end %d: %s", r.end, r.message);
     CHECK(r.cycles == 3000, "cycles %ld", r.cycles);
     CHECK(r.speed_rpm > 20.0, "the rotor turns: %.1f rpm", r.speed_rpm);
