@@ -307,6 +307,7 @@ class Runner:
     def run(self) -> RunResult:
         scn = self.scn
         check_target(self.out_path, self.force)      # before any process or device is touched
+        self._check_budget_of_spec()
         result = RunResult(scn.name, self.out_path, 0, self.n_cycles, mode=self.mode,
                            ts_s=self.ts_s)
         t0 = time.monotonic()
@@ -396,19 +397,34 @@ class Runner:
     def _event(self, t_s: float, kind: str, text: str, value: float = 0.0) -> None:
         self.ch_events.write_values(t_s, (t_s, kind, text, value))
 
+    def _check_budget_of_spec(self) -> None:
+        """The link spec alone tells the budget (serial baud, CAN bit rates): refuse before the
+        port is opened. The stub's links are checked once open (_check_budget)."""
+        from .links import LinkError, spec_max_cycle_rate_hz
+
+        try:
+            known = spec_max_cycle_rate_hz(self.link_spec, self.hello_flags())
+        except (LinkError, ValueError):
+            return   # a malformed spec: open_link names what is wrong with it
+        if known is not None:
+            self._refuse_over_budget(known[1], known[0])
+
     def _check_budget(self, opened: OpenedLink) -> None:
+        self._refuse_over_budget(opened.link.description,
+                                 opened.link.max_cycle_rate_hz(self.hello_flags()))
+
+    def _refuse_over_budget(self, description: str, max_hz: float) -> None:
         rate_hz = 1.0 / self.ts_s
-        max_hz = opened.link.max_cycle_rate_hz(self.hello_flags())
         if rate_hz <= max_hz:
             return
         if self.mode == "lockstep" and self.allow_slow_link:
-            self._slow_link_note = (f"{opened.link.description} fits at most {max_hz:.0f} Hz; "
+            self._slow_link_note = (f"{description} fits at most {max_hz:.0f} Hz; "
                                     f"lockstep at {rate_hz:.0f} Hz runs slower than real time")
             return
         extra = (" (or, in lockstep, --allow-slow-link to run slower than real time)"
                  if self.mode == "lockstep" else " (a real-time run cannot be slowed down)")
         raise RunAborted(
-            f"{opened.link.description} cannot carry this scenario: {rate_hz:.0f} Hz control "
+            f"{description} cannot carry this scenario: {rate_hz:.0f} Hz control "
             f"rate needed (Ts = {self.ts_s * 1e6:g} us) but the link fits at most "
             f"{max_hz:.0f} Hz with these frames; use a faster link or a longer period{extra}")
 

@@ -160,6 +160,27 @@ def parse_stub_can_spec(kind: str, tail: str, spec: str):
     return can_spec
 
 
+def spec_max_cycle_rate_hz(spec: str, flags: int) -> tuple[float, str] | None:
+    """(highest control rate, the link's name) a link spec carries with the HELLO ``flags``'
+    frames, from the spec alone (serial baud rate, CAN bit rates: protocol/budget.py), so that a
+    scenario the link cannot carry is refused before the port is opened; None when only the
+    opened link can tell (the stub's links)."""
+    from protocol import budget
+
+    m = _KIND.match(spec)
+    kind, tail = (m.group(1), m.group(2)) if m else ("", spec)
+    rest = tail[1:] if tail.startswith(":") else tail
+    if kind == "serial" and rest:
+        url, baud = parse_serial_spec(rest)
+        return budget.serial_max_rate_hz(baud, flags), f"serial {url} at {baud} baud"
+    if kind == "can":
+        cs = parse_can_spec(spec)
+        return (budget.can_max_rate_hz(cs.bitrate, flags, fd=cs.fd,
+                                       data_bitrate=cs.data_bitrate if cs.fd else None),
+                f"CAN {cs.interface}:{cs.channel} at {cs.bitrate} bit/s")
+    return None
+
+
 def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
               capture_path: Path | None = None) -> OpenedLink:
     """Open the link a spec names. ``capture_path``: where a backend that has a standard capture
@@ -195,4 +216,5 @@ def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
                     f"'stub-socketcan[:<iface>]'")
 
 
-__all__ = ["Link", "LinkError", "OpenedLink", "open_link", "parse_can_spec", "parse_stub_can_spec"]
+__all__ = ["Link", "LinkError", "OpenedLink", "open_link", "parse_can_spec", "parse_stub_can_spec",
+           "spec_max_cycle_rate_hz"]
