@@ -68,11 +68,19 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from .check import check_recording, print_report
     from .recording import RecordingError
 
+    err = Console(stderr=True)
+    path = Path(args.recording)
+    if not path.exists():
+        err.print(f"[red]error:[/red] {path}: no such file")
+        return 2
+    if path.is_dir():
+        err.print(f"[red]error:[/red] {path}: is a directory, not a recording")
+        return 2
     try:
-        report = check_recording(args.recording)
+        report = check_recording(path)
     except RecordingError as exc:
-        Console(stderr=True).print(f"[red]error:[/red] {exc}\n(a damaged recording: `bench recover "
-                                   f"{args.recording} -o FIXED.mcap` copies every intact chunk)")
+        err.print(f"[red]error:[/red] {exc}\n(a damaged recording: `bench recover "
+                  f"{path} -o FIXED.mcap` copies every intact chunk)")
         return 2
     print_report(report)
     return 1 if (args.strict and not report.all_pass) else 0
