@@ -90,7 +90,7 @@ def _cmd_recover(args: argparse.Namespace) -> int:
     from .recover import RecoverError, recover
 
     try:
-        report = recover(args.recording, args.out)
+        report = recover(args.recording, args.out, force=args.force)
     except RecoverError as exc:
         Console(stderr=True).print(f"[red]error:[/red] {exc}")
         return 2
@@ -165,7 +165,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "socketcand interface), 'serial:<port-or-url>[@baud]' or "
                         "'can:<interface>:<channel>[@bitrate][,fd]' for a real drive")
     r.add_argument("--out", type=Path, default=None, help="recording path (.mcap)")
-    r.add_argument("--force", action="store_true", help="replace an existing --out file")
+    r.add_argument("--force", action="store_true",
+                   help="replace an existing --out file and the run's side files beside it "
+                        "(<out>.serial.bin, <out>.log)")
     r.add_argument("--realtime", action="store_true",
                    help="pace the plant by the wall clock (as [scenario] mode = \"realtime\")")
     r.add_argument("--cpu", type=int, default=None,
@@ -187,7 +189,9 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("recover", help="copy every intact chunk of a damaged recording into a new file")
     v.add_argument("recording", type=Path)
     v.add_argument("-o", "--out", type=Path, default=None,
-                   help="output (default: <recording>.recovered.mcap beside it)")
+                   help="output (default: <recording>.recovered.mcap beside it); an existing "
+                        "file is refused unless --force")
+    v.add_argument("--force", action="store_true", help="replace an existing output file")
     v.set_defaults(func=_cmd_recover)
 
     f = sub.add_parser("conformance", help="check a controller against docs/protocol.md (scripted session)")

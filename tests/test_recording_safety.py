@@ -59,6 +59,23 @@ def test_an_existing_recording_is_never_overwritten(tmp_path):
     assert result.ok and load_recording(out).counts[ch.PLANT_STATE] == 1000
 
 
+@pytest.mark.parametrize("suffix, what", [(".serial.bin", "serial byte capture"), (".log", "CAN log")])
+def test_the_side_files_of_a_recording_are_never_overwritten_either(tmp_path, suffix, what):
+    """``--out side.mcap`` would also write side.serial.bin (serial links) or side.log (CAN
+    links): an existing one is refused before anything runs, unless --force."""
+    out = tmp_path / "side.mcap"
+    side = out.with_suffix(suffix)
+    side.write_bytes(b"another run's capture")
+    with pytest.raises(RecorderError, match=f"{side.name} exists \\(the run's {what} would replace it\\)"):
+        run_scenario(scenario(), out_path=out, progress=False)
+    assert side.read_bytes() == b"another run's capture"
+    assert not out.exists() and not partial_path(out).exists()
+    result = run_scenario(scenario(), out_path=out, progress=False, force=True)
+    assert result.ok and out.exists()
+    if suffix == ".serial.bin":   # the stub's link is a pty: its capture replaced the old one
+        assert side.read_bytes() != b"another run's capture"
+
+
 def test_a_failed_link_leaves_no_recording(tmp_path):
     out = tmp_path / "nolink.mcap"
     from bench.links import LinkError
