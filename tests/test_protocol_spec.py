@@ -55,3 +55,143 @@ def test_the_spec_says_when_duties_act_as_the_plant_does():
     assert "The plant applies the duties of DUTY(k) from t_k + t_d to the end of period k" in section
     assert "period k + 1" not in section
     assert "inside period seq" in dbc.message_spec("DUTY").comment
+
+
+# -- 6.5 / 6.9: the counters a recovered retry produces are the ones the spec lists --------------------
+
+RETRY_SCENARIO = """
+[scenario]
+name = "retry_counters"
+profile = "gong2020"
+duration_s = 0.05
+[controller]
+estimator = "SMO_SIGN"
+speed_ref_rpm = 300
+[metrics]
+window_s = [0.0, 0.05]
+{link}
+"""
+
+
+class _CorruptingProxy:
+    """The stub on one pty, the bench on another, a thread copying octets between them that sends
+    the n-th DUTY frame from the controller on with its CRC flipped (valid COBS, bad CRC: what line
+    noise on a UART does)."""
+
+    def __init__(self, corrupt_duty: int):
+        import os
+        import subprocess
+        import threading
+        import tty
+
+        from bench.links.stub import stub_path
+
+        self.os = os
+        self.bench_m, self.bench_s = os.openpty()
+        self.stub_m, self.stub_s = os.openpty()
+        for fd in (self.bench_m, self.bench_s, self.stub_m, self.stub_s):
+            tty.setraw(fd)
+        self.path = os.ttyname(self.bench_s)
+        self.corrupt_duty = corrupt_duty
+        self.duties = 0
+        self.corrupted = 0
+        self.stub = subprocess.Popen([str(stub_path()), "--port", os.ttyname(self.stub_s), "--quiet"])
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._pump, daemon=True)
+        self.thread.start()
+
+    def _pump(self) -> None:
+        import select
+
+        from protocol.framing import cobs_decode, cobs_encode, decode_chunk
+        from protocol.messages import MESSAGES
+
+        duty_id = MESSAGES["DUTY"].frame_id
+        pending = b""
+        while not self.stop.is_set():
+            ready, _, _ = select.select([self.bench_m, self.stub_m], [], [], 0.05)
+            try:
+                if self.bench_m in ready:
+                    self.os.write(self.stub_m, self.os.read(self.bench_m, 4096))
+                if self.stub_m in ready:
+                    pending += self.os.read(self.stub_m, 4096)
+                    *chunks, pending = pending.split(b"\x00")
+                    out = []
+                    for chunk in chunks:
+                        verdict, frame = decode_chunk(chunk) if chunk else (1, None)
+                        if verdict == 0 and frame[0] == duty_id:
+                            self.duties += 1
+                            if self.duties == self.corrupt_duty:
+                                raw = bytearray(cobs_decode(chunk))
+                                raw[-1] ^= 0x01
+                                chunk = cobs_encode(bytes(raw))
+                                self.corrupted += 1
+                        out.append(chunk + b"\x00")
+                    if out:
+                        self.os.write(self.bench_m, b"".join(out))
+            except OSError:
+                return
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join(5)
+        for fd in (self.stub_m, self.bench_m, self.bench_s):
+            self.os.close(fd)
+        self.stub.wait(10)
+        self.os.close(self.stub_s)
+
+
+@pytest.mark.parametrize("emf", [True, False])
+def test_one_recovered_bad_crc_duty_gives_the_counters_the_spec_lists(tmp_path, emf):
+    """docs/protocol.md 6.9: a DUTY lost to a bad CRC and recovered by one retry counts crc_errors 1,
+    bytes_discarded 14 (its COBS chunk: 2 + 1 + 8 + 2 octets, +1), retries 1, and duplicates 1 per
+    telemetry frame the cache sends again (TELEM, and TELEM_EMF when asked for): nothing else. A
+    scenario allowance written from that passes; one short of it does not."""
+    from bench.check import check_recording
+    from bench.runner import run_scenario
+    from bench.scenario import parse_scenario
+
+    section = " ".join(DOC.split("### 6.9")[1].split("## 7.")[0].split())
+    assert ("`crc_errors` = 1, `bytes_discarded` = 14, `retries` = 1 and `duplicates` = 2 (1 without "
+            "TELEM_EMF)") in section
+    dup = 2 if emf else 1
+    allow = f"[link]\nallow = {{crc_errors = 1, bytes_discarded = 14, retries = 1, duplicates = {dup}}}"
+    text = RETRY_SCENARIO.format(link=allow)
+    if not emf:
+        text = text.replace('speed_ref_rpm = 300', 'speed_ref_rpm = 300\ntelemetry_emf = false')
+    proxy = _CorruptingProxy(corrupt_duty=100)
+    try:
+        result = run_scenario(parse_scenario(text, tmp_path / "retry.toml"), link_spec=f"serial:{proxy.path}",
+                              out_path=tmp_path / "retry.mcap", progress=False, allow_slow_link=True)
+    finally:
+        proxy.close()
+    assert proxy.corrupted == 1 and result.ok, result.error
+    report = check_recording(tmp_path / "retry.mcap")
+    counters = {k: v for k, v in report.integrity.counters.items() if v}
+    assert counters == {"crc_errors": 1, "bytes_discarded": 14, "retries": 1, "duplicates": dup}, counters
+    assert report.integrity.ok and all(p.is_allowed for p in report.integrity.problems)
+    short = RETRY_SCENARIO.format(link=allow.replace(f"duplicates = {dup}", f"duplicates = {dup - 1}"))
+    if not emf:
+        short = short.replace('speed_ref_rpm = 300', 'speed_ref_rpm = 300\ntelemetry_emf = false')
+    from bench.integrity import check_integrity
+
+    assert not check_integrity(report.recording, parse_scenario(short, tmp_path / "s.toml").link.allow,
+                               "SMO_SIGN").ok
+
+
+def test_the_encoder_flag_is_per_cycle_in_the_dbc_and_the_spec():
+    """A plant encoder fault clears THETA_ENC_VALID in the cycles it affects (engine.c sends the flag
+    only with a valid sample): nothing may say it is set 'exactly when' the HELLO flag was."""
+    engine_c = (Path(__file__).resolve().parents[1] / "plant_rt/c/engine.c").read_text()
+    assert "if (cfg->send_encoder && c->smp.enc_valid) {" in engine_c
+    comment = dbc.message_spec("SENSE_AUX").signal("flags").comment
+    assert "the per-cycle flag decides" in comment and "exactly when" not in comment
+    assert "exactly when HELLO flag" not in DOC
+    assert "The **per-cycle flag decides**" in DOC
+
+
+def test_the_spec_says_claims_are_invalid_when_the_true_angle_was_sent():
+    from bench.integrity import ENCODER_SENT_TEXT
+
+    section = " ".join(DOC.split("### 6.8")[1].split("### 6.9")[0].split())
+    assert ENCODER_SENT_TEXT in section
