@@ -73,72 +73,27 @@ window_s = [0.0, 0.05]
 """
 
 
-class _CorruptingProxy:
-    """The stub on one pty, the bench on another, a thread copying octets between them that sends
-    the n-th DUTY frame from the controller on with its CRC flipped (valid COBS, bad CRC: what line
-    noise on a UART does)."""
+def _corrupting_proxy(corrupt_duty: int):
+    """The stub behind a proxy that sends the n-th DUTY frame from the controller on with its CRC
+    flipped (valid COBS, bad CRC: what line noise on a UART does)."""
+    from protocol.framing import cobs_decode, cobs_encode
+    from protocol.messages import MESSAGES
+    from tests.pty_proxy import PtyProxy, decode
 
-    def __init__(self, corrupt_duty: int):
-        import os
-        import subprocess
-        import threading
-        import tty
+    seen = {"duties": 0, "corrupted": 0}
 
-        from bench.links.stub import stub_path
+    def to_host(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is not None and frame[0] == MESSAGES["DUTY"].frame_id:
+            seen["duties"] += 1
+            if seen["duties"] == corrupt_duty:
+                raw = bytearray(cobs_decode(chunk))
+                raw[-1] ^= 0x01
+                seen["corrupted"] += 1
+                return [cobs_encode(bytes(raw))]
+        return [chunk]
 
-        self.os = os
-        self.bench_m, self.bench_s = os.openpty()
-        self.stub_m, self.stub_s = os.openpty()
-        for fd in (self.bench_m, self.bench_s, self.stub_m, self.stub_s):
-            tty.setraw(fd)
-        self.path = os.ttyname(self.bench_s)
-        self.corrupt_duty = corrupt_duty
-        self.duties = 0
-        self.corrupted = 0
-        self.stub = subprocess.Popen([str(stub_path()), "--port", os.ttyname(self.stub_s), "--quiet"])
-        self.stop = threading.Event()
-        self.thread = threading.Thread(target=self._pump, daemon=True)
-        self.thread.start()
-
-    def _pump(self) -> None:
-        import select
-
-        from protocol.framing import cobs_decode, cobs_encode, decode_chunk
-        from protocol.messages import MESSAGES
-
-        duty_id = MESSAGES["DUTY"].frame_id
-        pending = b""
-        while not self.stop.is_set():
-            ready, _, _ = select.select([self.bench_m, self.stub_m], [], [], 0.05)
-            try:
-                if self.bench_m in ready:
-                    self.os.write(self.stub_m, self.os.read(self.bench_m, 4096))
-                if self.stub_m in ready:
-                    pending += self.os.read(self.stub_m, 4096)
-                    *chunks, pending = pending.split(b"\x00")
-                    out = []
-                    for chunk in chunks:
-                        verdict, frame = decode_chunk(chunk) if chunk else (1, None)
-                        if verdict == 0 and frame[0] == duty_id:
-                            self.duties += 1
-                            if self.duties == self.corrupt_duty:
-                                raw = bytearray(cobs_decode(chunk))
-                                raw[-1] ^= 0x01
-                                chunk = cobs_encode(bytes(raw))
-                                self.corrupted += 1
-                        out.append(chunk + b"\x00")
-                    if out:
-                        self.os.write(self.bench_m, b"".join(out))
-            except OSError:
-                return
-
-    def close(self) -> None:
-        self.stop.set()
-        self.thread.join(5)
-        for fd in (self.stub_m, self.bench_m, self.bench_s):
-            self.os.close(fd)
-        self.stub.wait(10)
-        self.os.close(self.stub_s)
+    return PtyProxy(to_host=to_host), seen
 
 
 @pytest.mark.parametrize("emf", [True, False])
@@ -159,13 +114,13 @@ def test_one_recovered_bad_crc_duty_gives_the_counters_the_spec_lists(tmp_path, 
     text = RETRY_SCENARIO.format(link=allow)
     if not emf:
         text = text.replace('speed_ref_rpm = 300', 'speed_ref_rpm = 300\ntelemetry_emf = false')
-    proxy = _CorruptingProxy(corrupt_duty=100)
+    proxy, seen = _corrupting_proxy(corrupt_duty=100)
     try:
         result = run_scenario(parse_scenario(text, tmp_path / "retry.toml"), link_spec=f"serial:{proxy.path}",
                               out_path=tmp_path / "retry.mcap", progress=False, allow_slow_link=True)
     finally:
         proxy.close()
-    assert proxy.corrupted == 1 and result.ok, result.error
+    assert seen["corrupted"] == 1 and result.ok, result.error
     report = check_recording(tmp_path / "retry.mcap")
     counters = {k: v for k, v in report.integrity.counters.items() if v}
     assert counters == {"crc_errors": 1, "bytes_discarded": 14, "retries": 1, "duplicates": dup}, counters
