@@ -399,7 +399,7 @@ class ProcessRecorder:
         import multiprocessing as mp
 
         self.path = Path(path)
-        check_target(self.path, force)
+        check_target(self.path, force, side_suffixes=())   # the side files: the run checked them first
         self.ring_size = int(lib.rec_ring_mapping_size(ring_capacity))
         self.ring_mem = mmap.mmap(-1, self.ring_size)   # MAP_SHARED | MAP_ANONYMOUS: survives fork
         if lib.rec_ring_format(ffi.from_buffer(self.ring_mem), self.ring_size) != 0:
