@@ -24,12 +24,16 @@ cmake:
 native: $(STAMP)
 	$(VPY) tools/build_native.py
 
-# Foxglove's own MCAP and protobuf libraries (Node.js), for the test that parses every recorded
-# channel by Foxglove's rules (tests/test_foxglove.py; pinned in package-lock.json).
+# The MCAP project's readers (@mcap/core, @mcap/support: what Foxglove reads MCAP with) and
+# protobufjs (Node.js), for the test that parses every recorded channel by Foxglove's rules
+# (tools/foxglove_check/check.mjs, tests/test_foxglove.py; pinned in package-lock.json). Without
+# npm the test skips, saying why; with HIL_REQUIRE_FOXGLOVE=1 (.ci/run) the build stops here.
 FOXGLOVE_STAMP := tools/foxglove_check/node_modules/.installed
 $(FOXGLOVE_STAMP): tools/foxglove_check/package-lock.json
 	@if command -v npm >/dev/null 2>&1; then \
 	  cd tools/foxglove_check && npm ci --no-audit --no-fund --loglevel=error && touch node_modules/.installed; \
+	elif [ "$$HIL_REQUIRE_FOXGLOVE" = "1" ]; then \
+	  echo "npm not found and HIL_REQUIRE_FOXGLOVE=1: install Node.js and npm (apt-get install nodejs npm)"; exit 1; \
 	else echo "npm not found: tests/test_foxglove.py will skip (install Node.js to run it)"; fi
 
 build: $(STAMP) cmake native $(FOXGLOVE_STAMP)

@@ -115,14 +115,45 @@ def summarise(ctx: Context) -> dict[str, float]:
 
 #: per-cycle topics: `bench check` keeps only the rows in the claims' windows
 WINDOWED_TOPICS = (ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.LINK_FRAMES,
-                   ch.TIMING, ch.REPLAY_CONTROLLER, ch.REPLAY_PLANT, "/reference/*")
+                   "/reference/*")
+
+#: the fields `bench check` keeps of each per-cycle topic: those the summary, the claims' metrics
+#: (bench/claims.py, bench/metrics.py) and the estimator replay (bench/estimator_trace.py) read.
+#: Every other field, and the topics not named here (/timing, /replay/*), is never decoded:
+#: memory per second of window is what these columns take (float64: the metrics see the values
+#: exactly as recorded). tests/test_integrity.py holds this list against the field names those
+#: modules use, so a metric that reads a new field cannot silently see it missing.
+CHECK_FIELDS: dict[str, tuple[str, ...]] = {
+    ch.PLANT_STATE: ("t_s", "speed_rpm", "i_q_a", "theta_e_rad", "omega_e_rad_s", "i_a_a",
+                     "i_alpha_a", "i_beta_a"),
+    ch.PLANT_SENSE: ("t_s", "seq", "i_a_a", "i_b_a", "i_c_a", "v_dc_v"),
+    ch.CONTROLLER_TELEMETRY: ("t_s", "theta_hat_rad", "speed_hat_rpm", "e_alpha_v", "e_beta_v",
+                              "duty_a", "duty_b", "duty_c"),
+    "/reference/*": ("t_s", "theta_hat_rad", "speed_hat_rpm", "e_alpha_v", "e_beta_v"),
+    ch.LINK_FRAMES: ("t_s", "seq", "tx"),   # read only with dual sampling: the SENSE_DUAL frames
+}
+#: small topics read whole (a row per 0.1 s, or per event)
+WHOLE_TOPICS = (ch.LINK_STATS, ch.EVENTS)
+
+
+def _sense_dual_only(cols: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """/link/frames reduced to what ``claims.dual_samples`` reads: the SENSE_DUAL frames of tx."""
+    from protocol.messages import MESSAGES
+
+    prefix = f"{MESSAGES['SENSE_DUAL'].frame_id:03X}#"
+    tx = cols.get("tx")
+    if tx is not None:
+        cols = dict(cols)
+        cols["tx"] = np.array([" ".join(i for i in str(x).split() if i.startswith(prefix))
+                               for x in tx], dtype=object)
+    return cols
 
 
 def read_for_check(path: str | Path) -> Recording:
     """The recording as `bench check` needs it, in bounded memory: the header first (metadata,
-    the attached scenario), then one streaming pass keeping the per-cycle topics only inside the
-    windows the scenario's claims read, and counting the estimator the controller reported over
-    the whole run."""
+    the attached scenario), then one streaming pass keeping, of the per-cycle topics, only the
+    fields in ``CHECK_FIELDS`` and only the rows inside the windows the scenario's claims read,
+    and counting the estimator the controller reported over the whole run."""
     from collections import Counter
 
     from .claims import windows_needed
@@ -142,9 +173,20 @@ def read_for_check(path: str | Path) -> Recording:
             values, counts = np.unique(np.asarray(est), return_counts=True)
             estimators.update({int(v): int(c) for v, c in zip(values, counts)})
 
-    rec = load_recording(path, windows={t: windows for t in WINDOWED_TOPICS},
-                         reduce={ch.CONTROLLER_TELEMETRY: count_estimators})
+    try:
+        dual = bool(json.loads(header.run.get("plant_params", "{}")).get("dual_sampling"))
+    except (ValueError, AttributeError):
+        dual = True   # unknown: read the frames (the metric says what is missing)
+    topics = [t for t in WINDOWED_TOPICS if dual or t != ch.LINK_FRAMES] + list(WHOLE_TOPICS)
+    rec = load_recording(path, topics=topics, fields=CHECK_FIELDS,
+                         windows={t: windows for t in WINDOWED_TOPICS},
+                         reduce={ch.CONTROLLER_TELEMETRY: (count_estimators, ("estimator",))},
+                         transform={ch.LINK_FRAMES: _sense_dual_only})
     rec.estimator_counts = dict(estimators)
+    # the metadata of a finalised file's summary section (read_header): a record after damage
+    # that stopped the streaming pass (the run_result, written last) is still found there
+    for name, data in header.metadata.items():
+        rec.metadata.setdefault(name, data)
     return rec
 
 
@@ -215,7 +257,8 @@ def print_integrity(integrity: Integrity | None, console: Console) -> None:
     state = "[green]ok[/green]" if integrity.ok else "[red]NOT OK[/red]"
     console.print(f"integrity: {state} ({cycles})")
     for p in integrity.problems:
-        tag = "[dim]allowed[/dim]" if p.is_allowed else "[red]problem[/red]"
+        tag = ("[dim]allowed[/dim]" if p.is_allowed else
+               "[red]INVALID[/red]" if p.kind == "estimator" else "[red]problem[/red]")
         console.print(f"  {tag} {p.kind}: {p.text}")
     if integrity.estimator_mismatch:
         console.print(f"  [red]INVALID[/red] estimator: {integrity.estimator_text}")
@@ -262,13 +305,10 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
     result = rec.metadata.get("run_result", {})
     if result.get("error"):
         console.print(f"[red]run ended early:[/red] {result['error']}")
-    if rec.truncated or getattr(rec, "unreadable_chunks", 0):
-        console.print(f"[yellow]recording damaged:[/yellow] read {rec.messages} messages"
-                      + (f"; {rec.truncated}" if rec.truncated else "")
-                      + (f"; {rec.unreadable_chunks} unreadable chunk(s)"
-                         if getattr(rec, "unreadable_chunks", 0) else "")
-                      + f". `bench recover {rec.path} -o FIXED.mcap` copies every intact chunk, also "
-                        "those after the damage.")
+    if rec.damaged:
+        console.print(f"[yellow]recording damaged:[/yellow] read {rec.messages} messages; "
+                      f"{rec.damage_text()}. `bench recover {rec.path} -o FIXED.mcap` copies every "
+                      "intact chunk, also those after the damage.")
     print_integrity(report.integrity, console)
     print_faults(report.faults, console)
     print_timing(rec, console)

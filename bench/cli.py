@@ -69,11 +69,19 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from .check import check_recording, print_report
     from .recording import RecordingError
 
+    err = Console(stderr=True)
+    path = Path(args.recording)
+    if not path.exists():
+        err.print(f"[red]error:[/red] {path}: no such file")
+        return 2
+    if path.is_dir():
+        err.print(f"[red]error:[/red] {path}: is a directory, not a recording")
+        return 2
     try:
-        report = check_recording(args.recording)
+        report = check_recording(path)
     except RecordingError as exc:
-        Console(stderr=True).print(f"[red]error:[/red] {exc}\n(a damaged recording: `bench recover "
-                                   f"{args.recording} -o FIXED.mcap` copies every intact chunk)")
+        err.print(f"[red]error:[/red] {exc}\n(a damaged recording: `bench recover "
+                  f"{path} -o FIXED.mcap` copies every intact chunk)")
         return 2
     print_report(report)
     return 1 if (args.strict and not report.all_pass) else 0
@@ -83,7 +91,7 @@ def _cmd_recover(args: argparse.Namespace) -> int:
     from .recover import RecoverError, recover
 
     try:
-        report = recover(args.recording, args.out)
+        report = recover(args.recording, args.out, force=args.force)
     except RecoverError as exc:
         Console(stderr=True).print(f"[red]error:[/red] {exc}")
         return 2
@@ -188,7 +196,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "socketcand interface), 'serial:<port-or-url>[@baud]' or "
                         "'can:<interface>:<channel>[@bitrate][,fd]' for a real drive")
     r.add_argument("--out", type=Path, default=None, help="recording path (.mcap)")
-    r.add_argument("--force", action="store_true", help="replace an existing --out file")
+    r.add_argument("--force", action="store_true",
+                   help="replace an existing --out file and the run's side files beside it "
+                        "(<out>.serial.bin, <out>.log)")
     r.add_argument("--realtime", action="store_true",
                    help="pace the plant by the wall clock (as [scenario] mode = \"realtime\")")
     r.add_argument("--cpu", type=int, default=None,
@@ -210,7 +220,9 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("recover", help="copy every intact chunk of a damaged recording into a new file")
     v.add_argument("recording", type=Path)
     v.add_argument("-o", "--out", type=Path, default=None,
-                   help="output (default: <recording>.recovered.mcap beside it)")
+                   help="output (default: <recording>.recovered.mcap beside it); an existing "
+                        "file is refused unless --force")
+    v.add_argument("--force", action="store_true", help="replace an existing output file")
     v.set_defaults(func=_cmd_recover)
 
     f = sub.add_parser("conformance", help="check a controller against docs/protocol.md (scripted session)")

@@ -7,11 +7,15 @@ link directly (``bench.links.open_link``), one frame at a time, with a plant (``
 currents so the controller runs its real start-up.
 
 The session: idle heartbeats; HELLO with a wrong version, an unknown mode, ENCODER without the encoder
-flag, then a good one; CONFIG of an unknown parameter, of a fractional integer parameter, of NaN, then
-every parameter of a run; RUN, then CONFIG while running; a few hundred cycles (TELEM, TELEM_EMF, DUTY in
-order, seq echoed, valid duties, the requested estimator); a repeated SENSE (the cached answer, byte for
-byte); a SENSE with a bad CRC (serial links: ignored, then the good one answered); STOP; a second session
-without TELEM_EMF; heartbeats again, counting the bad frame.
+flag, then a good one; CONFIG of an unknown parameter, of a fractional integer parameter, of NaN, then of
+every parameter of the Param table (protocol/params.py: each must be acknowledged, never UNKNOWN_PARAM);
+a new HELLO (back to the defaults), the parameters of a run (with a short alignment, so that the start-up
+moves within the cycles); RUN, then CONFIG while running; a few hundred cycles (TELEM, TELEM_EMF, DUTY in
+order, seq echoed, valid duties, the requested estimator); a repeated SENSE while the outputs change (I-f
+ramp or closed loop: the cached answer, byte for byte); a SENSE with a bad CRC (serial links: ignored,
+then the good one answered); STOP; a reference session that runs the same cycles without the repeat (the
+cycles after the repeat must answer exactly as there: the ISR did not run again); a session without
+TELEM_EMF; heartbeats again, counting the bad frame.
 
 Exit status 0 if every applicable item passes, 1 otherwise, 2 if the session could not run at all.
 """
@@ -23,11 +27,14 @@ import struct
 import time
 from dataclasses import dataclass, field
 
+from protocol import params as param_info
 from protocol.framing import cobs_encode, crc16
 from protocol.messages import (DUTY_RAW_OFF, MESSAGES, PROTO_VERSION, Command, ConfigStatus, Estimator,
                                HelloFlag, HelloStatus, Mode, Param, State)
 
 ANSWER_TIMEOUT_S = 0.5      # the host's patience for an answer (docs/protocol.md 6.1-6.5)
+AFTER_REPEAT = 8            # cycles after the repeated SENSE compared with the reference session
+ALIGN_SHARE = 0.25          # the alignment lasts at most this share of the cycles (the repeat comes later)
 SILENCE_S = 0.1             # how long a frame that must not be answered is given
 HEARTBEAT_WAIT_S = 1.5      # for three heartbeats (a drive may still be starting when the link opens)
 DUTY_RAW_FULL = 32768
@@ -138,6 +145,27 @@ def _config(s: _Session, seq: int, param_id: int, value: float):
     return None if match is None else M["CONFIG_ACK"].unpack(match[1])
 
 
+def run_params(profile, plant, scn, ts_s: float, cycles: int) -> dict[Param, float]:
+    """The parameters the kit runs with: the motor's, the plant's delay and the scenario's, with the
+    alignment shortened to at most ALIGN_SHARE of the cycles so that the outputs move (I-f ramp, then
+    closed loop) by the time the SENSE is repeated."""
+    params = {
+        Param.RS_OHM: profile.rs_ohm, Param.LD_H: profile.ld_h, Param.LQ_H: profile.lq_h,
+        Param.PSI_F_WB: profile.psi_f_wb, Param.POLE_PAIRS: float(profile.pole_pairs),
+        Param.J_KGM2: profile.j_kgm2, Param.B_NMS: profile.b_nms, Param.V_DC_NOM_V: profile.v_dc_v,
+        Param.CTRL_DELAY_S: float(plant.params.t_delay_s), **scn.controller_params}
+    align_s = ALIGN_SHARE * cycles * ts_s
+    if float(params.get(Param.ALIGN_TIME_S, math.inf)) > align_s:
+        params[Param.ALIGN_TIME_S] = align_s
+    return params
+
+
+def neutral_value(pid: Param) -> float:
+    """A value of the parameter's kind that asks for nothing: 0 (off, or 'derive it') for real,
+    boolean and enum parameters, 1 for integers (every count and divider starts at 1)."""
+    return 1.0 if param_info.BY_NAME[pid.name].kind == "integer" else 0.0
+
+
 def _status(table, value) -> str:
     try:
         return table(int(value)).name
@@ -159,8 +187,10 @@ def run_conformance(link_spec: str = "stub", stub_args: tuple[str, ...] = (), cy
     scn = load_scenario(scenario)
     est = Estimator[estimator]
     profile = load_profile(scn.profile)
-    plant = Plant(profile, **scn.plant_overrides)
-    ts_s = float(plant.params.ts_s)
+    def plant_factory():
+        return Plant(profile, **scn.plant_overrides)
+
+    ts_s = float(plant_factory().params.ts_s)
     try:
         opened = open_link(link_spec, stub_args)
     except LinkError as exc:
@@ -170,7 +200,7 @@ def run_conformance(link_spec: str = "stub", stub_args: tuple[str, ...] = (), cy
     s = _Session(opened.link, opened.stub)
     add = result.items.append
     try:
-        _script(s, add, plant, profile, scn, est, ts_s, cycles, isinstance(opened.link, SerialLink))
+        _script(s, add, plant_factory, profile, scn, est, ts_s, cycles, isinstance(opened.link, SerialLink))
     except _Abort as exc:
         result.aborted = str(exc)
     except LinkError as exc:
@@ -180,7 +210,9 @@ def run_conformance(link_spec: str = "stub", stub_args: tuple[str, ...] = (), cy
     return result
 
 
-def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, cycles: int, serial: bool):
+def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s: float, cycles: int,
+            serial: bool):
+    plant = plant_factory()
     # -- idle heartbeats (6.7) ---------------------------------------------------------------------------
     beats = s.heartbeats(3, HEARTBEAT_WAIT_S)
     counters = [int(b["counter"]) for _, b in beats]
@@ -236,19 +268,40 @@ def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, 
     add(Item("6.2", "CONFIG RS_OHM = NaN: OUT_OF_RANGE",
              a is not None and a["status"] == ConfigStatus.OUT_OF_RANGE,
              "no CONFIG_ACK" if a is None else f"status {_status(ConfigStatus, a['status'])}"))
-    params = {
-        Param.RS_OHM: profile.rs_ohm, Param.LD_H: profile.ld_h, Param.LQ_H: profile.lq_h,
-        Param.PSI_F_WB: profile.psi_f_wb, Param.POLE_PAIRS: float(profile.pole_pairs),
-        Param.J_KGM2: profile.j_kgm2, Param.B_NMS: profile.b_nms, Param.V_DC_NOM_V: profile.v_dc_v,
-        Param.CTRL_DELAY_S: float(plant.params.t_delay_s), **scn.controller_params}
+    params = run_params(profile, plant, scn, ts_s, cycles)
+    # every parameter of the table (6.0 item 2): the run's value where the run has one, else a neutral
+    # one of its kind (0: off / derived; integers 1); a drive may refuse a value it cannot take
+    # (OUT_OF_RANGE), never the parameter (UNKNOWN_PARAM), and answers every one
+    bad, refused = [], []
+    table = [Param[p.name] for p in param_info.PARAMS]
+    for pid in table:
+        value = float(params.get(pid, neutral_value(pid)))
+        a = config(int(pid), value)
+        if a is None or a["param_id"] != int(pid):
+            bad.append(f"{pid.name}: " + ("no CONFIG_ACK" if a is None else f"param_id {a['param_id']} echoed"))
+        elif a["status"] == ConfigStatus.OUT_OF_RANGE and pid not in params:
+            refused.append(f"{pid.name} = {value:g}")
+        elif a["status"] != ConfigStatus.OK:
+            bad.append(f"{pid.name} = {value:g}: status {_status(ConfigStatus, a['status'])}")
+    add(Item("6.2", f"CONFIG of every parameter of the table ({len(table)}): each acknowledged with param_id and "
+                    f"config_seq echoed, never UNKNOWN_PARAM (6.0 item 2), the run's values OK",
+             not bad, "; ".join(bad[:6]) + (f" (+{len(bad) - 6} more)" if len(bad) > 6 else "")
+             + ("; " if bad and refused else "")
+             + (f"neutral values refused as OUT_OF_RANGE (allowed): {', '.join(refused)}" if refused else "")))
+
+    # a new session: the controller returns to its default configuration (6.1), then the run's parameters
+    ack = _hello(s, estimator=int(est), flags=flags, period_s=ts_s)
+    if ack is None or ack["status"] != HelloStatus.OK:
+        raise _Abort("no HELLO_ACK OK to a second, identical HELLO")
+    seq = 0
     bad = []
     for pid, value in params.items():
         a = config(int(pid), float(value))
         if a is None or a["status"] != ConfigStatus.OK or a["param_id"] != int(pid):
             bad.append(f"{pid.name}: " + ("no CONFIG_ACK" if a is None else
                                           f"status {_status(ConfigStatus, a['status'])}, param_id {a['param_id']}"))
-    add(Item("6.2", f"CONFIG of the {len(params)} parameters of a run (CTRL_DELAY_S too): each acknowledged OK, "
-                    f"param_id and config_seq echoed", not bad, "; ".join(bad)))
+    add(Item("6.2", f"CONFIG of the {len(params)} parameters of a run (CTRL_DELAY_S too) in a new session: each "
+                    f"acknowledged OK, param_id and config_seq echoed", not bad, "; ".join(bad)))
 
     # -- commands and LOCKED (6.3, 6.2) -----------------------------------------------------------------
     cmd = M["CMD"]
@@ -258,16 +311,20 @@ def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, 
     add(Item("6.2", "CONFIG while running: LOCKED", a is not None and a["status"] == ConfigStatus.LOCKED,
              "no CONFIG_ACK" if a is None else f"status {_status(ConfigStatus, a['status'])}"))
 
-    # -- cycles (6.4, 6.6, 6.8) --------------------------------------------------------------------------
+    # -- cycles (6.4, 6.5, 6.6, 6.8) ------------------------------------------------------------------------
     plant.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
     stats = {"answered": 0, "order": 0, "emf": 0, "duty_ok": 0, "estimator": 0, "stray": 0, "fault": 0}
     states: list[int] = []
     problems: list[str] = []
-    retry_at, crc_at = cycles // 2, cycles // 2 + 10
+    answers: list[list[tuple[int, bytes]]] = []      # per cycle, the frames of its answer
+    moving = (State.OPEN_LOOP, State.CLOSED_LOOP)
+    repeat_from, repeat_last = cycles // 2, cycles - AFTER_REPEAT - 12
+    repeat_at = crc_at = None
+    repeat_moving = False
     retry_item = crc_item = None
 
-    def cycle_frames(k: int) -> list[tuple[int, bytes]]:
-        smp = plant.sample()
+    def cycle_frames(pl, k: int) -> list[tuple[int, bytes]]:
+        smp = pl.sample()
         return [(M["SENSE_AUX"].frame_id, M["SENSE_AUX"].pack_values((k, smp.v_dc_v, 0.0, 0))),
                 (M["SENSE"].frame_id, M["SENSE"].pack_values((k, smp.i_a_a, smp.i_b_a, smp.i_c_a), saturate=True))]
 
@@ -276,9 +333,17 @@ def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, 
         duty, seen = s.wait_for(lambda f, p: _ok(f, p, "DUTY") and M["DUTY"].unpack_raw(p)[0] == k, ANSWER_TIMEOUT_S)
         return None if duty is None else seen + [duty]
 
+    def step(pl, got) -> None:
+        raw = M["DUTY"].unpack_raw(got[-1][1])
+        pl.step(*(-1.0 if r == DUTY_RAW_OFF else r / DUTY_RAW_FULL for r in raw[1:]))
+
+    def start_running() -> None:
+        s.send([(cmd.frame_id, cmd.pack(command=int(Command.SET_SPEED_REF), seq=1, value=scn.speed_ref_rad_s)),
+                (cmd.frame_id, cmd.pack(command=int(Command.RUN), seq=2, value=0.0))])
+
     prepared: list[tuple[int, bytes]] | None = None
     for k in range(cycles):
-        frames = prepared or cycle_frames(k)
+        frames = prepared or cycle_frames(plant, k)
         prepared = None
         got = answer(k, frames)
         if got is None:
@@ -286,6 +351,7 @@ def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, 
             break
         stats["answered"] += 1
         cyc = [(f, p) for f, p in got if f != M["HEARTBEAT_CTRL"].frame_id]
+        answers.append(cyc)
         ids = [f for f, _ in cyc if f != M["FAULT_CTRL"].frame_id]
         if any(f == M["FAULT_CTRL"].frame_id for f, _ in cyc):
             stats["fault"] += 1
@@ -306,16 +372,25 @@ def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, 
             stats["estimator"] += 1
         if telem:
             states.append(int(telem[0][3]))
-        d = [(-1.0 if r == DUTY_RAW_OFF else r / DUTY_RAW_FULL) for r in raw[1:]]
-        if k == retry_at:   # the same SENSE again: the cached answer, byte for byte (6.5)
-            again = answer(k, frames)
-            same = again is not None and [(f, p) for f, p in again if f != M["HEARTBEAT_CTRL"].frame_id] == cyc
-            retry_item = Item("6.5", f"SENSE {k} sent again: the same TELEM, TELEM_EMF, DUTY byte for byte "
-                                     f"(answered from the cache, ISR not run again)", same,
-                              "no answer" if again is None else ("" if same else "a different answer"))
-        plant.step(*(x if x >= 0 else -1.0 for x in d))
-        if k + 1 == crc_at and serial:   # next cycle: its SENSE with a bad CRC first (2.4, 6.0 item 9)
-            prepared = cycle_frames(k + 1)
+        # the same SENSE again, once the outputs move (6.5): the cached answer, byte for byte
+        if repeat_at is None and repeat_from <= k <= repeat_last:
+            changed = len(answers) > 1 and answers[-1][-1][1][2:] != answers[-2][-1][1][2:]
+            repeat_moving = bool(telem) and telem[0][3] in moving and changed
+            if repeat_moving or k == repeat_last:
+                repeat_at, crc_at = k, k + AFTER_REPEAT + 2
+                again = answer(k, frames)
+                same = again is not None and [(f, p) for f, p in again if f != M["HEARTBEAT_CTRL"].frame_id] == cyc
+                state = _status(State, telem[0][3]) if telem else "?"
+                retry_item = Item("6.5", f"SENSE {k} sent again while the outputs change (state {state}): the "
+                                         f"same TELEM, TELEM_EMF, DUTY byte for byte (answered from the cache)",
+                                  same and repeat_moving,
+                                  "no answer" if again is None else ("a different answer" if not same else
+                                                                     "" if repeat_moving else
+                                                                     "the outputs never changed from one cycle "
+                                                                     "to the next: a repeat proves nothing"))
+        step(plant, got)
+        if crc_at is not None and k + 1 == crc_at and serial:   # its SENSE with a bad CRC first (2.4, 6.0 item 9)
+            prepared = cycle_frames(plant, k + 1)
             sense_id, sense = prepared[1]
             body = bytes((sense_id & 0xFF, sense_id >> 8, len(sense))) + sense
             crc = crc16(body) ^ 0x0001
@@ -341,26 +416,65 @@ def _script(s: _Session, add, plant, profile, scn, est: Estimator, ts_s: float, 
              all(x in {st.value for st in State} for x in states) and stats["fault"] == 0,
              f"states seen: {', '.join(seen_states)}" + (f"; {stats['fault']} FAULT_CTRL" if stats["fault"] else "")))
     add(retry_item or Item("6.5", "a repeated SENSE is answered from the cache", False,
-                           f"not reached (cycles {n} < {retry_at + 1})"))
+                           f"not reached (cycles {n} < {repeat_from + 1})"))
     add(crc_item or Item("2.4", "a SENSE with a bad CRC is dropped", None if not serial else False,
                          "CAN link: the bus checks CRCs" if not serial else f"not reached (cycles {n})"))
 
     # -- STOP (6.3) ----------------------------------------------------------------------------------------
     kk = n
     s.send([(cmd.frame_id, cmd.pack(command=int(Command.STOP), seq=3, value=0.0))])
-    got = answer(kk, cycle_frames(kk))
+    got = answer(kk, cycle_frames(plant, kk))
     telem = [M["TELEM"].unpack_raw(p) for f, p in (got or []) if _ok(f, p, "TELEM")]
     off = got is not None and all(r == DUTY_RAW_OFF for r in M["DUTY"].unpack_raw(got[-1][1])[1:])
     add(Item("6.3", "after CMD STOP: state STOPPED, all legs OFF",
              bool(telem) and telem[0][3] == State.STOPPED and off,
              "no answer" if got is None else f"state {telem[0][3] if telem else '?'}, legs OFF: {off}"))
 
+    # -- the same cycles again without the repeat: the ISR did not run twice (6.5) ------------------------------
+    text = (f"the {AFTER_REPEAT} cycles after the repeated SENSE answer exactly as in a session without the "
+            f"repeat (the controller's state advanced once for that cycle)")
+    if repeat_at is None or len(answers) < repeat_at + 1 + AFTER_REPEAT:
+        add(Item("6.5", text, False, "the repeat was not reached"))
+    else:
+        ref_plant = plant_factory()
+        ref_plant.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
+        ack = _hello(s, estimator=int(est), flags=flags, period_s=ts_s)
+        seq = 0
+        configured = ack is not None and ack["status"] == HelloStatus.OK and all(
+            (a := config(int(pid), float(value))) is not None and a["status"] == ConfigStatus.OK
+            for pid, value in params.items())
+        start_running() if configured else None
+        ref: list[list[tuple[int, bytes]]] = []
+        for k in range(repeat_at + 1 + AFTER_REPEAT if configured else 0):
+            got = answer(k, cycle_frames(ref_plant, k))
+            if got is None:
+                break
+            ref.append([(f, p) for f, p in got if f != M["HEARTBEAT_CTRL"].frame_id])
+            step(ref_plant, got)
+        s.send([(cmd.frame_id, cmd.pack(command=int(Command.STOP), seq=3, value=0.0))])
+        s.wait_for(lambda f, p: False, SILENCE_S)   # let a late answer pass
+        before = ref[:repeat_at + 1] == answers[:repeat_at + 1]
+        after = [k for k in range(repeat_at + 1, repeat_at + 1 + AFTER_REPEAT)
+                 if k < len(ref) and ref[k] != answers[k]]
+        if not configured or len(ref) < repeat_at + 1 + AFTER_REPEAT:
+            add(Item("6.5", text, False, "the reference session did not run "
+                                         f"({'not configured' if not configured else f'{len(ref)} cycles answered'})"))
+        elif not before:
+            first = next(k for k in range(repeat_at + 1) if ref[k] != answers[k])
+            add(Item("6.5", text, None, f"inconclusive: the controller does not repeat a session exactly "
+                                        f"(answers differ from cycle {first}, before the repeat)"))
+        else:
+            add(Item("6.5", text, not after,
+                     f"cycles {repeat_at + 1}..{repeat_at + AFTER_REPEAT} identical" if not after else
+                     f"cycle {after[0]} differs from the session without the repeat: the repeated SENSE ran the "
+                     f"ISR again"))
+
     # -- a second session without TELEM_EMF (6.1, 6.4, 6.5) --------------------------------------------------
     ack = _hello(s, estimator=int(est), flags=0, period_s=ts_s)
     ok2 = ack is not None and ack["status"] == HelloStatus.OK
     emf_seen, answered2 = 0, 0
     for k2 in range(3):
-        got = answer(k2, cycle_frames(k2)) if ok2 else None
+        got = answer(k2, cycle_frames(plant, k2)) if ok2 else None
         if got is None:
             break
         answered2 += 1

@@ -4,21 +4,28 @@
 each allowed by the scenario or not (``[link] allow = {crc_errors = 5}``: up to 5 allowed). An incomplete
 or damaged run never passes: ``bench check --strict`` fails on any problem not allowed, and the claims
 of such a run are INVALID (neither PASS nor FAIL), as are those of a run whose controller reported another
-estimator than the one asked for.
+estimator than the one asked for, and those of a run that sent the plant's true angle to a sensorless
+controller (docs/protocol.md 6.8): nothing on the wire can tell whether such a controller closed its loop
+on its estimator or on the encoder angle it was given.
 
 It reads only what ``bench.recording.load_recording`` gives (metadata, topics as numpy columns, the
 truncation note, ``unreadable_chunks`` once the reader counts them), never the MCAP itself:
 
 * completeness: the ``run_result`` metadata record exists (it is written last: a bench that was killed
-  leaves none), ``cycles_done == cycles_planned``, no ``error``, not ``interrupted``; the file is not
-  truncated and has no unreadable chunk; every cycle that ran has its row in ``/plant/state``;
-* link integrity: the last ``/link/stats`` counters of ``LINK_COUNTERS`` (absent counters read as 0);
+  leaves none; when reading stopped at damage before it, the problem says it was not read), ``cycles_done
+  == cycles_planned``, no ``error``, not ``interrupted``; the file is not truncated, has no unreadable
+  chunk and no record with an unknown opcode (``unknown_records``: damage, with its byte offsets); every cycle that ran has its row in ``/plant/state``;
+* link integrity: the counters of ``LINK_COUNTERS`` (absent counters read as 0), each the larger of the
+  last ``/link/stats`` row and the ``counters`` / ``rows_dropped`` of the ``run_result`` record: the stats
+  rows go through the recorder's ring and can themselves be dropped, the run_result record cannot;
 * the estimator under test: ``estimator_mismatch`` on ``/link/stats`` (the host's per-cycle count) and the
   recount from ``/controller/telemetry.estimator`` against the run's requested estimator, whichever is
-  larger.
+  larger; and the run metadata's ``encoder_angle_sent``: true with an estimator other than ENCODER is a
+  problem of kind ``estimator`` that no scenario can allow.
 """
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from typing import Mapping
@@ -43,8 +50,9 @@ ALLOWABLE_COUNTERS: tuple[str, ...] = tuple(c for c in LINK_COUNTERS if c != "es
 
 @dataclass(frozen=True)
 class Problem:
-    kind: str            # "completeness", "link" or "fault"
-    name: str            # run_result, cycles, error, interrupted, truncated, unreadable_chunks, rows, or a counter
+    kind: str            # "completeness", "link", "estimator" or "fault"
+    name: str            # run_result, cycles, error, interrupted, truncated, unreadable_chunks, damage, rows,
+                         # encoder_angle_sent, untraced (a fault), or a counter
     text: str
     value: float = 0.0
     allowed: int = 0     # the scenario's allowance (link counters only)
@@ -77,8 +85,14 @@ class Integrity:
         return not self.unallowed and self.estimator_mismatch == 0
 
     @property
+    def encoder_angle_problem(self) -> Problem | None:
+        return next((p for p in self.problems if p.kind == "estimator"), None)
+
+    @property
     def invalid_note(self) -> str | None:
         """A few words for the claims table (the full reason is printed with the integrity)."""
+        if self.encoder_angle_problem is not None:
+            return "true angle sent to a sensorless controller: see integrity"
         if self.estimator_mismatch:
             return "estimator mismatch: see integrity"
         bad = self.unallowed
@@ -87,6 +101,9 @@ class Integrity:
     @property
     def invalid_reason(self) -> str | None:
         """Why the claims of this run are INVALID, or None."""
+        enc = self.encoder_angle_problem
+        if enc is not None:
+            return enc.text
         if self.estimator_mismatch:
             return self.estimator_text
         bad = self.unallowed
@@ -112,17 +129,38 @@ def _topic(rec, name: str) -> dict[str, np.ndarray] | None:
 
 
 def _last_counters(rec) -> dict[str, int]:
-    stats = _topic(rec, ch.LINK_STATS)
+    """Each counter: the largest of the /link/stats rows (cumulative: the largest is the last) and of
+    the run_result record's ``counters`` and ``rows_dropped`` (the final values, written through the
+    recorder's pipe: a stats row can be dropped by the ring it reports on, the record cannot)."""
     out = {c: 0 for c in LINK_COUNTERS}
-    if not stats:
-        return out
+    stats = _topic(rec, ch.LINK_STATS)
     for c in LINK_COUNTERS:
-        col = stats.get(c)
+        col = (stats or {}).get(c)
         if col is not None and len(col):
             values = np.asarray(col, dtype=float)
             finite = values[np.isfinite(values)]
-            out[c] = int(finite.max()) if len(finite) else 0   # cumulative counters: the largest is the last
+            out[c] = int(finite.max()) if len(finite) else 0
+    result = rec.metadata.get("run_result") or {}
+    final: dict = {}
+    try:
+        final = json.loads(result.get("counters", "") or "{}")
+    except ValueError:
+        pass
+    if not isinstance(final, dict):
+        final = {}
+    if "rows_dropped" in result:
+        final = {**final, "rows_dropped": max(_int(result["rows_dropped"]) or 0,
+                                              _int(final.get("rows_dropped", 0)) or 0)}
+    for c in LINK_COUNTERS:
+        v = _int(final.get(c, 0))
+        if v is not None and v > out[c]:
+            out[c] = v
     return out
+
+
+#: why the claims of a run that sent the true angle to a sensorless controller are INVALID
+ENCODER_SENT_TEXT = ("the plant's true angle was sent to a sensorless controller: its estimator cannot be "
+                     "verified")
 
 
 def _estimator_recount(rec, requested: str | None) -> tuple[int, str]:
@@ -169,8 +207,15 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
     result = rec.metadata.get("run_result")
     planned_meta = _int(rec.metadata.get("run", {}).get("cycles_planned", ""))
     if result is None:
-        add(Problem("completeness", "run_result",
-                    "no run_result record: the bench did not finish the run (killed or crashed before the end)"))
+        if rec.truncated:
+            add(Problem("completeness", "run_result",
+                        f"run_result record not read (damage before it: {rec.truncated}); whether the bench "
+                        f"finished the run is unknown (`bench recover` copies every intact chunk after the "
+                        f"damage)"))
+        else:
+            add(Problem("completeness", "run_result",
+                        "no run_result record: the bench did not finish the run (killed or crashed before "
+                        "the end)"))
         out.cycles_planned = planned_meta
     else:
         done, planned = _int(result.get("cycles_done", "")), _int(result.get("cycles_planned", ""))
@@ -188,6 +233,18 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
     if unreadable:
         add(Problem("completeness", "unreadable_chunks", f"{unreadable} unreadable chunk(s) in the recording",
                     float(unreadable)))
+    unknown = list(getattr(rec, "unknown_records", None) or [])
+    if unknown:
+        where = ", ".join(f"byte {off} (opcode 0x{op:02X}, {n} octets)" for off, op, n in unknown[:5])
+        add(Problem("completeness", "damage",
+                    f"{len(unknown)} damaged record(s) skipped (unknown opcode) at {where}"
+                    + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else ""), float(len(unknown))))
+    bad_lengths = [d for d in (getattr(rec, "damage", None) or []) if d.startswith("record at byte ")]
+    if bad_lengths:
+        add(Problem("completeness", "damage",
+                    f"{len(bad_lengths)} record(s) with a damaged length field: {bad_lengths[0]}"
+                    + (f" (+{len(bad_lengths) - 1} more)" if len(bad_lengths) > 1 else ""),
+                    float(len(bad_lengths))))
     counts = getattr(rec, "counts", None) or {}
     if ch.PLANT_STATE in counts:
         rows = int(counts[ch.PLANT_STATE])       # messages in the file, kept or not
@@ -231,6 +288,12 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
                                                  f"trace: {text}; what the run tested is unknown"))
 
     # -- the estimator under test -------------------------------------------------------------------------
+    sent = str(rec.run.get("encoder_angle_sent", "")).lower() in ("true", "1")
+    if sent and requested_estimator and requested_estimator.upper() != "ENCODER":
+        add(Problem("estimator", "encoder_angle_sent",
+                    f"{ENCODER_SENT_TEXT} ({requested_estimator} asked for, with [controller] "
+                    f"send_encoder_angle = true: SENSE_AUX.theta_enc carried the true angle every cycle; "
+                    f"docs/protocol.md 6.8)"))
     recount, text = _estimator_recount(rec, requested_estimator)
     engine = out.counters.get("estimator_mismatch", 0)
     out.estimator_mismatch = max(recount, engine)

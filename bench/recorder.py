@@ -13,9 +13,17 @@ are written as they arrive; messages in ring order.
 
 Files are never lost or overwritten: the recording is written to ``.<name>.partial`` beside the
 target and renamed when it is finalised (normal end, Ctrl-C, a killed bench: the recorder sees
-the pipe close and still finalises). An existing target is refused unless ``force``. If the
-recorder itself fails (disk full, an unwritable folder) it says why in one line, the bench ends
-the run, and the partial file keeps every complete chunk (``bench recover``).
+the pipe close and still finalises). An existing target is refused unless ``force``, and so are
+the side files a run writes beside it (``<name>.serial.bin``, ``<name>.log``: ``SIDE_SUFFIXES``).
+If the recorder itself fails (disk full, an unwritable folder) it says why in one line, the bench
+ends the run, and the partial file keeps every complete chunk (``bench recover``).
+
+A recorder that is killed (SIGKILL, the OOM killer) cannot finalise anything, so what it has is
+on disk as soon as it has it: the MCAP header right after start, every schema and channel as it is
+registered (also outside the chunks: the chunk that carries them may never be written), the
+metadata and attachments as they arrive, every chunk when it closes. The bench side turns a
+closed pipe into ``RecorderError("recorder process (pid N) for PATH died (killed by signal S)
+...")`` wherever it talks to the recorder.
 """
 from __future__ import annotations
 
@@ -27,6 +35,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mcap.records import Channel, Schema
+
 from plant_rt._plant_c import ffi, lib
 
 from . import channels as chans
@@ -37,6 +47,7 @@ RING_CAPACITY_BYTES = 64 * 1024 * 1024   #: ~9 s of a 10 kHz G2 run at ~700 octe
 READ_BATCH_BYTES = 4 * 1024 * 1024
 STALL_TIMEOUT_S = 5.0     #: a recorder that drains nothing for this long while closing is stalled
 FINISH_TIMEOUT_S = 60.0   #: ... and with the ring empty, to write the file's summary
+EXIT_WAIT_S = 5.0         #: a recorder whose pipe closed is reaped within this (SIGKILL under load)
 _REC_HEADER = struct.Struct("<IHHq")
 
 
@@ -44,17 +55,33 @@ class RecorderError(RuntimeError):
     """The recorder cannot write the recording (message names the cause and the path)."""
 
 
+#: files a run writes beside its recording X.mcap: the serial byte capture (serial links,
+#: docs/replay.md) and the candump log (CAN links); refused like the recording itself
+SIDE_SUFFIXES: tuple[tuple[str, str], ...] = ((".serial.bin", "serial byte capture"),
+                                              (".log", "CAN log"))
+
+
 def partial_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.partial")
 
 
-def check_target(path: Path, force: bool) -> None:
-    """Refuse a target that exists (unless force) or cannot be a file, before anything runs."""
+def check_target(path: Path, force: bool, *, option: str = "--out",
+                 side_suffixes: tuple[tuple[str, str], ...] = SIDE_SUFFIXES) -> None:
+    """Refuse a target that exists (unless force) or cannot be a file, before anything runs; and
+    the side files the run writes beside it (``side_suffixes``: suffix, what) the same way."""
     if path.is_dir():
-        raise RecorderError(f"--out {path}: is a directory; give a file name (e.g. {path}/run.mcap)")
+        raise RecorderError(f"{option} {path}: is a directory; give a file name (e.g. {path}/run.mcap)")
     if path.exists() and not force:
-        raise RecorderError(f"--out {path}: file exists; refusing to overwrite a recording "
+        raise RecorderError(f"{option} {path}: file exists; refusing to overwrite a recording "
                             f"(use --force to replace it)")
+    for suffix, what in side_suffixes:
+        side = path.with_suffix(suffix)
+        if side.is_dir():
+            raise RecorderError(f"{option} {path}: {side} (the run's {what}) is a directory")
+        if side.exists() and not force:
+            raise RecorderError(f"{option} {path}: {side} exists (the run's {what} would replace it); "
+                                f"refusing to overwrite it (move it, choose another {option}, or use "
+                                f"--force to replace both)")
     parent = path.parent if str(path.parent) else Path(".")
     try:
         parent.mkdir(parents=True, exist_ok=True)
@@ -143,6 +170,20 @@ def _close_inherited_fds(keep: tuple[int, ...]) -> None:
                 pass
 
 
+def _write_outside_chunks(f, record) -> None:
+    """A Schema or Channel record straight into the data section, and to disk. The writer also
+    puts it into the open chunk (written only once it holds messages); MCAP allows the duplicate
+    (identical records with the same id), and a reader of a file cut before that chunk still
+    knows every channel. Called only between writer operations, when the writer has flushed its
+    own records (its offsets come from f.tell(), so they stay right)."""
+    from mcap.data_stream import RecordBuilder
+
+    rb = RecordBuilder()
+    record.write(rb)
+    f.write(rb.end())
+    f.flush()
+
+
 def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: int,
            force: bool, cpus: tuple[int, ...] = ()) -> None:
     import signal as _signal
@@ -188,17 +229,22 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
         writer = Writer(f, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         spill_chunk_indexes(writer)
         writer.start(profile=PROFILE, library="hil-bench recorder")
+        f.flush()   # a recorder killed from here on leaves a file that starts as an MCAP file
         schema_ids: dict[str, int] = {}
         seqs: list[int] = []
         start_ns = time.time_ns()
 
-        def drain() -> int:
+        def drain(budget: int | None = None) -> int:
+            """Copy records out of the ring into the file until it is empty, or until
+            ``budget`` octets were read (what was pending at a request: a writer that keeps the
+            ring busy cannot hold a control message back for ever). Returns octets read."""
             nonlocal messages
             total = 0
-            while True:
+            while budget is None or total < budget:
                 n = lib.rec_ring_read(ring, cbuf, len(buf))
                 if n == 0:
                     return total
+                total += n
                 view = memoryview(buf)[:n]
                 off = 0
                 add = writer.add_message
@@ -219,11 +265,12 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                         sequence=seqs[channel], data=data)
                     seqs[channel] += 1
                     messages += 1
-                    total += 1
+            return total
 
         conn.send(("ready", str(tmp)))
+        busy = False
         while True:
-            if conn.poll(0.002):
+            if conn.poll(0 if busy else 0.002):
                 try:
                     msg = conn.recv()
                 except EOFError:
@@ -232,36 +279,48 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                 if kind == "channel":
                     _, topic, schema_name = msg
                     if schema_name not in schema_ids:
-                        schema_ids[schema_name] = writer.register_schema(
+                        sid = schema_ids[schema_name] = writer.register_schema(
                             name=schema_name, encoding="protobuf",
                             data=chans.file_descriptor_set())
-                    channel_ids.append(writer.register_channel(
-                        topic=topic, message_encoding=chans.MESSAGE_ENCODING,
-                        schema_id=schema_ids[schema_name]))
+                        _write_outside_chunks(f, Schema(id=sid, name=schema_name, encoding="protobuf",
+                                                        data=chans.file_descriptor_set()))
+                    cid = writer.register_channel(topic=topic, message_encoding=chans.MESSAGE_ENCODING,
+                                                  schema_id=schema_ids[schema_name])
+                    _write_outside_chunks(f, Channel(id=cid, topic=topic,
+                                                     message_encoding=chans.MESSAGE_ENCODING,
+                                                     schema_id=schema_ids[schema_name], metadata={}))
+                    channel_ids.append(cid)
                     seqs.append(0)
                     conn.send(("channel_ok", len(channel_ids) - 1))
                 elif kind == "rawfile":
                     from .replay.serial_capture import write_header
 
-                    side = open(msg[1], "wb")
+                    try:
+                        side = open(msg[1], "wb" if force else "xb")   # never replaces a capture
+                    except FileExistsError:
+                        conn.send(("error", f"{msg[1]} exists (appeared after the check); refusing "
+                                            f"to overwrite it"))
+                        continue
                     write_header(side)
                     raw_files[len(channel_ids)] = side
                     channel_ids.append(-1)
                     seqs.append(0)
                     conn.send(("channel_ok", len(channel_ids) - 1))
                 elif kind == "metadata":
-                    drain()
+                    drain(int(lib.rec_ring_pending(ring)))   # what was written before it
                     writer.add_metadata(name=msg[1], data=msg[2])
+                    f.flush()
                 elif kind == "attachment":
                     now = time.time_ns()
                     writer.add_attachment(create_time=now, log_time=now, name=msg[1],
                                           media_type=msg[2], data=msg[3])
+                    f.flush()
                 elif kind == "drain":
-                    drain()
+                    drain(int(lib.rec_ring_pending(ring)))
                     conn.send(("drained", messages))
                 elif kind == "close":
                     break
-            drain()
+            busy = drain(READ_BATCH_BYTES) > 0   # then look at the pipe again
         drain()
     except OSError as exc:
         error = f"recorder: cannot write {target}: {exc.strerror or exc}"
@@ -304,6 +363,17 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
 # -- the bench side ---------------------------------------------------------------------------
 
 
+def _empty_size() -> int:
+    """Octets of what the recorder writes before any data: the magic and its header record."""
+    import io
+
+    from mcap.writer import Writer
+
+    buf = io.BytesIO()
+    Writer(buf).start(profile=PROFILE, library="hil-bench recorder")
+    return len(buf.getvalue())
+
+
 @dataclass
 class ProcessChannel:
     """A registered channel; the bench writes through it only while the engine is not running."""
@@ -329,7 +399,7 @@ class ProcessRecorder:
         import multiprocessing as mp
 
         self.path = Path(path)
-        check_target(self.path, force)
+        check_target(self.path, force, side_suffixes=())   # the side files: the run checked them first
         self.ring_size = int(lib.rec_ring_mapping_size(ring_capacity))
         self.ring_mem = mmap.mmap(-1, self.ring_size)   # MAP_SHARED | MAP_ANONYMOUS: survives fork
         if lib.rec_ring_format(ffi.from_buffer(self.ring_mem), self.ring_size) != 0:
@@ -349,9 +419,7 @@ class ProcessRecorder:
         self.final_path: Path | None = None
         self.messages = 0
         self.error: str | None = None
-        if not self._conn.poll(10.0):
-            raise RecorderError(f"recorder process for {self.path} did not start")
-        first = self._conn.recv()
+        first = self._request(None, "start", timeout_s=10.0)
         if first[0] != "ready":
             self._proc.join(5.0)
             raise RecorderError(self._child_error(first))
@@ -369,6 +437,33 @@ class ProcessRecorder:
     def alive(self) -> bool:
         return self._proc.is_alive()
 
+    def _exit_text(self) -> str:
+        """How the recorder process ended (waits a moment for it to be reaped)."""
+        self._proc.join(EXIT_WAIT_S)
+        code = self._proc.exitcode
+        if code is None:
+            return "still running, but its pipe is closed"
+        return f"killed by signal {-code}" if code < 0 else f"exit code {code}"
+
+    def _leftover(self) -> str:
+        """What a dead recorder left: the partial file with what it wrote, or nothing (an empty
+        or header-only partial file is removed: it holds no recorded data)."""
+        part = partial_path(self.path)
+        try:
+            size = part.stat().st_size
+        except OSError:
+            self.final_path = None
+            return "nothing was recorded"
+        if size <= _empty_size():
+            try:
+                part.unlink()
+            except OSError:
+                return f"nothing was recorded ({part} is empty)"
+            self.final_path = None
+            return f"nothing was recorded (the empty {part} was removed)"
+        self.final_path = part
+        return f"what it wrote is in {part} (`bench check` reads it, `bench recover` copies its intact chunks)"
+
     def death_message(self) -> str:
         """Why the recorder is gone (its own words if it sent them)."""
         try:
@@ -379,9 +474,25 @@ class ProcessRecorder:
                     return msg[3]
         except (EOFError, OSError):
             pass
-        code = self._proc.exitcode
-        how = f"killed by signal {-code}" if code is not None and code < 0 else f"exit code {code}"
-        return f"recorder process (pid {self._proc.pid}) for {self.path} died ({how})"
+        return (f"recorder process (pid {self._proc.pid}) for {self.path} died ({self._exit_text()}); "
+                f"{self._leftover()}")
+
+    def _request(self, msg, what: str, timeout_s: float = 10.0):
+        """Send a control message (None: only wait) and wait for its answer. A recorder that
+        died (closed pipe: EOFError, BrokenPipeError) or does not answer is a RecorderError that
+        names it, never a traceback."""
+        try:
+            if msg is not None:
+                self._conn.send(msg)
+            if not self._conn.poll(timeout_s):
+                if self._proc.is_alive():
+                    raise RecorderError(f"recorder process (pid {self._proc.pid}) for {self.path} "
+                                        f"does not answer ({what}, {timeout_s:g} s)")
+                raise EOFError
+            return self._conn.recv()
+        except (EOFError, OSError):   # BrokenPipeError, ConnectionResetError: OSErrors
+            self.error = self.death_message()
+            raise RecorderError(self.error) from None
 
     def channel(self, topic: str, kind: str | None = None) -> ProcessChannel:
         kind = kind or chans.kind_of_topic(topic)
@@ -389,10 +500,7 @@ class ProcessRecorder:
             raise ValueError(f"no channel kind for topic {topic!r}")
         # synchronous: records of this channel may follow at once, and the recorder must know
         # the channel before it drains them
-        if not self._send(("channel", topic, chans.LAYOUTS[kind].schema_name)) \
-                or not self._conn.poll(10.0):
-            raise RecorderError(f"recorder process for {self.path} does not answer")
-        reply = self._conn.recv()
+        reply = self._request(("channel", topic, chans.LAYOUTS[kind].schema_name), f"channel {topic}")
         if reply[0] != "channel_ok" or reply[1] != len(self.channels):
             raise RecorderError(self._child_error(reply))
         ch = ProcessChannel(self, len(self.channels), topic, kind)
@@ -403,9 +511,7 @@ class ProcessRecorder:
         """A ring channel whose records go to a serial byte capture beside the recording
         (bench/replay/serial_capture.py: payload = direction octet + octets, time = the
         record's t_ns as it is). Returns the channel index (engine ch_serial_raw)."""
-        if not self._send(("rawfile", str(path))) or not self._conn.poll(10.0):
-            raise RecorderError(f"recorder process for {self.path} does not answer")
-        reply = self._conn.recv()
+        reply = self._request(("rawfile", str(path)), f"serial capture {path}")
         if reply[0] != "channel_ok" or reply[1] != len(self.channels):
             raise RecorderError(self._child_error(reply))
         self.channels.append(ProcessChannel(self, len(self.channels), str(path), "RAW"))
@@ -454,6 +560,7 @@ class ProcessRecorder:
         self.closed = True
         lib.rec_ring_close(self.ring)
         reply = None
+        pipe_closed = False
         try:
             self._conn.send(("close",))
             # the recorder drains what is left; it is stalled only if it makes no progress
@@ -471,24 +578,23 @@ class ProcessRecorder:
                 if now_pending < pending:
                     pending = now_pending
                     last_progress = time.monotonic()
-        except (BrokenPipeError, EOFError, OSError):
-            pass
+        except (EOFError, OSError):   # the recorder closed its pipe: it is gone, or going
+            pipe_closed = True
         finally:
             self._conn.close()
         if reply is None:
+            self.final_path = partial_path(self.path)
+            if pipe_closed:
+                self._proc.join(EXIT_WAIT_S)   # killed: on a loaded machine it takes a moment
             if self._proc.is_alive():
                 self._proc.kill()
                 self._proc.join(5.0)
                 self.error = (f"recorder process (pid {self._proc.pid}) stalled: nothing "
                               f"written for {STALL_TIMEOUT_S:g} s while finishing {self.path}; it "
-                              f"was killed; the complete chunks are in {partial_path(self.path)} "
-                              f"(bench recover)")
+                              f"was killed; {self._leftover()}")
             else:
-                self._proc.join(5.0)
-                self.error = (f"recorder process for {self.path} died (exit code "
-                              f"{self._proc.exitcode}); the complete chunks are in "
-                              f"{partial_path(self.path)} (bench recover)")
-            self.final_path = partial_path(self.path)
+                self.error = (f"recorder process (pid {self._proc.pid}) for {self.path} died "
+                              f"({self._exit_text()}); {self._leftover()}")
             raise RecorderError(self.error)
         self._proc.join(10.0)
         _, self.messages, final, error = reply

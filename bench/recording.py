@@ -13,12 +13,14 @@ message's length and tag octets and decodes a chunk's worth with one numpy call,
 channels) are read too.
 
 Damage. Every chunk's CRC is checked. A chunk whose data is damaged is counted in
-``unreadable_chunks`` and skipped, and reading goes on with the next record; damage to the
-record framing itself, or a file cut short, stops the reading there: ``truncated`` says where.
-The channels and schemas a damaged chunk held are taken from the summary section when a later
-message needs them; without a summary such messages are counted (``orphan_messages``, with the
-byte offset in ``damage``) and reading goes on.
-``bench recover`` copies every intact chunk of such a file into a new one.
+``unreadable_chunks`` and skipped, and reading goes on with the next record. A record with an
+opcode MCAP does not define (this bench never writes one: a zeroed or flipped opcode, typically
+a chunk's) is skipped by its length and listed in ``unknown_records`` with its byte offset. Damage
+to the record framing itself, or a file cut short, stops the reading there: ``truncated`` says
+where. The channels and schemas a damaged chunk held are taken from the summary section when a
+later message needs them; without a summary such messages are counted (``orphan_messages``, with
+the byte offset in ``damage``) and reading goes on. ``bench recover`` copies every intact chunk of
+such a file into a new one.
 """
 from __future__ import annotations
 
@@ -59,6 +61,8 @@ class Recording:
     damage: list[str] = field(default_factory=list)
     #: messages on a channel whose Channel record was lost with a damaged chunk (not decoded)
     orphan_messages: int = 0
+    #: records skipped because their opcode is not an MCAP one: (byte offset, opcode, length)
+    unknown_records: list[tuple[int, int, int]] = field(default_factory=list)
     messages: int = 0
     bytes_read: int = 0
     file_size: int = 0
@@ -79,8 +83,34 @@ class Recording:
 
     @property
     def damaged(self) -> bool:
-        return (self.truncated is not None or self.unreadable_chunks > 0
-                or self.orphan_messages > 0)
+        return (self.truncated is not None or self.unreadable_chunks > 0 or bool(self.unknown_records)
+                or bool(self.bad_lengths) or self.orphan_messages > 0)
+
+    @property
+    def bad_lengths(self) -> list[str]:
+        return [d for d in self.damage if d.startswith("record at byte ")]
+
+    def damage_text(self) -> str:
+        """One line: what of the file could not be read, with byte offsets."""
+        parts = []
+        if self.truncated:
+            parts.append(self.truncated)
+        if self.unreadable_chunks:
+            parts.append(f"{self.unreadable_chunks} unreadable chunk(s)")
+        if self.unknown_records:
+            where = ", ".join(f"byte {off} (opcode 0x{op:02X}, {n} octets)"
+                              for off, op, n in self.unknown_records[:5])
+            more = f" and {len(self.unknown_records) - 5} more" if len(self.unknown_records) > 5 else ""
+            parts.append(f"{len(self.unknown_records)} record(s) with an unknown opcode skipped at "
+                         f"{where}{more}")
+        if self.orphan_messages:
+            parts.append(f"{self.orphan_messages} message(s) on channels whose records were lost "
+                         f"with a damaged chunk (not decoded)")
+        bad = self.bad_lengths
+        if bad:
+            parts.append(f"{len(bad)} record(s) with a wrong length field ({bad[0]}"
+                         + (f", and {len(bad) - 1} more" if len(bad) > 1 else "") + ")")
+        return "; ".join(parts)
 
     def attachment_text(self, prefix: str) -> tuple[str, str] | None:
         for name, data in self.attachments.items():
@@ -89,15 +119,40 @@ class Recording:
         return None
 
 
+class _DamageAwareReader(StreamReader):
+    """mcap's StreamReader skips a record whose opcode it does not know without a word; in a file
+    of this bench such a record is damage (a chunk whose opcode octet was hit): report it."""
+
+    def __init__(self, *args, on_unknown, on_length, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._on_unknown = on_unknown
+        self._on_length = on_length
+
+    def _read_record(self, opcode: int, length: int):
+        start = self._stream.count - 9          # opcode (1) and length (8) are read already
+        record = super()._read_record(opcode, length)
+        if record is None:
+            self._on_unknown(start, opcode, length)
+        elif self._stream.count - start - 9 > length:
+            # the record's own fields run past its length field: that field was hit (the record
+            # itself parsed; a reader that trusts the length field would lose the rest)
+            self._on_length(start, opcode, length, self._stream.count - start - 9)
+        return record
+
+
 class _TopicBuffer:
     """Rows of one topic: decoded a chunk at a time, only the wanted fields and rows."""
 
     def __init__(self, topic: str, schema_name: str, encoding: str, descriptor: bytes,
-                 fields: Iterable[str] | None, windows, reducer=None):
+                 fields: Iterable[str] | None, windows, reducer=None, transform=None):
         self.topic = topic
         self.encoding = encoding
         self.windows = windows
+        reducer_fields: tuple[str, ...] = ()
+        if isinstance(reducer, tuple):          # (callable, the fields it reads)
+            reducer, reducer_fields = reducer[0], tuple(reducer[1])
         self.reducer = reducer
+        self.transform = transform
         self.layout = None
         self.msg_class = None
         if encoding == "protobuf":
@@ -111,7 +166,13 @@ class _TopicBuffer:
                      tuple(f.name for f in self._class().DESCRIPTOR.fields))
         else:
             names = None   # JSON: from the messages
+        if fields is not None and names is not None:
+            fields = [f for f in fields if f in names]   # a field this schema lacks stays absent
+        #: the fields kept; ``decode``: those and what the reducer reads (decoded, not kept)
         self.fields = tuple(fields) if fields is not None else names
+        self.decode = (None if self.fields is None else
+                       tuple(dict.fromkeys(self.fields + tuple(f for f in reducer_fields
+                                                               if names is None or f in names))))
         self.pending: list[bytes] = []
         self.parts: dict[str, list[np.ndarray]] = defaultdict(list)
 
@@ -140,6 +201,8 @@ class _TopicBuffer:
                 keep |= (t >= lo) & (t <= hi)
             if not keep.all():
                 cols = {k: v[keep] for k, v in cols.items()}
+        if self.transform is not None:
+            cols = self.transform(cols)
         for name in self.fields or cols.keys():
             if name in cols:
                 self.parts[name].append(cols[name])
@@ -153,11 +216,11 @@ class _TopicBuffer:
                 pos, val = lay.tag_mask
                 if (raw[:, pos] == val).all():
                     rec = raw.view(dt).reshape(len(data))
-                    want = self.fields or lay.names
+                    want = self.decode or lay.names
                     return {n: rec[n].astype(np.float64 if lay.types[n] == "F64" else np.int64)
                             for n in want}   # CNT (counts sent as doubles) back to integers
         cls = self._class()
-        names = self.fields or tuple(f.name for f in cls.DESCRIPTOR.fields)
+        names = self.decode or tuple(f.name for f in cls.DESCRIPTOR.fields)
         msgs = [cls.FromString(d) for d in data]
         out = {}
         for n in names:
@@ -169,7 +232,7 @@ class _TopicBuffer:
     def _decode_json(self, data: list[bytes]) -> dict[str, np.ndarray]:
         rows = [json.loads(d) for d in data]
         out = {}
-        for key in (self.fields or rows[0].keys()):
+        for key in (self.decode or rows[0].keys()):
             vals = [r.get(key) for r in rows]
             if all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
                    for v in vals):
@@ -228,15 +291,20 @@ def read_header(path: str | Path) -> Recording:
 
 def load_recording(path: str | Path, topics: Iterable[str] | None = None,
                    fields: dict[str, Iterable[str]] | None = None,
-                   windows=None, reduce: dict | None = None) -> Recording:
+                   windows=None, reduce: dict | None = None,
+                   transform: dict | None = None) -> Recording:
     """Read a recording in one streaming pass.
 
     ``topics``: the topics to decode (None: all; ``"/reference/*"`` selects every reference
-    estimator). ``fields``: per topic, the fields to keep (default: all). ``windows``: keep only
+    estimator). ``fields``: per topic (``"/reference/*"`` for every reference), the fields to keep
+    (default: all; only fields are decoded, never a whole message's worth). ``windows``: keep only
     rows with t_s inside one of these [t0, t1] intervals -- a list for every topic, or a dict
-    topic -> list (topics it does not name keep every row). ``reduce``: topic -> callable, called
-    with each chunk's decoded columns of that topic before any window (an aggregate over the whole
-    run in bounded memory). Metadata, attachments and per-topic message counts are always read.
+    topic -> list (topics it does not name keep every row). ``reduce``: topic -> callable, or
+    (callable, fields it reads), called with each chunk's decoded columns of that topic before any
+    window (an aggregate over the whole run in bounded memory; its fields are decoded, not kept).
+    ``transform``: topic -> callable(columns) -> columns, applied to each chunk's rows after the
+    window, before they are kept (e.g. keep only the frames a metric reads). Metadata, attachments
+    and per-topic message counts are always read.
     """
     path = Path(path)
     rec = Recording(path)
@@ -308,8 +376,10 @@ def load_recording(path: str | Path, topics: Iterable[str] | None = None,
             if want_topic(r.topic) and enc in ("protobuf", "json"):
                 buffers[r.id] = _TopicBuffer(r.topic, sch.name if sch else "", enc,
                                              bytes(sch.data) if sch else b"",
-                                             (fields or {}).get(r.topic), windows_of(r.topic),
-                                             _by_topic(reduce, r.topic) if reduce else None)
+                                             _by_topic(fields, r.topic) if fields else None,
+                                             windows_of(r.topic),
+                                             _by_topic(reduce, r.topic) if reduce else None,
+                                             _by_topic(transform, r.topic) if transform else None)
             else:
                 buffers[r.id] = None
         elif isinstance(r, Metadata):
@@ -330,8 +400,12 @@ def load_recording(path: str | Path, topics: Iterable[str] | None = None,
         raise RecordingError(f"{path}: cannot open: {exc.strerror}") from None
     with f:
         rec.file_size = path.stat().st_size
-        reader = StreamReader(f, skip_magic=False, validate_crcs=False, emit_chunks=True,
-                              record_size_limit=RECORD_SIZE_LIMIT)
+        reader = _DamageAwareReader(f, skip_magic=False, validate_crcs=False, emit_chunks=True,
+                                    record_size_limit=RECORD_SIZE_LIMIT,
+                                    on_unknown=lambda *r: rec.unknown_records.append(r),
+                                    on_length=lambda off, op, n, used: rec.damage.append(
+                                        f"record at byte {off} (opcode 0x{op:02X}): length field "
+                                        f"{n}, its fields take {used} octets"))
         try:
             for record in reader.records:
                 if isinstance(record, Chunk):

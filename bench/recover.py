@@ -1,4 +1,7 @@
-"""``bench recover DAMAGED.mcap [-o FIXED.mcap]``: copy every intact record of a damaged recording.
+"""``bench recover DAMAGED.mcap [-o FIXED.mcap] [--force]``: copy every intact record of a damaged recording.
+
+The output (default ``<DAMAGED>.recovered.mcap`` beside it) is never an existing file unless ``--force``:
+it is written to ``<output>.partial`` and renamed when complete.
 
 A reader that streams an MCAP file stops at the first bad record, so 8 flipped bytes in the middle of a
 file lose its second half. This tool works at the MCAP record level (the ``mcap`` library's record
@@ -222,9 +225,13 @@ def _scan(buf, size: int, report: Report) -> Iterator[tuple[int, object]]:
         pos = skip_to
 
 
-def recover(source: str | Path, output: str | Path | None = None) -> Report:
-    """Copy every intact record of ``source`` into ``output`` (default ``<source>.recovered.mcap``)."""
+def recover(source: str | Path, output: str | Path | None = None, force: bool = False) -> Report:
+    """Copy every intact record of ``source`` into ``output`` (default ``<source>.recovered.mcap``).
+    An existing output is refused unless ``force`` (the same rule as ``bench run --out``)."""
+    from .recorder import RecorderError, check_target
+
     source = Path(source)
+    option = "-o" if output is not None else "output"
     output = Path(output) if output is not None else source.with_name(source.stem + ".recovered.mcap")
     if output.resolve() == source.resolve():
         raise RecoverError(f"{output}: the output must not be the damaged file itself")
@@ -233,20 +240,27 @@ def recover(source: str | Path, output: str | Path | None = None) -> Report:
         f = open(source, "rb")
     except OSError as exc:
         raise RecoverError(f"{source}: cannot open: {exc.strerror}") from None
+    try:
+        check_target(output, force, option=option, side_suffixes=())
+    except RecorderError as exc:
+        f.close()
+        raise RecoverError(str(exc)) from None
     with f:
         report.size = size = source.stat().st_size
+        if size == 0:
+            raise RecoverError(f"{source}: empty file (0 octets): nothing was recorded in it")
         if size < len(MAGIC) or f.read(len(MAGIC)) != MAGIC:
             raise RecoverError(f"{source}: not an MCAP file (no MCAP magic at the start)")
         if size == len(MAGIC):
             raise RecoverError(f"{source}: holds nothing but the MCAP magic")
         buf = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
         try:
-            return _recover(buf, size, report, output)
+            return _recover(buf, size, report, output, force)
         finally:
             buf.close()
 
 
-def _recover(buf, size: int, report: Report, output: Path) -> Report:
+def _recover(buf, size: int, report: Report, output: Path, force: bool = False) -> Report:
     header: Header | None = None
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
@@ -311,6 +325,8 @@ def _recover(buf, size: int, report: Report, output: Path) -> Report:
                 writer.add_attachment(r.create_time, r.log_time, r.name, r.media_type, r.data)
                 report.attachments.append(r.name)
         writer.finish()
+    if output.exists() and not force:   # appeared while recovering: keep both
+        raise RecoverError(f"{output} appeared while recovering; the recovered file is {tmp}")
     tmp.replace(output)
     report.output = output
     return report

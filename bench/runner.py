@@ -323,9 +323,13 @@ class Runner:
         engine = None
         engine_link = None
         try:
-            self._open_channels(rec)
-            self._start_serial_capture(rec, opened)
-            self._write_metadata(rec, opened)
+            try:
+                self._open_channels(rec)
+                self._start_serial_capture(rec, opened)
+                self._write_metadata(rec, opened)
+            except BaseException:   # e.g. the recorder died: no run, but the link (stub) is closed
+                opened.close()
+                raise
             try:
                 self._start_controller(opened)
                 engine_link = engine_link_for(opened.link)

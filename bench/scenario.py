@@ -39,6 +39,8 @@ RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 MAX_DURATION_S = 3600.0
 #: a scenario name becomes a file name in the recordings folder: no path separators, no leading dot
 NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.@-]{0,99}\Z")
+#: a bundled profile's name (plant_rt/profiles/<name>.toml); anything else must be a .toml path
+PROFILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,99}\Z")
 FLOAT32_MAX = 3.4028234663852886e38
 DUTY_UPDATES = ("on_arrival", "next_period")
 MODES = ("lockstep", "realtime")
@@ -356,6 +358,12 @@ def _controller_params(fields: _Fields) -> dict[Param, float]:
     return out
 
 
+def _bundled_profiles() -> str:
+    from plant_rt.profile import available_profiles
+
+    return ", ".join(available_profiles())
+
+
 def _wire_range(message: str, signal: str) -> tuple[float, float]:
     s = MESSAGES[message].signal(signal)
     return float(s.minimum), float(s.maximum)
@@ -499,6 +507,9 @@ def parse_scenario(text: str, path: Path) -> Scenario:
                              f"'.' or '-' (it names the recording file)")
     description = s.string("description", "")
     profile = s.string("profile")
+    if not (PROFILE_NAME.match(profile) or (profile.endswith(".toml") and len(profile) > 5)):
+        raise s.fail("profile", f"{profile!r}: give the name of a bundled motor profile ({_bundled_profiles()}) "
+                                f"or the path of a .toml profile file")
     duration_s = s.number("duration_s", positive=True)
     s.within("duration_s", duration_s, 0.0, MAX_DURATION_S, "s", "the longest run the bench records")
     mode = s.string("mode", "lockstep")
@@ -518,6 +529,8 @@ def parse_scenario(text: str, path: Path) -> Scenario:
 
     p = top.table_of("plant")
     initial_theta = p.number("initial_theta_e_rad", 0.0)
+    p.within("initial_theta_e_rad", initial_theta, -2.0 * math.pi, 2.0 * math.pi, "rad",
+             "an electrical angle, at most one turn either way; SENSE_AUX.theta_enc carries 0 .. 2 pi")
     initial_speed = p.number("initial_speed_rpm", 0.0) / RPM_PER_RAD_S
     initial_load = p.number("load_torque_nm", 0.0)
     plant_overrides = {k: _plant_value(p, k) for k in p.table
@@ -603,6 +616,9 @@ def check_against_profile(scn: Scenario) -> None:
         dotted = f"{table}.{key}" if table else key
         return ScenarioError(f"{where}:{line}: {dotted}: {why}" if line else f"{where}: {dotted}: {why}")
 
+    if PROFILE_NAME.match(scn.profile) and scn.profile not in _bundled_profiles().split(", "):
+        raise fail("scenario", "profile", f"no bundled motor profile {scn.profile!r} (bundled: "
+                                          f"{_bundled_profiles()}; or give the path of a .toml file)")
     try:
         profile = load_profile(scn.profile)
     except ProfileError as exc:
@@ -634,6 +650,8 @@ def check_against_profile(scn: Scenario) -> None:
               ("plant", "initial_speed_rpm", scn.initial_speed_rad_s)]
     speeds += [(f"events[{i}]", "speed_ref_rpm", float(item["speed_ref_rpm"]) / RPM_PER_RAD_S)
                for i, item in enumerate(scn.raw.get("events", [])) if "speed_ref_rpm" in item]
+    if "dyno_speed_rad_s" in scn.plant_overrides:
+        speeds.append(("plant", "dyno_speed_rad_s", float(scn.plant_overrides["dyno_speed_rad_s"])))
     for table, key, w in speeds:
         if abs(w * RPM_PER_RAD_S) > max_rpm:
             raise fail(table, key, f"{w * RPM_PER_RAD_S:g} rpm is outside the range the protocol carries ({why})")
@@ -648,6 +666,7 @@ def check_against_profile(scn: Scenario) -> None:
         except ValueError as exc:
             raise fail(f"faults[{fs.index}]", "kind", f"this plant cannot take it: {exc}") from None
         plant.clear_faults()
+    _check_plant_values(scn, plant, profile.name, fail, max_rpm / RPM_PER_RAD_S)
     if scn.reference_estimators:
         try:
             from firmware_stub.estimators import REFERENCE_ESTIMATORS
@@ -657,6 +676,64 @@ def check_against_profile(scn: Scenario) -> None:
             if entry.partition(":")[0] not in REFERENCE_ESTIMATORS:
                 raise fail("reference", "estimators", f"unknown estimator {entry!r}; available: "
                                                       f"{', '.join(REFERENCE_ESTIMATORS)} (optionally NAME:label)")
+
+
+#: SENSE_AUX.v_dc: the bus voltage the plant can send
+V_DC_RANGE_V = _wire_range("SENSE_AUX", "v_dc")
+
+
+def load_torque_limit_nm(params, duration_s: float, max_speed_rad_s: float) -> float:
+    """The largest load torque (N m, either sign) a run can have: one that could not, against the most
+    torque the motor can make with the largest current SENSE.i_a carries (1.5 p (psi_f i + |ld - lq| i^2/2),
+    an upper bound of PMSM torque at |i| <= i_max), drive the rotor (inertia J) past the speed TELEM.omega_hat
+    carries within the run. Beyond it the run cannot end with a speed the protocol can report."""
+    i_max = min(-CURRENT_RANGE_A[0], CURRENT_RANGE_A[1])
+    p = float(params.pole_pairs)
+    t_motor = 1.5 * p * (float(params.psi_f_wb) * i_max + abs(float(params.ld_h) - float(params.lq_h)) * i_max ** 2 / 2)
+    return t_motor + float(params.j_kgm2) * max_speed_rad_s / duration_s
+
+
+def _check_plant_values(scn: Scenario, plant, profile_name: str, fail, max_speed_rad_s: float) -> None:
+    """The plant's values against their wire and physical ranges (ranges from protocol/hil.dbc): the bus
+    voltage SENSE_AUX.v_dc must carry (as the ADC model reports it, when on), every load torque (the scenario's, its
+    events', a load profile's) within ``load_torque_limit_nm``."""
+    par = plant.params
+
+    def source(key: str) -> tuple[str, str, str]:
+        """(table, key, where the value comes from) of a plant parameter."""
+        if key in scn.plant_overrides:
+            return "plant", key, ""
+        return "scenario", "profile", f" (plant.{key} of profile {profile_name})"
+
+    lo, hi = V_DC_RANGE_V
+    v_dc = float(par.v_dc_v)
+    checks = [("v_dc_v", v_dc, f"{v_dc:g} V")]
+    if bool(getattr(par, "adc_model", False)):   # what the ADC reports of it, noise aside
+        sensed = v_dc * (1.0 + float(par.adc_vdc_gain_err)) + float(par.adc_vdc_offset_v)
+        key = next((k for k in ("adc_vdc_gain_err", "adc_vdc_offset_v") if k in scn.plant_overrides), "v_dc_v")
+        checks.append((key, sensed, f"the sensed {sensed:g} V (v_dc_v {v_dc:g} V with adc_vdc_gain_err "
+                                    f"{float(par.adc_vdc_gain_err):g}, adc_vdc_offset_v {float(par.adc_vdc_offset_v):g} V)"))
+    for key, v, text in checks:
+        if not lo < v <= hi:
+            table, k, whence = source(key)
+            raise fail(table, k, f"{text}{whence} is outside ({lo:g}, {hi:g}] V: the bus voltage "
+                                 f"SENSE_AUX.v_dc carries (protocol/hil.dbc)")
+
+    limit = load_torque_limit_nm(par, scn.duration_s, max_speed_rad_s)
+    why = (f"|load| <= {limit:.4g} N m: a larger load drives the rotor past the speed TELEM.omega_hat carries "
+           f"({max_speed_rad_s:.4g} rad/s) within the {scn.duration_s:g} s run even against the most torque the "
+           f"motor makes at the largest current SENSE.i_a carries ({CURRENT_RANGE_A[1]:g} A)")
+    torques = [("plant", "load_torque_nm", scn.initial_load_torque_nm)]
+    torques += [(f"events[{i}]", "load_torque_nm", float(item["load_torque_nm"]))
+                for i, item in enumerate(scn.raw.get("events", [])) if "load_torque_nm" in item]
+    for key in ("load_torque0_nm", "load_torque1_nm"):
+        if key in scn.plant_overrides:
+            torques.append(("plant", key, float(scn.plant_overrides[key])))
+    if "load_table_nm" in scn.plant_overrides:
+        torques += [("plant", "load_table_nm", float(v)) for v in scn.plant_overrides["load_table_nm"]]
+    for table, key, t in torques:
+        if not abs(t) <= limit:
+            raise fail(table, key, f"{t:g} N m is outside the load a run can have ({why})")
 
 
 def speed_ref_at(scn: Scenario, t_s: float) -> float:
@@ -685,4 +762,6 @@ def derive_scenario(base: str | Path, name: str, overrides: tuple[tuple[str, Any
     header = [f"# derived from {base_scn.display_path}" + (f": {note}" if note else "")]
     header += [f"#   {k} = {v!r}" for k, v in overrides]
     text = "\n".join(header) + "\n" + tomlw.dumps(doc)
-    return parse_scenario(text, path.with_name(f"{name}.toml"))
+    scn = parse_scenario(text, path.with_name(f"{name}.toml"))
+    check_against_profile(scn)
+    return scn

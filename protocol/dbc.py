@@ -65,13 +65,15 @@ _FLAG_TABLE_NAMING: tuple[tuple[str, str, tuple[str, str], dict[str, str]], ...]
     ("HelloFlag", "HIL_HELLO_FLAG", ("HELLO", "flags"), {
         "DUAL_SAMPLING": "dual sampling: the host sends SENSE_DUAL every cycle",
         "TELEM_EMF": "the controller sends TELEM_EMF every cycle",
-        "ENCODER_VALID": "SENSE_AUX.theta_enc carries the plant's angle every cycle (only when the estimator "
-                         "is ENCODER or the scenario asks for it)",
+        "ENCODER_VALID": "the host sends the plant's encoder angle in SENSE_AUX.theta_enc in this session (only "
+                         "when the estimator is ENCODER or the scenario asks for it); each cycle's SENSE_AUX "
+                         "flag THETA_ENC_VALID decides whether that cycle's angle is valid",
     }),
     ("SenseAuxFlag", "HIL_SENSE_AUX_FLAG", ("SENSE_AUX", "flags"), {
         "DUAL_FOLLOWS": "SENSE_DUAL of this seq was sent before SENSE",
-        "THETA_ENC_VALID": "theta_enc carries the plant's angle (set every cycle exactly when HELLO flag "
-                           "ENCODER_VALID was)",
+        "THETA_ENC_VALID": "theta_enc of this seq carries the plant's encoder angle; the per-cycle flag decides "
+                           "(set only in sessions whose HELLO had ENCODER_VALID, and clear in a cycle whose encoder "
+                           "the plant reports faulty)",
     }),
 )
 

@@ -131,6 +131,31 @@ def _line(text: str, needle: str) -> int:
      "duty_update", "realtime.duty_update: must be one of on_arrival, next_period"),
     (lambda t: t.replace('estimator = "SMO_TANH"', 'estimator = "ENCODER"\nsend_encoder_angle = false'),
      "send_encoder_angle", "controller.send_encoder_angle: the ENCODER estimator needs the encoder angle"),
+    # plant values against their wire and physical ranges (issue 9 audit, finding 6)
+    (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\nv_dc_v = 1e6"), "v_dc_v =",
+     "plant.v_dc_v: 1e+06 V is outside (0, 655.35] V: the bus voltage SENSE_AUX.v_dc carries (protocol/hil.dbc)"),
+    (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\nadc_model = true\n"
+                                                      "adc_vdc_offset_v = 400.0"), "adc_vdc_offset_v =",
+     "plant.adc_vdc_offset_v: the sensed 710 V (v_dc_v 310 V"),
+    (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\nload_torque_nm = 1e30"),
+     "load_torque_nm =", "plant.load_torque_nm: 1e+30 N m is outside the load a run can have (|load| <= 23.81 N m"),
+    (lambda t: t + "\n[[events]]\nt_s = 0.6\nload_torque_nm = -1e30\n", "load_torque_nm",
+     "events[0].load_torque_nm: -1e+30 N m is outside the load a run can have"),
+    (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\nload_profile = \"table\"\n"
+                                                      "load_table_t_s = [0.0, 1.0]\nload_table_nm = [0.0, 1e9]"),
+     "load_table_nm =", "plant.load_table_nm: 1e+09 N m is outside the load a run can have"),
+    (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\ndyno = true\n"
+                                                      "dyno_speed_rad_s = 5000"), "dyno_speed_rad_s =",
+     "plant.dyno_speed_rad_s: 47746.5 rpm is outside the range the protocol carries"),
+    (lambda t: t.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 1e300"), "initial_theta_e_rad =",
+     "plant.initial_theta_e_rad: 1e+300 rad is outside [-6.28319, 6.28319] rad"),
+    (lambda t: t.replace('profile = "gong2020"', 'profile = "../../etc/passwd"'), "profile =",
+     "scenario.profile: '../../etc/passwd': give the name of a bundled motor profile (gong2020, hou2021, "
+     "yuan2020) or the path of a .toml profile file"),
+    (lambda t: t.replace('profile = "gong2020"', 'profile = "nosuchmotor"'), "profile =",
+     "scenario.profile: no bundled motor profile 'nosuchmotor' (bundled: gong2020, hou2021, yuan2020"),
+    (lambda t: t.replace('profile = "gong2020"', 'profile = "/nonexistent/motor.toml"'), "profile =",
+     "scenario.profile: /nonexistent/motor.toml: no such profile file"),
 ])
 def test_bad_values_name_file_line_field_and_range(tmp_path, edit, needle, expect):
     text = edit(G2)
@@ -184,3 +209,27 @@ def test_bench_run_refuses_a_bad_scenario_before_touching_a_process(tmp_path, mo
         assert cli.main(["run", str(p), "--no-progress", "--out", str(tmp_path / "x.mcap")]) == 2
         assert "scenario.duration_s" in capsys.readouterr().err
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_plant_values_are_refused_before_any_process_starts(tmp_path, monkeypatch):
+    """`bench run` with a bad plant value: the error, no stub started, no file written."""
+    from bench import runner
+    from bench.cli import main as cli_main
+
+    started = []
+    monkeypatch.setattr(runner, "open_link", lambda *a, **k: started.append(a) or (_ for _ in ()).throw(
+        AssertionError("a link was opened")))
+    scn = write(tmp_path, G2.replace("initial_theta_e_rad = 0.4", "initial_theta_e_rad = 0.4\nv_dc_v = 1e6"))
+    out = tmp_path / "never.mcap"
+    assert cli_main(["run", str(scn), "--out", str(out), "--no-progress"]) == 2
+    assert not started and not list(tmp_path.glob("*.mcap*")) and not list(tmp_path.glob(".*partial"))
+
+
+def test_a_bundled_load_within_the_limit_loads(tmp_path):
+    """The limit is far above every bundled load (2 N m at G8, 6.5 N m at Hou's full load)."""
+    from bench.scenario import load_torque_limit_nm
+    from plant_rt.profile import load_profile
+
+    assert load_torque_limit_nm(load_profile("gong2020"), 1.5, 819.175) == pytest.approx(23.81, abs=0.01)
+    load_scenario(write(tmp_path, G2.replace("initial_theta_e_rad = 0.4",
+                                             "initial_theta_e_rad = 0.4\nload_torque_nm = 20.0")))

@@ -18,8 +18,13 @@ def test_the_stub_passes_every_item(capsys):
     items = re.findall(r"^  (PASS|FAIL|n/a )  (\d\.\d)", out, re.M)
     assert len(items) >= 20 and all(v == "PASS" for v, _ in items), out
     assert {s for _, s in items} == DOC_SECTIONS       # every rule is tied to a section of the spec
-    assert "SENSE 150 sent again: the same TELEM, TELEM_EMF, DUTY byte for byte" in out
+    flat = " ".join(out.split())
+    assert "SENSE 150 sent again while the outputs change (state OPEN_LOOP): the same TELEM, TELEM_EMF, DUTY" in flat
+    assert "the 8 cycles after the repeated SENSE answer exactly as in a session without the repeat" in flat
+    assert "cycles 151..158 identical" in flat
     assert "a SENSE with a bad CRC is dropped" in out
+    from protocol.params import PARAMS
+    assert f"CONFIG of every parameter of the table ({len(PARAMS)}): each acknowledged" in flat
 
 
 def test_over_can_the_crc_item_does_not_apply():
@@ -46,3 +51,70 @@ def test_a_controller_that_breaks_a_rule_fails_that_item(inject, section, words)
 def test_a_link_that_does_not_open_is_reported_not_raised(capsys):
     assert cli_main(["conformance", "--link", "serial:/dev/nonexistent-hil-port"]) == 2
     assert "cannot open serial port" in capsys.readouterr().out
+
+
+def _rerunning_controller():
+    """The stub behind a proxy that makes it a controller breaking 6.5 in the way bytes cannot show: a
+    repeated SENSE is passed on under a new seq (the stub runs its ISR again) while the host gets the
+    first answer's frames again, byte for byte, as from a cache."""
+    from protocol.messages import MESSAGES as M
+    from tests.pty_proxy import PtyProxy, decode, encode
+
+    st = {"offset": 0, "last_sense": None, "bumped": None, "replay": None, "cache_seq": None, "cache": []}
+
+    def reseq(fid: int, payload: bytes, seq: int) -> bytes:
+        return encode(fid, (seq & 0xFFFF).to_bytes(2, "little") + payload[2:])
+
+    def to_controller(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is None:
+            return [chunk]
+        fid, payload = frame
+        if fid == M["HELLO"].frame_id:
+            st.update(offset=0, last_sense=None, bumped=None, replay=None)
+            return [chunk]
+        if fid not in (M["SENSE_AUX"].frame_id, M["SENSE"].frame_id, M["SENSE_DUAL"].frame_id):
+            return [chunk]
+        seq = int.from_bytes(payload[:2], "little")
+        if fid == M["SENSE_AUX"].frame_id and seq == st["last_sense"] and st["bumped"] != seq:
+            st["offset"] += 1          # the repeat: the stub will see a new seq
+            st["bumped"] = seq
+        if fid == M["SENSE"].frame_id:
+            if seq == st["bumped"] and seq == st["last_sense"]:
+                st["replay"] = seq
+            st["last_sense"] = seq
+        return [reseq(fid, payload, seq + st["offset"])]
+
+    def to_host(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is None or frame[0] not in (M["TELEM"].frame_id, M["TELEM_EMF"].frame_id, M["DUTY"].frame_id):
+            return [chunk]
+        fid, payload = frame
+        seq = (int.from_bytes(payload[:2], "little") - st["offset"]) & 0xFFFF
+        if st["replay"] is not None and seq == st["replay"]:
+            if fid != M["DUTY"].frame_id:
+                return []                               # the ISR's fresh answer is dropped ...
+            st["replay"] = None
+            return list(st["cache"])                    # ... and the first one sent again
+        out = reseq(fid, payload, seq)
+        if seq != st["cache_seq"]:
+            st["cache_seq"], st["cache"] = seq, []
+        st["cache"].append(out)
+        return [out]
+
+    return PtyProxy(to_controller=to_controller, to_host=to_host)
+
+
+def test_a_controller_that_reruns_its_isr_on_a_repeat_fails_though_its_bytes_match():
+    proxy = _rerunning_controller()
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    by_text = {i.text.split(" (")[0].split(":")[0]: i for i in result.items if i.section == "6.5"}
+    cached = next(i for t, i in by_text.items() if t.startswith("SENSE 150 sent again while the outputs change"))
+    assert cached.ok, result.text()                     # the bytes of the repeat are the cached ones
+    after = next(i for t, i in by_text.items() if t.startswith("the 8 cycles after the repeated SENSE"))
+    assert after.ok is False and "cycle 151 differs from the session without the repeat" in after.detail, \
+        result.text()
+    assert not result.passed

@@ -163,3 +163,220 @@ def test_estimator_mismatch_from_the_telemetry_makes_claims_invalid():
     # rows missing from the recording are a completeness problem
     rec.topics[ch.PLANT_STATE] = {"t_s": np.arange(3.0)}
     assert "rows" in {p.name for p in check_integrity(rec, {}, "SMO_SIGN").unallowed}
+
+
+# -- the plant's true angle sent to a sensorless controller (issue 9 audit, finding 1) ----------------
+
+
+def _strict_and_text(path: Path, capsys) -> tuple[int, str]:
+    capsys.readouterr()
+    rc = cli_main(["check", str(path), "--strict"])
+    return rc, " ".join(capsys.readouterr().out.split())
+
+
+def test_a_lying_drive_given_the_true_angle_gets_no_verdict(tmp_path, capsys):
+    """tests/third_party_drive.py --cheat lie closes its loop on SENSE_AUX.theta_enc and reports
+    SMO_SIGN: nothing on the wire shows it, so the run itself (encoder angle sent, sensorless
+    estimator asked for) makes every claim INVALID, with the reason, and --strict fails."""
+    from tests.test_third_party import G2_SIGN, run_g2
+
+    scenario = tmp_path / "gong_g2_500rpm.toml"
+    scenario.write_text(G2_SIGN.replace('estimator = "SMO_SIGN"',
+                                        'estimator = "SMO_SIGN"\nsend_encoder_angle = true', 1))
+    rc, seen, out = run_g2(tmp_path, "lie", str(scenario))
+    assert seen["encoder_valid_cycles"] > 0          # it had the angle, and (we know) it used it
+    report = check_recording(out)
+    assert report.integrity.estimator_mismatch == 0  # it lied: TELEM.estimator says SMO_SIGN
+    assert not report.integrity.ok and not report.all_pass
+    assert report.results and all(r.verdict == "INVALID" for r in report.results)
+    assert report.integrity.invalid_reason.startswith(
+        "the plant's true angle was sent to a sensorless controller: its estimator cannot be verified")
+    rc, text = _strict_and_text(out, capsys)
+    assert rc == 1 and "INVALID estimator: the plant's true angle was sent to a sensorless controller" in text
+
+
+def test_the_honest_stub_given_the_true_angle_gets_no_verdict_either(tmp_path, capsys):
+    """The same rule for a controller that does not cheat: whether it did cannot be verified."""
+    from bench.scenario import derive_scenario
+
+    scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm",
+                          [("controller.send_encoder_angle", True)])
+    out = tmp_path / "stub_enc.mcap"
+    result = run_scenario(scn, out_path=out, progress=False)
+    assert result.ok, result.error
+    report = check_recording(out)
+    problems = [p for p in report.integrity.problems if p.kind == "estimator"]
+    assert [p.name for p in problems] == ["encoder_angle_sent"] and not problems[0].is_allowed
+    assert report.results and all(r.verdict == "INVALID" for r in report.results)
+    assert "true angle sent to a sensorless controller" in report.results[0].note
+    rc, text = _strict_and_text(out, capsys)
+    assert rc == 1 and "its estimator cannot be verified" in text
+
+
+def test_the_encoder_estimator_may_have_the_angle():
+    rec = _Rec(Path("fake.mcap"))
+    rec.metadata = {"run": {"estimator": "ENCODER", "cycles_planned": "2", "encoder_angle_sent": "true"},
+                    "run_result": {"cycles_done": "2", "cycles_planned": "2", "error": "",
+                                   "interrupted": "False"}}
+    rec.topics = {ch.PLANT_STATE: {"t_s": np.arange(2.0)}}
+    assert check_integrity(rec, {}, "ENCODER").ok
+    rec.metadata["run"]["estimator"] = "SMO_TANH"
+    integ = check_integrity(rec, {}, "SMO_TANH")
+    assert not integ.ok and "encoder_angle_sent" in {p.name for p in integ.unallowed}
+    # no scenario can allow it
+    assert not check_integrity(rec, {"encoder_angle_sent": 10**9}, "SMO_TANH").ok
+
+
+# -- counters the ring itself may have dropped (finding 9) ---------------------------------------------
+
+
+def test_rows_dropped_comes_from_the_run_result_when_the_stats_row_was_dropped():
+    rec = _Rec(Path("fake.mcap"))
+    rec.metadata = {"run": {"estimator": "SMO_SIGN", "cycles_planned": "3"},
+                    "run_result": {"cycles_done": "3", "cycles_planned": "3", "error": "",
+                                   "interrupted": "False", "rows_dropped": "7",
+                                   "counters": '{"crc_errors": 2, "rows_dropped": 4, "cycles": 3}'}}
+    # the last /link/stats row (the one that would say 7) went through the ring and was dropped
+    rec.topics = {ch.PLANT_STATE: {"t_s": np.arange(3.0)},
+                  ch.LINK_STATS: {"rows_dropped": np.array([0.0, 1.0]), "crc_errors": np.array([0.0, 0.0])}}
+    integ = check_integrity(rec, {}, "SMO_SIGN")
+    assert integ.counters["rows_dropped"] == 7 and integ.counters["crc_errors"] == 2
+    assert {"rows_dropped", "crc_errors"} <= {p.name for p in integ.unallowed}
+    # and the larger of the two when the stats row has more (it never does, but max is max)
+    rec.topics[ch.LINK_STATS]["rows_dropped"] = np.array([0.0, 9.0])
+    assert check_integrity(rec, {}, "SMO_SIGN").counters["rows_dropped"] == 9
+
+
+# -- damage bench check must not take for something else (finding 8) -----------------------------------
+
+
+def _chunk_offsets(path: Path) -> list[int]:
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        return [ci.chunk_start_offset for ci in make_reader(f).get_summary().chunk_indexes]
+
+
+def test_a_zeroed_chunk_opcode_is_damage_with_its_offset(g2, tmp_path, capsys):
+    bad = _copy(g2, tmp_path / "zero_opcode.mcap")
+    at = _chunk_offsets(bad)[len(_chunk_offsets(bad)) // 2]
+    data = bytearray(bad.read_bytes())
+    data[at] = 0x00
+    bad.write_bytes(bytes(data))
+    rec = load_recording(bad)
+    assert rec.damaged and [r[:2] for r in rec.unknown_records] == [(at, 0)]
+    report = check_recording(bad)
+    assert "damage" in {p.name for p in report.integrity.unallowed} and not report.all_pass
+    rc, text = _strict_and_text(bad, capsys)
+    assert rc == 1 and f"recording damaged" in text and f"byte {at} (opcode 0x00" in text
+    assert "bench recover" in text
+
+
+def test_a_corrupted_chunk_length_keeps_the_run_result_found_after_it(g2, tmp_path, capsys):
+    import struct
+
+    at = _chunk_offsets(g2)[len(_chunk_offsets(g2)) // 2]
+    # a huge length: the stream stops there; the run_result record (written last) is still read
+    # from the summary section, so the run is not called unfinished
+    huge = _copy(g2, tmp_path / "huge_len.mcap")
+    data = bytearray(huge.read_bytes())
+    data[at + 1:at + 9] = struct.pack("<Q", 2**40)
+    huge.write_bytes(bytes(data))
+    report = check_recording(huge)
+    names = {p.name for p in report.integrity.unallowed}
+    assert "truncated" in names and "run_result" not in names, report.integrity.problems
+    assert report.integrity.cycles_done == 15000 and not report.all_pass
+    rc, text = _strict_and_text(huge, capsys)
+    assert rc == 1 and "did not finish" not in text and "bench recover" in text
+    # a small one: the chunk still parses, but its length field is wrong: damage all the same
+    small = _copy(g2, tmp_path / "small_len.mcap")
+    data = bytearray(small.read_bytes())
+    data[at + 1:at + 9] = struct.pack("<Q", 100)
+    small.write_bytes(bytes(data))
+    report = check_recording(small)
+    assert "damage" in {p.name for p in report.integrity.unallowed}
+    rc, text = _strict_and_text(small, capsys)
+    assert rc == 1 and f"record at byte {at} (opcode 0x06): length field 100" in text
+
+
+def test_a_run_result_lost_to_damage_is_not_called_an_unfinished_run():
+    rec = _Rec(Path("fake.mcap"))
+    rec.metadata = {"run": {"estimator": "SMO_SIGN", "cycles_planned": "3"}}
+    rec.truncated = "reading stopped at byte 100 of 200: EndOfFile"
+    text = next(p.text for p in check_integrity(rec, {}, "SMO_SIGN").problems if p.name == "run_result")
+    assert text.startswith("run_result record not read (damage before it: reading stopped at byte 100")
+    rec.truncated = None
+    text = next(p.text for p in check_integrity(rec, {}, "SMO_SIGN").problems if p.name == "run_result")
+    assert "the bench did not finish the run" in text
+
+
+def test_checking_a_missing_file_says_so(tmp_path, capsys):
+    assert cli_main(["check", str(tmp_path / "nope.mcap")]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "nope.mcap: no such file" in err and "recover" not in err
+
+
+# -- bench check keeps only what its metrics read (finding 2) ---------------------------------------------
+
+
+def test_a_long_window_is_checked_without_keeping_unused_fields(tmp_path):
+    """Memory per second of window is the columns in CHECK_FIELDS, nothing else: a G2 run with its
+    window over the whole run (1.5 s, 10 kHz) keeps exactly those fields, float64, one row per cycle
+    per topic, and no /timing, /link/frames (no dual sampling) or /replay/* at all."""
+    from bench.check import CHECK_FIELDS, read_for_check
+    from bench.scenario import derive_scenario
+
+    scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm", [("metrics.window_s", [0.0, 1.5])])
+    out = tmp_path / "long_window.mcap"
+    assert run_scenario(scn, out_path=out, progress=False).ok
+    rec = read_for_check(out)
+    per_cycle = {t: c for t, c in rec.topics.items() if t not in (ch.LINK_STATS, ch.EVENTS)}
+    assert set(per_cycle) == {ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, "/reference/SMO_TANH"}
+    rows = {}
+    for topic, cols in per_cycle.items():
+        key = topic if topic in CHECK_FIELDS else "/reference/*"
+        assert set(cols) == set(CHECK_FIELDS[key]), topic
+        rows[topic] = len(cols["t_s"])
+        assert all(len(v) == rows[topic] and v.itemsize == 8 for v in cols.values()), topic
+    assert rows[ch.PLANT_STATE] == rows[ch.CONTROLLER_TELEMETRY] == 15000
+    assert rows["/reference/SMO_TANH"] <= 15000
+    kept = sum(v.nbytes for cols in per_cycle.values() for v in cols.values())
+    assert sum(len(cols) for cols in per_cycle.values()) == 27
+    assert kept == 8 * sum(len(cols) * rows[t] for t, cols in per_cycle.items())
+    assert kept / 1.5 <= 27 * 8 * 10_000                  # 2.16 MB per second of window at 10 kHz
+    full = load_recording(out)
+    everything = sum(v.nbytes for t in per_cycle for v in full.topics[t].values())
+    assert kept < 0.6 * everything   # and the topics it does not read at all come on top
+    assert rec.estimator_counts == {3: 15000}             # SMO_TANH counted over the whole run
+
+
+def test_check_fields_cover_every_field_the_metrics_name():
+    """A metric that reads a field bench check does not keep would see it missing (the metric is
+    then 'not measured'): every string in the modules that compute the check that names a field of
+    a per-cycle topic is kept for that topic, or listed here with the reason it is not needed."""
+    import ast
+
+    from bench.check import CHECK_FIELDS
+
+    not_needed = {  # (topic key, field): why a literal of that name does not read this topic
+        (ch.PLANT_STATE, "e_alpha_v"): "EMF metrics read the estimate (telemetry/reference)",
+        (ch.PLANT_STATE, "e_beta_v"): "as e_alpha_v",
+        (ch.PLANT_STATE, "i_b_a"): "phase b/c currents are read from /plant/sense (dual samples)",
+        (ch.PLANT_STATE, "i_c_a"): "as i_b_a",
+        (ch.PLANT_STATE, "v_dc_v"): "read from /plant/sense (estimator replay)",
+        (ch.PLANT_STATE, "v_alpha_v"): "computed by estimator_trace from duties, not read",
+        (ch.PLANT_STATE, "v_beta_v"): "as v_alpha_v",
+        (ch.CONTROLLER_TELEMETRY, "estimator"): "counted over the whole run while streaming",
+        (ch.CONTROLLER_TELEMETRY, "seq"): "no metric matches telemetry by seq",
+        (ch.CONTROLLER_TELEMETRY, "state"): "no metric reads the controller state",
+        ("/reference/*", "seq"): "no metric matches references by seq",
+    }
+    literals = set()
+    for module in ("claims", "metrics", "estimator_trace", "check"):
+        tree = ast.parse((REPO / "bench" / f"{module}.py").read_text())
+        literals |= {n.value for n in ast.walk(tree) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    kinds = {ch.PLANT_STATE: "PLANT_STATE", ch.PLANT_SENSE: "SENSE", ch.CONTROLLER_TELEMETRY: "TELEMETRY",
+             "/reference/*": "REFERENCE", ch.LINK_FRAMES: "FRAMES"}
+    missing = [(topic, f) for topic, kind in kinds.items() for f in ch.LAYOUTS[kind].names
+               if f in literals and f not in CHECK_FIELDS[topic] and (topic, f) not in not_needed]
+    assert not missing, f"bench check does not keep {missing}: add them to CHECK_FIELDS"

@@ -123,3 +123,34 @@ def test_bad_inputs_are_refused_clearly(tmp_path, recording):
     with pytest.raises(RecoverError, match="must not be the damaged file itself"):
         recover(recording, recording)
     assert cli_main(["recover", str(junk)]) == 2
+
+
+def test_an_existing_output_is_never_replaced_without_force(recording, tmp_path, capsys):
+    """-o names an existing recording, or the default <x>.recovered.mcap exists: refused, both
+    files untouched; --force replaces it."""
+    src = tmp_path / "cut.mcap"
+    src.write_bytes(recording.read_bytes()[: int(recording.stat().st_size * 0.9)])
+    existing = tmp_path / "existing.mcap"
+    existing.write_bytes(b"precious" * 100)
+    with pytest.raises(RecoverError, match="-o .*existing.mcap: file exists; refusing to overwrite"):
+        recover(src, existing)
+    assert cli_main(["recover", str(src), "-o", str(existing)]) == 2
+    assert "refusing to overwrite" in " ".join(capsys.readouterr().err.split())
+    assert existing.read_bytes() == b"precious" * 100
+    # the default name, a second time
+    first = recover(src)
+    assert first.output == tmp_path / "cut.recovered.mcap"
+    before = first.output.read_bytes()
+    with pytest.raises(RecoverError, match="cut.recovered.mcap: file exists"):
+        recover(src)
+    assert first.output.read_bytes() == before
+    # --force replaces
+    assert cli_main(["recover", str(src), "-o", str(existing), "--force"]) == 0
+    assert _valid_mcap(existing) and load_recording(existing).messages == first.messages_total
+
+
+def test_an_empty_file_is_said_to_be_empty(tmp_path):
+    empty = tmp_path / "empty.mcap"
+    empty.write_bytes(b"")
+    with pytest.raises(RecoverError, match="empty file \\(0 octets\\): nothing was recorded"):
+        recover(empty)

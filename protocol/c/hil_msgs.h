@@ -176,11 +176,11 @@ typedef enum {
 /* HELLO.flags bits */
 #define HIL_HELLO_FLAG_DUAL_SAMPLING 0x01u /* bit0: dual sampling: the host sends SENSE_DUAL every cycle */
 #define HIL_HELLO_FLAG_TELEM_EMF 0x02u /* bit1: the controller sends TELEM_EMF every cycle */
-#define HIL_HELLO_FLAG_ENCODER_VALID 0x04u /* bit2: SENSE_AUX.theta_enc carries the plant's angle every cycle (only when the estimator is ENCODER or the scenario asks for it) */
+#define HIL_HELLO_FLAG_ENCODER_VALID 0x04u /* bit2: the host sends the plant's encoder angle in SENSE_AUX.theta_enc in this session (only when the estimator is ENCODER or the scenario asks for it); each cycle's SENSE_AUX flag THETA_ENC_VALID decides whether that cycle's angle is valid */
 
 /* SENSE_AUX.flags bits */
 #define HIL_SENSE_AUX_FLAG_DUAL_FOLLOWS 0x01u /* bit0: SENSE_DUAL of this seq was sent before SENSE */
-#define HIL_SENSE_AUX_FLAG_THETA_ENC_VALID 0x02u /* bit1: theta_enc carries the plant's angle (set every cycle exactly when HELLO flag ENCODER_VALID was) */
+#define HIL_SENSE_AUX_FLAG_THETA_ENC_VALID 0x02u /* bit1: theta_enc of this seq carries the plant's encoder angle; the per-cycle flag decides (set only in sessions whose HELLO had ENCODER_VALID, and clear in a cycle whose encoder the plant reports faulty) */
 
 /* ---- FAULT_PLANT: 0x010, 8 octets, sent by PLANT ---- */
 /* Fault raised by the plant side (host). code: see value table. */
