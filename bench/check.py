@@ -132,8 +132,14 @@ CHECK_FIELDS: dict[str, tuple[str, ...]] = {
     "/reference/*": ("t_s", "theta_hat_rad", "speed_hat_rpm", "e_alpha_v", "e_beta_v"),
     ch.LINK_FRAMES: ("t_s", "seq", "tx"),   # read only with dual sampling: the SENSE_DUAL frames
 }
+#: what a run with [[faults]] reads besides: the plant's peaks and the controller's state after
+#: its trip (bench/faults.py outcomes)
+FAULT_FIELDS: dict[str, tuple[str, ...]] = {
+    ch.PLANT_STATE: ("i_b_a", "i_c_a", "torque_e_nm"),
+    ch.CONTROLLER_TELEMETRY: ("state",),
+}
 #: small topics read whole (a row per 0.1 s, or per event)
-WHOLE_TOPICS = (ch.LINK_STATS, ch.EVENTS)
+WHOLE_TOPICS = (ch.LINK_STATS, ch.EVENTS, ch.FAULTS)
 
 
 def _sense_dual_only(cols: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -178,7 +184,11 @@ def read_for_check(path: str | Path) -> Recording:
     except (ValueError, AttributeError):
         dual = True   # unknown: read the frames (the metric says what is missing)
     topics = [t for t in WINDOWED_TOPICS if dual or t != ch.LINK_FRAMES] + list(WHOLE_TOPICS)
-    rec = load_recording(path, topics=topics, fields=CHECK_FIELDS,
+    fields = dict(CHECK_FIELDS)
+    if scn.faults:
+        for topic, extra in FAULT_FIELDS.items():
+            fields[topic] = fields[topic] + extra
+    rec = load_recording(path, topics=topics, fields=fields,
                          windows={t: windows for t in WINDOWED_TOPICS},
                          reduce={ch.CONTROLLER_TELEMETRY: (count_estimators, ("estimator",))},
                          transform={ch.LINK_FRAMES: _sense_dual_only})

@@ -81,7 +81,8 @@ def test_a_failed_link_leaves_no_recording(tmp_path):
     from bench.links import LinkError
 
     with pytest.raises(LinkError, match="cannot open serial port"):
-        run_scenario(scenario(), link_spec="serial:/dev/nonexistnt", out_path=out, progress=False)
+        run_scenario(scenario(), link_spec="serial:/dev/nonexistnt", out_path=out, progress=False,
+                     allow_slow_link=True)
     assert not out.exists() and not partial_path(out).exists()
 
 
