@@ -139,3 +139,21 @@ def test_the_layout_names_only_topics_and_fields_of_the_demo_recording(recording
 
     walk(layout["layout"])
     assert placed == set(layout["configById"])
+
+
+def test_the_faults_channel_parses_with_foxgloves_rules(checker, tmp_path):
+    """A run with [[faults]] adds /faults (strings and a double per row): Foxglove's rules take
+    it like every other channel."""
+    from bench.scenario import derive_scenario
+
+    scn = derive_scenario("gong_g2_500rpm", "fg_faults", [
+        ("scenario.duration_s", 0.3), ("metrics.window_s", [0.1, 0.3]),
+        ("faults", [{"kind": "drop", "direction": "from_controller", "message": "DUTY",
+                     "count": 1, "t_s": 0.2}])])
+    out = tmp_path / "faults.mcap"
+    assert run_scenario(scn, out_path=out, progress=False).ok
+    proc = subprocess.run(["node", str(checker / "check.mjs"), str(out)],
+                          capture_output=True, text=True, timeout=300)
+    report = json.loads(proc.stdout)
+    assert proc.returncode == 0 and report["errors"] == [], report["errors"]
+    assert report["channels"][ch.FAULTS]["messages"] == load_recording(out).counts[ch.FAULTS] >= 2
