@@ -76,8 +76,12 @@ class Loop:
         assert abs(self.plant.snapshot().omega_m_rad_s - self.speed_rad_s) < 5.0
         self.plant.set_fault(kind, **fault)
         k0 = self.k
+        self.sense_err_a = 0.0           # largest |sampled - true| phase current while it acts
         while self.k * self.prof.ts_s < t_end_s and self.out.state != STATE_FAULT:
             self.step()
+            true = self.plant.snapshot()  # the instant of the (live) sample self.m
+            self.sense_err_a = max(self.sense_err_a, abs(self.m.i_a_a - true.i_a_a),
+                                   abs(self.m.i_b_a - true.i_b_a), abs(self.m.i_c_a - true.i_c_a))
         detected = self.out.state == STATE_FAULT
         return detected, (self.k - k0) * self.prof.ts_s
 
@@ -119,6 +123,7 @@ def test_open_phase_is_detected_as_open_phase():
 def test_current_sensor_faults_are_sensor_faults(kind, phase, value, max_t):
     loop = Loop()
     detected, t_det = loop.run_fault(kind, phase=phase, value=value)
+    assert loop.sense_err_a > 0.3                            # acting: the reading is not the current
     assert detected and loop.out.fault == SENSOR_FAULT, (loop.out.fault, t_det)
     assert t_det <= max_t
     _off_after(loop)
@@ -323,3 +328,27 @@ def test_clear_fault_and_restart_after_the_plant_fault_is_gone():
     assert loop.out.state == STATE_CLOSED_LOOP
     assert abs(loop.plant.snapshot().omega_m_rad_s - 50.0) < 5.0
     assert not math.isnan(loop.out.duty_abc[0])
+
+
+# every plant fault kind and the tests above that show it acting and detected (or, measured,
+# not a drive fault / not visible to this drive's samples)
+COVERAGE = {
+    "open_phase": test_open_phase_is_detected_as_open_phase,
+    "leg_stuck": test_stuck_leg_high_or_low_trips_on_over_current,
+    "phase_short": test_phase_short_acts_but_no_sample_of_this_drive_shows_it,
+    "sensor_stuck": test_current_sensor_faults_are_sensor_faults,
+    "sensor_offset": test_current_sensor_faults_are_sensor_faults,
+    "sensor_gain": test_current_sensor_faults_are_sensor_faults,
+    "sensor_dropout": test_current_sensor_faults_are_sensor_faults,
+    "vdc": test_bus_sag_is_an_under_voltage,
+    "encoder_loss": test_encoder_loss_is_a_sensor_fault,
+    "encoder_stuck": test_encoder_stuck_while_the_rotor_turns_is_a_sensor_fault,
+    "locked_rotor": test_locked_rotor_is_a_stall,
+    "load_torque": test_sustained_load_beyond_the_drive_is_a_stall,
+}
+
+
+def test_every_plant_fault_kind_has_a_detection_test():
+    from plant_rt.plant import FAULT_KINDS
+
+    assert set(COVERAGE) == set(FAULT_KINDS), set(FAULT_KINDS) ^ set(COVERAGE)
