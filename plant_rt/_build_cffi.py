@@ -1,7 +1,9 @@
 """cffi API-mode builder for the C plant: module ``plant_rt._plant_c``.
 
 Run ``python tools/build_native.py`` (or ``make build``), which compiles ``ffibuilder`` and
-places the extension next to this file. The cdef below mirrors ``plant_rt/c/plant.h`` (and the
+places the extension next to this file. ``make_builder(sanitize=True)`` is the same module built
+with AddressSanitizer + UndefinedBehaviorSanitizer (``tools/build_native.py --sanitize``, into
+build-asan/python/, never next to this file). The cdef below mirrors ``plant_rt/c/plant.h`` (and the
 parts' headers for their stand-alone functions); the structs are declared field by field, so cffi checks their layout against the real header
 when it compiles the module (a field added to the header without updating this file fails
 the build).
@@ -305,22 +307,35 @@ void eng_link_feed(eng_link_t *l, const uint8_t *data, size_t n);
 void eng_link_push(eng_link_t *l, uint16_t id, const uint8_t *data, uint16_t dlc);
 """
 
-ffibuilder = FFI()
-ffibuilder.cdef(CDEF + ENGINE_CDEF)
-ffibuilder.set_source(
-    "plant_rt._plant_c",
-    '#include "plant.h"\n#include "engine.h"\n',
-    sources=[str(C_DIR / name) for name in SOURCES]
-    # the reference estimators are the firmware's own library; the engine frames with the
-    # protocol's codec
-    + sorted(str(p) for p in FW_SRC.glob("*.c"))
-    + [str(PROTOCOL_C / "hil_msgs.c"), str(PROTOCOL_C / "hil_framing.c")],
-    include_dirs=[str(C_DIR), str(FW_SRC), str(PROTOCOL_C)],
-    # ISO C (-std=c99): no FMA contraction, so -O3 and LTO give the same results as -O2
-    extra_compile_args=["-O3", "-std=c99", "-flto", "-ffp-contract=off"],
-    extra_link_args=["-O3", "-flto"],
-    libraries=["m"],
-)
+#: compile and link flags of the sanitized build (tools/build_native.py --sanitize)
+SANITIZE_COMPILE_ARGS = ["-O1", "-g", "-std=c99", "-ffp-contract=off", "-fno-omit-frame-pointer",
+                         "-fsanitize=address,undefined", "-fno-sanitize-recover=undefined"]
+SANITIZE_LINK_ARGS = ["-fsanitize=address,undefined"]
+
+
+def make_builder(sanitize: bool = False) -> FFI:
+    """The module's builder; ``sanitize``: -fsanitize=address,undefined instead of -O3 -flto."""
+    builder = FFI()
+    builder.cdef(CDEF + ENGINE_CDEF)
+    builder.set_source(
+        "plant_rt._plant_c",
+        '#include "plant.h"\n#include "engine.h"\n',
+        sources=[str(C_DIR / name) for name in SOURCES]
+        # the reference estimators are the firmware's own library; the engine frames with the
+        # protocol's codec
+        + sorted(str(p) for p in FW_SRC.glob("*.c"))
+        + [str(PROTOCOL_C / "hil_msgs.c"), str(PROTOCOL_C / "hil_framing.c")],
+        include_dirs=[str(C_DIR), str(FW_SRC), str(PROTOCOL_C)],
+        # ISO C (-std=c99): no FMA contraction, so -O3 and LTO give the same results as -O2
+        extra_compile_args=(SANITIZE_COMPILE_ARGS if sanitize
+                            else ["-O3", "-std=c99", "-flto", "-ffp-contract=off"]),
+        extra_link_args=SANITIZE_LINK_ARGS if sanitize else ["-O3", "-flto"],
+        libraries=["m"],
+    )
+    return builder
+
+
+ffibuilder = make_builder()
 
 if __name__ == "__main__":
     ffibuilder.compile(verbose=True)

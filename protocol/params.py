@@ -120,6 +120,15 @@ PARAMS: tuple[ParamInfo, ...] = (
     _p("PROT_VDC_TIME_S", "s", "real", "bus faults: for this long"),
     _p("PROT_LINK_TIMEOUT_PERIODS", "periods", "integer", "free-running ISR: no SENSE for this many "
        "periods is a LINK_TIMEOUT"),
+    _p("PROT_ENC_LOST_TIME_S", "s", "real", "encoder (ENCODER estimator): no valid reading for this "
+       "long is a SENSOR_FAULT"),
+    _p("PROT_ENC_EMF_RATIO", "-", "real", "frozen encoder: back-EMF of the voltage balance above this "
+       "fraction of V_DC_NOM_V / sqrt(3) while the reading stands still"),
+    _p("PROT_ENC_FROZEN_TIME_S", "s", "real", "frozen encoder: for this long"),
+    _p("PROT_STALL_TIME_S", "s", "real", "stall: the speed loop at IQ_MAX_A, that current delivered, "
+       "for this long with less progress than PROT_STALL_SPEED_RAD_S is a STALL"),
+    _p("PROT_STALL_SPEED_RAD_S", "rad/s", "real", "stall: the least the speed error must shrink over "
+       "PROT_STALL_TIME_S at the limit, mechanical"),
 )
 
 BY_NAME: dict[str, ParamInfo] = {p.name: p for p in PARAMS}

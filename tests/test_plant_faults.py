@@ -146,6 +146,47 @@ def test_open_phase_keeps_the_loop_flux_when_it_opens(hou):
     assert e["fault_absorbed_j"] > 0.0
 
 
+@pytest.mark.parametrize("i_d", [8.0, -1.5])
+def test_open_phase_keeps_the_loop_flux_with_saturation(hou, i_d):
+    """The same rule with the d axis saturated (reference.simulate_faults refuses saturation, so
+    this is the direct check): the loop flux psi . n, with psi_d from the independent Python
+    curve (reference.psi_d_curve) of the currents before and after, is continuous through the
+    interruption, although the current jumps; the orthogonal projection of the current (the
+    rule of a linear machine) would not keep it. Open-loop voltages of the linear model drive the
+    saturated machine to i_d = +6.9 A (L_inc 0.76 L_d) and -5.0 A (1.04 L_d: the other side of
+    the knee) when phase b opens."""
+    pl = Plant(hou, saturation=True)
+    p = reference.RefParams.of(dict(hou.plant_params(), saturation=True))
+    pl.set_initial(TH0, 100.0)
+    for row in sync_duties(hou, 60, 100.0, i_d, 3.0):
+        pl.step(*row)
+    n = np.array([-math.sqrt(3) / 2, -0.5])        # J u_b, u_b = (-1/2, sqrt(3)/2)
+
+    def loop_flux(s):
+        th = s.theta_e_rad
+        psi_d, psi_q = reference.psi_d_curve(p, s.i_d_a), hou.lq_h * s.i_q_a
+        return float(n @ (psi_d * math.cos(th) - psi_q * math.sin(th),
+                          psi_d * math.sin(th) + psi_q * math.cos(th)))
+
+    s = pl.snapshot()
+    before, i_b_before = loop_flux(s), s.i_b_a
+    id_before, iq_before, th = s.i_d_a, s.i_q_a, s.theta_e_rad
+    assert id_before * i_d > 0.0 and abs(i_b_before) > 1.0
+    assert abs(reference.ld_inc_curve(p, id_before) / hou.ld_h - 1.0) > 0.03   # off the linear L
+    pl.set_fault("open_phase", phase="b")
+    s = pl.snapshot()
+    assert abs(s.i_b_a) < 1e-12
+    assert loop_flux(s) == pytest.approx(before, abs=1e-13)
+    # the linear rule (projection of the current on n in dq) lands elsewhere on this curve
+    nd = n[0] * math.cos(th) + n[1] * math.sin(th)
+    nq = -n[0] * math.sin(th) + n[1] * math.cos(th)
+    a = nd * id_before + nq * iq_before
+    proj = float(n @ (reference.psi_d_curve(p, a * nd) * np.array([math.cos(th), math.sin(th)])
+                      + hou.lq_h * a * nq * np.array([-math.sin(th), math.cos(th)])))
+    assert abs(proj - before) > 1e-4
+    assert pl.energy()["fault_absorbed_j"] > 0.0
+
+
 def test_open_phase_all_legs_off_rectifies_through_one_loop(gong):
     """Wire c open, all legs off, line EMF a-b above the bus: the a-b loop conducts through the
     diodes (single-phase rectification); the C plant's located events against the reference."""

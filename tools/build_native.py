@@ -4,9 +4,23 @@
 Each package that has C bindings exposes an ``ffibuilder`` in ``<package>/_build_cffi.py``.
 Intermediate files go to ``build/cffi/<package>``; only the extension module is copied into the
 package directory. Run from the repository root: ``python tools/build_native.py``.
+
+``--sanitize`` builds the same modules with AddressSanitizer + UndefinedBehaviorSanitizer
+(``<package>/_build_cffi.py``'s ``make_builder(sanitize=True)``) into a separate import root,
+``build-asan/python/``: per package a directory of symlinks to the package's files with the
+sanitized extension in place of the normal one, so the normal build is untouched. A process uses
+it with (``make sanitize`` builds it; tests/test_loop_sanitized.py runs the closed loop on it)::
+
+    LD_PRELOAD=$(gcc -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 \\
+    UBSAN_OPTIONS=halt_on_error=1 PYTHONPATH=build-asan/python python ...
+
+(run from a directory other than the repository root, whose packages would come first on
+``sys.path``). The interpreter is not instrumented: ASan's runtime must be loaded first
+(LD_PRELOAD), and leak detection is off because CPython keeps memory until exit by design.
 """
 from __future__ import annotations
 
+import argparse
 import importlib
 import shutil
 import sys
@@ -14,15 +28,16 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("plant_rt", "firmware_stub")
+SANITIZED_ROOT = ROOT / "build-asan" / "python"
 
 
-def build(package: str) -> Path:
+def _builder(package: str, sanitize: bool):
     sys.path.insert(0, str(ROOT))
     module = importlib.import_module(f"{package}._build_cffi")
-    tmpdir = ROOT / "build" / "cffi" / package
-    tmpdir.mkdir(parents=True, exist_ok=True)
-    built = Path(module.ffibuilder.compile(tmpdir=str(tmpdir), verbose=False))
-    target = ROOT / package / built.name
+    return module.make_builder(sanitize=True) if sanitize else module.ffibuilder
+
+
+def _install(built: Path, target: Path) -> Path:
     # write beside it and rename: a process that has the old module loaded keeps its (unlinked)
     # file instead of seeing its code change under it
     tmp = target.with_suffix(".tmp")
@@ -31,11 +46,42 @@ def build(package: str) -> Path:
     return target
 
 
-def main() -> int:
+def build(package: str) -> Path:
+    tmpdir = ROOT / "build" / "cffi" / package
+    tmpdir.mkdir(parents=True, exist_ok=True)
+    built = Path(_builder(package, False).compile(tmpdir=str(tmpdir), verbose=False))
+    return _install(built, ROOT / package / built.name)
+
+
+def build_sanitized(package: str) -> Path:
+    """build-asan/python/<package>/: symlinks to the package's entries, the sanitized module."""
+    tmpdir = ROOT / "build-asan" / "cffi" / package
+    tmpdir.mkdir(parents=True, exist_ok=True)
+    built = Path(_builder(package, True).compile(tmpdir=str(tmpdir), verbose=False))
+    ext_prefix = built.name.split(".", 1)[0] + "."          # e.g. "_plant_c."
+    farm = SANITIZED_ROOT / package
+    farm.mkdir(parents=True, exist_ok=True)
+    for old in farm.iterdir():                               # stale links and modules
+        if old.is_symlink() or old.suffix in (".so", ".tmp"):
+            old.unlink()
+    for entry in sorted((ROOT / package).iterdir()):
+        if entry.name == "__pycache__" or entry.suffix == ".tmp" or (
+                entry.name.startswith(ext_prefix) and entry.suffix == ".so"):
+            continue
+        (farm / entry.name).symlink_to(entry)
+    return _install(built, farm / built.name)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sanitize", action="store_true",
+                    help="ASan + UBSan build into build-asan/python/ (the normal build untouched)")
+    args = ap.parse_args(argv)
     for package in PACKAGES:
         if not (ROOT / package / "_build_cffi.py").exists():
             continue
-        print(f"built {build(package).relative_to(ROOT)}")
+        target = build_sanitized(package) if args.sanitize else build(package)
+        print(f"built {target.relative_to(ROOT)}{' (ASan + UBSan)' if args.sanitize else ''}")
     return 0
 
 

@@ -91,6 +91,8 @@ void ctrl_init(controller_t *c)
     c->fault_detail = 0;
     c->out.fault_detail = 0;
     c->prot_ref_valid = 0;
+    c->prot_i_prev_valid = 0;
+    c->prot_emf_v = 0.0f;
 }
 
 static void enter_fault(controller_t *c, ctrl_fault_t fault)
@@ -119,7 +121,46 @@ static int protect(controller_t *c, const ctrl_sample_t *s)
         in.i_ref_abc_a[2] = -0.5f * ab.x - 0.5f * FW_SQRT3_F * ab.y;
     }
     in.v_dc_v = s->v_dc_v;
+    in.v_dc_valid = s->v_dc_valid;
     code = ctrl_protect_step(&c->prot, &in);
+    if (code != CTRL_PROTECT_NONE) {
+        enter_fault(c, (ctrl_fault_t)code);
+        c->fault_detail = c->prot.detail;
+        return 1;
+    }
+    return 0;
+}
+
+/* motion checks (encoder, stall) after the current loop; 1 = tripped */
+static int protect_motion(controller_t *c, const ctrl_sample_t *s, fw_vec2_t i_ab, fw_vec2_t i_dq)
+{
+    const ctrl_config_t *k = &c->cfg;
+    ctrl_protect_motion_t m;
+    int code;
+    m.speed_control = c->state == CTRL_STATE_CLOSED_LOOP && c->mode == CTRL_MODE_SPEED;
+    m.i_q_limit_a = k->iq_max_a;
+    m.i_q_ref_a = c->iq_ref_a;
+    m.i_q_a = i_dq.y;
+    m.omega_m_hat_rad_s = c->est.omega_e_rad_s / k->pole_pairs;
+    m.speed_err_rad_s = c->speed_ref_rad_s - m.omega_m_hat_rad_s;
+    m.encoder_used = (int)k->estimator == CTRL_EST_ENCODER && c->state == CTRL_STATE_CLOSED_LOOP;
+    m.enc_valid = s->theta_enc_valid;
+    m.theta_enc_rad = s->theta_enc_rad;
+    m.emf_v = 0.0f;
+    if (m.encoder_used && c->prot_i_prev_valid) {
+        /* back-EMF of the last period from the voltage balance: v - R i - L di/dt (mean L) */
+        const float ls = 0.5f * (k->ld_h + k->lq_h);
+        fw_vec2_t e;
+        e.x = c->v_ab_acted_v.x - k->rs_ohm * 0.5f * (i_ab.x + c->prot_i_prev_ab.x) -
+              ls * (i_ab.x - c->prot_i_prev_ab.x) / k->ts_s;
+        e.y = c->v_ab_acted_v.y - k->rs_ohm * 0.5f * (i_ab.y + c->prot_i_prev_ab.y) -
+              ls * (i_ab.y - c->prot_i_prev_ab.y) / k->ts_s;
+        m.emf_v = sqrtf(e.x * e.x + e.y * e.y);
+    }
+    c->prot_emf_v = m.emf_v;
+    c->prot_i_prev_ab = i_ab;
+    c->prot_i_prev_valid = 1;
+    code = ctrl_protect_motion_step(&c->prot, &m);
     if (code != CTRL_PROTECT_NONE) {
         enter_fault(c, (ctrl_fault_t)code);
         c->fault_detail = c->prot.detail;
@@ -302,6 +343,7 @@ int ctrl_start(controller_t *c)
     c->fault = CTRL_FAULT_NONE;
     c->fault_detail = 0;
     c->prot_ref_valid = 0;
+    c->prot_i_prev_valid = 0;
     /* with an encoder there is nothing to start open loop: close the loop at once; HF injection
      * finds the initial position at standstill first (Hou section 3) */
     if ((int)k->estimator == CTRL_EST_ENCODER) {
@@ -371,9 +413,18 @@ static void run_estimator(controller_t *c, fw_vec2_t i_ab, const ctrl_sample_t *
         c->est = c->hfi_out->est;
         break;
     case CTRL_EST_ENCODER:
-        c->est.theta_e_rad = fw_wrap_2pi(s->theta_enc_rad);
-        c->est.omega_e_rad_s = est_pll_step(&c->est_state.encoder_pll, c->est.theta_e_rad,
-                                            c->cfg.ts_s);
+        if (s->theta_enc_valid && fw_is_finite(s->theta_enc_rad)) {
+            c->est.theta_e_rad = fw_wrap_2pi(s->theta_enc_rad);
+            c->est.omega_e_rad_s = est_pll_step(&c->est_state.encoder_pll, c->est.theta_e_rad,
+                                                c->cfg.ts_s);
+        } else {
+            /* no reading this period: extrapolate with the speed estimate (the protection
+             * reports the encoder lost after enc_lost_time_s) */
+            est_pll_t *pll = &c->est_state.encoder_pll;
+            pll->theta_rad = fw_wrap_2pi(pll->theta_rad + pll->omega_rad_s * c->cfg.ts_s);
+            c->est.theta_e_rad = fw_wrap_2pi(c->est.theta_e_rad + pll->omega_rad_s * c->cfg.ts_s);
+            c->est.omega_e_rad_s = pll->omega_rad_s;
+        }
         c->est.e_alpha_v = 0.0f;
         c->est.e_beta_v = 0.0f;
         break;
@@ -415,7 +466,7 @@ static void handover(controller_t *c, fw_vec2_t i_ab)
 const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
 {
     const ctrl_config_t *k = &c->cfg;
-    fw_vec2_t i_ab, i_dq, v_dq, v_ab;
+    fw_vec2_t i_ab, i_ab_meas, i_dq, v_dq, v_ab;
     float theta, omega_e, sin_t, cos_t, v_dc, vmax, ff_d, ff_q, vq_lim, theta_pwm;
 
     if (c->state == CTRL_STATE_IDLE || c->state == CTRL_STATE_STOPPED ||
@@ -427,7 +478,10 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
         goto finish;
     }
     i_ab = fw_clarke(s->i_a_a, s->i_b_a, s->i_c_a);
-    v_dc = s->v_dc_v > 1.0f ? s->v_dc_v : k->v_dc_nom_v;
+    i_ab_meas = i_ab;
+    /* the measured bus once one has arrived (a collapsed bus modulates as it is; the protection
+     * reports it), the nominal bus before */
+    v_dc = (s->v_dc_valid && fw_is_finite(s->v_dc_v)) ? s->v_dc_v : k->v_dc_nom_v;
     if (k->delay_comp_mode > 0.5f) {
         /* Gong eq. 20-22: the second sample of the previous period first (delay estimate), then
          * this period's first sample, predicted to the actuation instant; the estimator and the
@@ -550,6 +604,9 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     c->prot_id_ref_a = c->id_ref_a;
     c->prot_iq_ref_a = c->iq_ref_a;
     c->prot_theta_rad = theta + omega_e * k->ts_s;
+    if (protect_motion(c, s, i_ab_meas, i_dq)) { /* encoder plausibility, stall (ctrl_protect.h) */
+        goto finish;
+    }
 
     /* the voltage acts from t_k + delay on: advance the angle to the middle of its action */
     /* (with the pre-compensation the angle already refers to t_k + t_d: only the half period) */

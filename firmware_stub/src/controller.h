@@ -53,7 +53,8 @@ typedef enum {
     CTRL_FAULT_STARTUP_FAILED = 10,
     CTRL_FAULT_OPEN_PHASE = CTRL_PROTECT_OPEN_PHASE,
     CTRL_FAULT_UNDERVOLTAGE = CTRL_PROTECT_UNDERVOLTAGE,
-    CTRL_FAULT_SENSOR_FAULT = CTRL_PROTECT_SENSOR_FAULT
+    CTRL_FAULT_SENSOR_FAULT = CTRL_PROTECT_SENSOR_FAULT,
+    CTRL_FAULT_STALL = CTRL_PROTECT_STALL
 } ctrl_fault_t;
 
 typedef enum { CTRL_MODE_SPEED = 0, CTRL_MODE_CURRENT = 1 } ctrl_mode_t;
@@ -108,7 +109,14 @@ typedef struct {
 typedef struct {
     float i_a_a, i_b_a, i_c_a; /**< phase currents sampled at t_k */
     float v_dc_v;              /**< bus voltage */
+    int v_dc_valid;            /**< v_dc_v is a measurement (the port has received one, whatever
+                                    it reads); 0: none yet: the nominal bus modulates, no bus
+                                    check */
     float theta_enc_rad;       /**< encoder angle (ENCODER estimator only) */
+    int theta_enc_valid;       /**< theta_enc_rad is a valid reading of this period; 0: none
+                                    (encoder lost, or no reading arrived for this period): the
+                                    controller extrapolates with its speed estimate and the
+                                    protection times the gap (ctrl_protect.h) */
     int have_i2;               /**< the second (dual) sample of the previous period is valid */
     float i2_abc_a[3];         /**< second sample of period k-1, taken at t_(k-1) + t_d */
 } ctrl_sample_t;
@@ -162,6 +170,9 @@ typedef struct {
     ctrl_protect_t prot;
     int prot_ref_valid;
     float prot_id_ref_a, prot_iq_ref_a, prot_theta_rad;
+    fw_vec2_t prot_i_prev_ab;   /**< currents of the last period (back-EMF of the voltage balance) */
+    int prot_i_prev_valid;
+    float prot_emf_v;           /**< that back-EMF magnitude of the last period [V] (diagnostic) */
     int32_t fault_detail;
     ctrl_output_t out;
 } controller_t;

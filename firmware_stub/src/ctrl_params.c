@@ -76,6 +76,11 @@ static const param_entry_t k_params[] = {
     P(HIL_PARAM_PROT_VDC_OV_RATIO, prot.vdc_ov_ratio, 0.0f, 10.0f),
     P(HIL_PARAM_PROT_VDC_TIME_S, prot.vdc_time_s, 0.0f, 10.0f),
     W(HIL_PARAM_PROT_LINK_TIMEOUT_PERIODS, prot.link_timeout_periods, 0.0f, 1e6f),
+    P(HIL_PARAM_PROT_ENC_LOST_TIME_S, prot.enc_lost_time_s, 0.0f, 10.0f),
+    P(HIL_PARAM_PROT_ENC_EMF_RATIO, prot.enc_emf_ratio, 0.0f, 10.0f),
+    P(HIL_PARAM_PROT_ENC_FROZEN_TIME_S, prot.enc_frozen_time_s, 0.0f, 10.0f),
+    P(HIL_PARAM_PROT_STALL_TIME_S, prot.stall_time_s, 0.0f, 100.0f),
+    P(HIL_PARAM_PROT_STALL_SPEED_RAD_S, prot.stall_speed_rad_s, 0.0f, 1e5f),
 };
 
 int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value)

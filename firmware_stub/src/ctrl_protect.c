@@ -18,6 +18,11 @@ void ctrl_protect_default_config(ctrl_protect_config_t *cfg)
     cfg->vdc_ov_ratio = 1.25f;
     cfg->vdc_time_s = 0.001f;
     cfg->link_timeout_periods = 10.0f;
+    cfg->enc_lost_time_s = 0.001f;
+    cfg->enc_emf_ratio = 0.1f;
+    cfg->enc_frozen_time_s = 0.002f;
+    cfg->stall_time_s = 0.1f;
+    cfg->stall_speed_rad_s = 1.0f;
 }
 
 static int nonneg(float x)
@@ -34,13 +39,16 @@ int ctrl_protect_init(ctrl_protect_t *p, const ctrl_protect_config_t *cfg, float
         !nonneg(k->open_ratio) || !nonneg(k->open_time_s) || !nonneg(k->sum_max_a) ||
         !nonneg(k->sum_tau_s) || !nonneg(k->stuck_time_s) || !nonneg(k->stuck_delta_a) ||
         !nonneg(k->vdc_uv_ratio) || !nonneg(k->vdc_ov_ratio) || !nonneg(k->vdc_time_s) ||
-        !nonneg(k->link_timeout_periods) || (k->vdc_ov_ratio > 0.0f && k->vdc_ov_ratio <= 1.0f)) {
+        !nonneg(k->link_timeout_periods) || !nonneg(k->enc_lost_time_s) ||
+        !nonneg(k->enc_emf_ratio) || !nonneg(k->enc_frozen_time_s) || !nonneg(k->stall_time_s) ||
+        !nonneg(k->stall_speed_rad_s) || (k->vdc_ov_ratio > 0.0f && k->vdc_ov_ratio <= 1.0f)) {
         return -1;
     }
     p->cfg = *cfg;
     p->ts_s = ts_s;
     p->vdc_uv_v = k->vdc_uv_ratio * v_dc_nom_v;
     p->vdc_ov_v = k->vdc_ov_ratio * v_dc_nom_v;
+    p->enc_emf_v = k->enc_emf_ratio * v_dc_nom_v * FW_INV_SQRT3_F;
     ctrl_protect_reset(p);
     return 0;
 }
@@ -62,6 +70,14 @@ void ctrl_protect_reset(ctrl_protect_t *p)
     p->t_uv_s = 0.0f;
     p->t_ov_s = 0.0f;
     p->t_since_sense_s = 0.0f;
+    p->t_enc_lost_s = 0.0f;
+    p->enc_prev_rad = 0.0f;
+    p->enc_armed = 0;
+    p->t_enc_frozen_s = 0.0f;
+    p->enc_emf_int_vs = 0.0f;
+    p->t_stall_s = 0.0f;
+    p->stall_dir = 0;
+    p->stall_err0_rad_s = 0.0f;
     p->code = CTRL_PROTECT_NONE;
     p->detail = 0;
 }
@@ -161,9 +177,9 @@ int ctrl_protect_step(ctrl_protect_t *p, const ctrl_protect_input_t *in)
         }
         p->stuck_armed = 1;
     }
-    /* bus */
-    if (in->v_dc_v > 1.0f) {
-        const int32_t mv = (int32_t)(fminf(in->v_dc_v, 2.0e6f) * 1000.0f);
+    /* bus: once a reading has arrived, whatever it reads (a collapse to 0 V is an under-voltage) */
+    if (in->v_dc_valid && fw_is_finite(in->v_dc_v)) {
+        const int32_t mv = (int32_t)(fminf(fmaxf(in->v_dc_v, -2.0e6f), 2.0e6f) * 1000.0f);
         if (p->vdc_uv_v > 0.0f && in->v_dc_v < p->vdc_uv_v) {
             p->t_uv_s += ts;
             if (p->t_uv_s >= k->vdc_time_s - 0.5f * ts) return trip(p, CTRL_PROTECT_UNDERVOLTAGE, mv);
@@ -176,6 +192,100 @@ int ctrl_protect_step(ctrl_protect_t *p, const ctrl_protect_input_t *in)
         } else {
             p->t_ov_s = 0.0f;
         }
+    }
+    return CTRL_PROTECT_NONE;
+}
+
+/** slot * 10^7 + value, value saturated to 0 .. CTRL_PROTECT_DETAIL_MAX_MILLI */
+static int32_t detail_slot(int slot, float value)
+{
+    long m;
+    if (!fw_is_finite(value) || value > (float)CTRL_PROTECT_DETAIL_MAX_MILLI) {
+        m = CTRL_PROTECT_DETAIL_MAX_MILLI;
+    } else {
+        m = (value > 0.0f) ? (long)(value + 0.5f) : 0L;
+    }
+    return (int32_t)((long)slot * CTRL_PROTECT_DETAIL_PHASE + m);
+}
+
+static void encoder_reset(ctrl_protect_t *p)
+{
+    p->t_enc_lost_s = 0.0f;
+    p->enc_armed = 0;
+    p->t_enc_frozen_s = 0.0f;
+    p->enc_emf_int_vs = 0.0f;
+}
+
+int ctrl_protect_motion_step(ctrl_protect_t *p, const ctrl_protect_motion_t *in)
+{
+    const ctrl_protect_config_t *k = &p->cfg;
+    const float ts = p->ts_s;
+    if (p->code != CTRL_PROTECT_NONE) {
+        return p->code;
+    }
+    /* encoder plausibility */
+    if (!in->encoder_used) {
+        encoder_reset(p);
+    } else if (!in->enc_valid || !fw_is_finite(in->theta_enc_rad)) {
+        /* no reading this period: neither frozen nor moving; the controller extrapolates */
+        p->t_enc_lost_s += ts;
+        if (k->enc_lost_time_s > 0.0f && p->t_enc_lost_s >= k->enc_lost_time_s - 0.5f * ts) {
+            return trip(p, CTRL_PROTECT_SENSOR_FAULT,
+                        detail_slot(CTRL_PROTECT_DETAIL_ENC_LOST, p->t_enc_lost_s * 1.0e6f));
+        }
+    } else {
+        p->t_enc_lost_s = 0.0f;
+        if (p->enc_armed && same(in->theta_enc_rad, p->enc_prev_rad) && p->enc_emf_v > 0.0f &&
+            k->enc_frozen_time_s > 0.0f) {
+            const float e = fw_is_finite(in->emf_v) ? fabsf(in->emf_v) : 0.0f;
+            p->t_enc_frozen_s += ts;
+            p->enc_emf_int_vs += e * ts;
+            if (p->t_enc_frozen_s >= k->enc_frozen_time_s - 0.5f * ts) {
+                const float mean_v = p->enc_emf_int_vs / p->t_enc_frozen_s;
+                if (mean_v > p->enc_emf_v) {
+                    return trip(p, CTRL_PROTECT_SENSOR_FAULT,
+                                detail_slot(CTRL_PROTECT_DETAIL_ENC_FROZEN, mean_v * 1000.0f));
+                }
+                p->t_enc_frozen_s = 0.0f; /* at standstill: judge the next window afresh */
+                p->enc_emf_int_vs = 0.0f;
+            }
+        } else {
+            p->t_enc_frozen_s = 0.0f;
+            p->enc_emf_int_vs = 0.0f;
+        }
+        p->enc_prev_rad = in->theta_enc_rad;
+        p->enc_armed = 1;
+    }
+    /* stall: full torque delivered, and the speed does not come closer to its reference */
+    if (in->speed_control && k->stall_time_s > 0.0f && in->i_q_limit_a > 0.0f &&
+        fw_is_finite(in->i_q_ref_a) && fw_is_finite(in->i_q_a) && fw_is_finite(in->speed_err_rad_s)) {
+        const float lim = in->i_q_limit_a * 0.9999f;
+        const int dir = (in->i_q_ref_a >= lim) ? 1 : ((in->i_q_ref_a <= -lim) ? -1 : 0);
+        const int delivered = dir != 0 &&
+                              (float)dir * in->i_q_a >= CTRL_PROTECT_STALL_I_RATIO * in->i_q_limit_a;
+        if (delivered && dir == p->stall_dir) {
+            p->t_stall_s += ts;
+            if (p->t_stall_s >= k->stall_time_s - 0.5f * ts) {
+                /* progress toward the reference over the window (the error's sign is dir's) */
+                const float progress = (float)dir * (p->stall_err0_rad_s - in->speed_err_rad_s);
+                if (progress < k->stall_speed_rad_s) {
+                    const float w = fminf(fmaxf(in->omega_m_hat_rad_s * 1000.0f, -2.0e9f), 2.0e9f);
+                    return trip(p, CTRL_PROTECT_STALL, fw_is_finite(w) ? (int32_t)w : 0);
+                }
+                p->t_stall_s = 0.0f;   /* accelerating: judge the next window from here */
+                p->stall_err0_rad_s = in->speed_err_rad_s;
+            }
+        } else if (delivered) {
+            p->stall_dir = dir;
+            p->t_stall_s = 0.0f;
+            p->stall_err0_rad_s = in->speed_err_rad_s;
+        } else {
+            p->stall_dir = 0;
+            p->t_stall_s = 0.0f;
+        }
+    } else {
+        p->stall_dir = 0;
+        p->t_stall_s = 0.0f;
     }
     return CTRL_PROTECT_NONE;
 }

@@ -1,7 +1,8 @@
 /**
  * @file ctrl_protect.h
  * @brief Drive protection of the controller: over-current, open phase by current imbalance,
- * current-sensor plausibility (sum and stuck value), bus under/over-voltage, link timeout.
+ * current-sensor plausibility (sum and stuck value), bus under/over-voltage, link timeout,
+ * encoder plausibility (lost, frozen while the rotor turns) and stall.
  *
  * Portable C99, float32, no heap, no clock (time enters as the period ts_s and as dt_s of the
  * link timer), no 8-bit types. State struct + config + init/reset/step. One step per control
@@ -24,11 +25,24 @@
  *                 (b) stuck value: a phase reads exactly the same value for stuck_time_s while
  *                 another phase moves by more than stuck_delta_a in that time;
  *                 detail = phase * 10^7 + |reading| [mA].
- *   UNDERVOLTAGE  measured bus (> 1 V, i.e. measured) below vdc_uv_ratio * V_dc,nom for
- *                 vdc_time_s;
+ *   UNDERVOLTAGE  measured bus (v_dc_valid: a reading has arrived, whatever its value) below
+ *                 vdc_uv_ratio * V_dc,nom for vdc_time_s;
  *   OVERVOLTAGE   above vdc_ov_ratio * V_dc,nom for vdc_time_s; detail = bus [mV].
  *   LINK_TIMEOUT  (free-running port only) ctrl_protect_link_tick: no SENSE for
  *                 link_timeout_periods periods; detail = time since the last SENSE [us].
+ * Motion checks (ctrl_protect_motion_step, after the current loop of the same period):
+ *   SENSOR_FAULT  encoder (only while the angle comes from the encoder):
+ *                 (c) lost: no valid reading for enc_lost_time_s (the controller bridges the
+ *                 gap with the speed estimate meanwhile); detail = 4 * 10^7 + time [us].
+ *                 (d) frozen: the reading stands exactly still for enc_frozen_time_s while the
+ *                 back-EMF of the voltage balance (v - R i - L di/dt, averaged over that time)
+ *                 exceeds enc_emf_ratio * V_dc,nom / sqrt(3): the rotor turns, the encoder does
+ *                 not. detail = 5 * 10^7 + mean |EMF| [mV]. A locked rotor has no EMF: STALL.
+ *   STALL         speed control: the speed loop at its current limit, the measured torque
+ *                 current at >= CTRL_PROTECT_STALL_I_RATIO of it in the same direction (the
+ *                 torque is delivered: not a voltage limit), and over stall_time_s the speed
+ *                 error shrank by less than stall_speed_rad_s (locked rotor, a load beyond the
+ *                 drive's torque). detail = speed estimate [mrad/s, mechanical, signed].
  * A threshold of 0 switches its check off (i_trip_a excepted).
  */
 #ifndef CTRL_PROTECT_H
@@ -45,10 +59,18 @@
 #define CTRL_PROTECT_OPEN_PHASE 14
 #define CTRL_PROTECT_UNDERVOLTAGE 15
 #define CTRL_PROTECT_SENSOR_FAULT 16
+#define CTRL_PROTECT_STALL 17
 
 /** `detail` of a phase fault: phase * CTRL_PROTECT_DETAIL_PHASE + value in milli-units. */
 #define CTRL_PROTECT_DETAIL_PHASE 10000000L
 #define CTRL_PROTECT_DETAIL_MAX_MILLI 9999999L
+/** `detail` slots of SENSOR_FAULT beyond the phases 0..2: the sum (3), the encoder (4, 5). */
+#define CTRL_PROTECT_DETAIL_SUM 3
+#define CTRL_PROTECT_DETAIL_ENC_LOST 4
+#define CTRL_PROTECT_DETAIL_ENC_FROZEN 5
+/** Stall: the measured torque current must reach this fraction of the limit (the current loop
+ *  delivers what the speed loop asks: a rotor held at the voltage limit is not stalled). */
+#define CTRL_PROTECT_STALL_I_RATIO 0.9f
 
 /** Thresholds (SI). A zero switches that check off (see the top of this file). */
 typedef struct {
@@ -64,14 +86,34 @@ typedef struct {
     float vdc_ov_ratio;        /**< over-voltage threshold / nominal bus [-] */
     float vdc_time_s;          /**< bus: beyond the threshold for this long [s] */
     float link_timeout_periods; /**< link: no SENSE for this many periods (free-running) */
+    float enc_lost_time_s;     /**< encoder: no valid reading for this long [s] */
+    float enc_emf_ratio;       /**< encoder frozen: back-EMF above this * V_dc,nom / sqrt(3) ... */
+    float enc_frozen_time_s;   /**< ... while the reading stands still for this long [s] */
+    float stall_time_s;        /**< stall: at the current limit for this long [s] ... */
+    float stall_speed_rad_s;   /**< ... with the speed error shrinking by less [rad/s, mech] */
 } ctrl_protect_config_t;
 
 /** What one period gives the protection. */
 typedef struct {
     float i_abc_a[3];      /**< phase currents sampled at t_k [A] */
     float i_ref_abc_a[3];  /**< currents the loop tracked over the last period [A] (0: none) */
-    float v_dc_v;          /**< measured bus [V]; <= 1 V: not measured */
+    float v_dc_v;          /**< measured bus [V] */
+    int v_dc_valid;        /**< v_dc_v is a measurement (0: none has arrived: no bus check) */
 } ctrl_protect_input_t;
+
+/** What the motion checks get, after the current loop of the period. */
+typedef struct {
+    int speed_control;     /**< closed-loop speed control: the stall check applies */
+    float i_q_limit_a;     /**< the speed loop's output limit [A] */
+    float i_q_ref_a;       /**< the speed loop's output [A] */
+    float i_q_a;           /**< measured q current in the controller's frame [A] */
+    float speed_err_rad_s; /**< speed reference - estimate [rad/s, mechanical] */
+    float omega_m_hat_rad_s; /**< speed estimate [rad/s, mechanical] (detail) */
+    int encoder_used;      /**< the angle comes from the encoder: the encoder checks apply */
+    int enc_valid;         /**< a valid encoder reading arrived for this period */
+    float theta_enc_rad;   /**< that reading */
+    float emf_v;           /**< |back-EMF| of the voltage balance over the last period [V] */
+} ctrl_protect_motion_t;
 
 typedef struct {
     ctrl_protect_config_t cfg;
@@ -87,6 +129,15 @@ typedef struct {
     int stuck_armed;           /**< a previous sample exists */
     float t_uv_s, t_ov_s;
     float t_since_sense_s;
+    float enc_emf_v;           /**< derived frozen-encoder EMF threshold [V] (0: off) */
+    float t_enc_lost_s;
+    float enc_prev_rad;        /**< last valid reading */
+    int enc_armed;             /**< enc_prev_rad is set */
+    float t_enc_frozen_s;
+    float enc_emf_int_vs;      /**< integral of |EMF| while frozen [V s] */
+    float t_stall_s;
+    int stall_dir;             /**< +1 / -1: at the upper / lower limit, 0: not at the limit */
+    float stall_err0_rad_s;    /**< speed error at the start of the stall window */
     int code;                  /**< latched fault (CTRL_PROTECT_*), 0 = none */
     int32_t detail;
 } ctrl_protect_t;
@@ -101,6 +152,9 @@ int ctrl_protect_init(ctrl_protect_t *p, const ctrl_protect_config_t *cfg, float
 void ctrl_protect_reset(ctrl_protect_t *p);
 /** One period. Returns the latched fault code (0 = none); detail in p->detail. */
 int ctrl_protect_step(ctrl_protect_t *p, const ctrl_protect_input_t *in);
+/** Motion checks of one period (encoder, stall), after ctrl_protect_step and the current
+ *  loop. Returns the latched fault code (0 = none); detail in p->detail. */
+int ctrl_protect_motion_step(ctrl_protect_t *p, const ctrl_protect_motion_t *in);
 /** Link timer of a free-running port: dt_s since the last call. Returns
  *  CTRL_PROTECT_LINK_TIMEOUT once the SENSE gap exceeds link_timeout_periods * ts_s (latched),
  *  else 0. ctrl_protect_step restarts the gap (a SENSE arrived). */

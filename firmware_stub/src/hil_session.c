@@ -17,6 +17,7 @@ typedef char check_fault_uv[((int)CTRL_FAULT_UNDERVOLTAGE == (int)HIL_FAULT_UNDE
 typedef char check_fault_sensor[((int)CTRL_FAULT_SENSOR_FAULT == (int)HIL_FAULT_SENSOR_FAULT) ? 1 : -1];
 typedef char check_fault_ov[((int)CTRL_PROTECT_OVERVOLTAGE == (int)HIL_FAULT_OVERVOLTAGE) ? 1 : -1];
 typedef char check_fault_link[((int)CTRL_PROTECT_LINK_TIMEOUT == (int)HIL_FAULT_LINK_TIMEOUT) ? 1 : -1];
+typedef char check_fault_stall[((int)CTRL_FAULT_STALL == (int)HIL_FAULT_STALL) ? 1 : -1];
 
 uint16_t hil_session_estimators(void)
 {
@@ -39,6 +40,7 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->aux_flags = 0u;
     s->aux_theta_raw = 0u;
     s->v_dc_v = 0.0f;
+    s->have_v_dc = 0;
     s->theta_enc_rad = 0.0f;
     s->dual_seq = 0u;
     s->dual_valid = 0;
@@ -112,6 +114,8 @@ static void on_hello(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         s->have_seq = 0;
         s->cache_n = 0u;
         s->aux_valid = 0;
+        s->v_dc_v = 0.0f;
+        s->have_v_dc = 0;
         s->theta_enc_rad = 0.0f;
         s->have_cmd_seq = 0;
     }
@@ -204,6 +208,7 @@ static void on_sense_aux(hil_session_t *s, const hil_octet_t *data, uint16_t dlc
     s->aux_flags = m.flags;
     s->aux_theta_raw = m.theta_enc;
     s->v_dc_v = hil_sense_aux_v_dc_decode(m.v_dc);
+    s->have_v_dc = 1;
 }
 
 static void on_sense_dual(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
@@ -275,15 +280,20 @@ static void on_sense(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
     s->cache_n = 0u;
     s->stats.cycles++;
 
-    /* the encoder angle counts only if this cycle's SENSE_AUX says it is valid (6.8) */
-    if ((s->flags & HIL_HELLO_FLAG_ENCODER_VALID) != 0u && s->aux_valid && s->aux_seq == m.seq &&
-        (s->aux_flags & HIL_SENSE_AUX_FLAG_THETA_ENC_VALID) != 0u) {
+    /* the encoder angle counts only if this cycle's SENSE_AUX says it is valid (6.8); otherwise
+     * the controller is told there is no reading (it bridges the gap and times it: an encoder
+     * that stays invalid is reported, ctrl_protect.h) */
+    smp.theta_enc_valid = (s->flags & HIL_HELLO_FLAG_ENCODER_VALID) != 0u && s->aux_valid &&
+                          s->aux_seq == m.seq &&
+                          (s->aux_flags & HIL_SENSE_AUX_FLAG_THETA_ENC_VALID) != 0u;
+    if (smp.theta_enc_valid) {
         s->theta_enc_rad = hil_sense_aux_theta_enc_decode(s->aux_theta_raw);
     }
     smp.i_a_a = hil_sense_i_a_decode(m.i_a);
     smp.i_b_a = hil_sense_i_b_decode(m.i_b);
     smp.i_c_a = hil_sense_i_c_decode(m.i_c);
     smp.v_dc_v = s->v_dc_v; /* latest SENSE_AUX; the nominal bus is used until one arrives */
+    smp.v_dc_valid = s->have_v_dc;
     smp.theta_enc_rad = s->theta_enc_rad;
     /* the second sample only counts if it was sent for this very cycle */
     smp.have_i2 = s->dual_valid && s->dual_seq == m.seq;

@@ -63,7 +63,8 @@ typedef struct {
     int aux_valid;
     uint16_t aux_flags;      /**< SENSE_AUX.flags of aux_seq */
     uint16_t aux_theta_raw;  /**< SENSE_AUX.theta_enc of aux_seq */
-    float v_dc_v;
+    float v_dc_v;            /**< bus of the latest SENSE_AUX */
+    int have_v_dc;           /**< a SENSE_AUX has arrived in this session (v_dc_v is a reading) */
     float theta_enc_rad;     /**< last valid encoder angle (THETA_ENC_VALID in the SENSE_AUX of the cycle) */
     uint16_t dual_seq;   /**< seq of the latched SENSE_DUAL */
     int dual_valid;

@@ -2,8 +2,9 @@
  * @file test_fw_protect.c
  * @brief The controller's protection (ctrl_protect.h) alone and in the controller: each check
  * trips on its fault with its code and detail, stays quiet on healthy signals that a naive
- * check would flag (standstill vector normal to a phase, slow zero crossings, noise), latches,
- * and the controller turns its outputs off and stays in FAULT until CLEAR_FAULT.
+ * check would flag (standstill vector normal to a phase, slow zero crossings, noise, an encoder
+ * at standstill, a rotor accelerating at the current limit, a drive at its voltage limit),
+ * latches, and the controller turns its outputs off and stays in FAULT until CLEAR_FAULT.
  */
 #include <math.h>
 #include <stdio.h>
@@ -37,6 +38,7 @@ static void balanced(ctrl_protect_input_t *in, float amp, float th)
         in->i_ref_abc_a[k] = in->i_abc_a[k];
     }
     in->v_dc_v = VDC;
+    in->v_dc_valid = 1;
 }
 
 /* steps of a rotating balanced set at omega_e; returns the first tripping step or -1 */
@@ -196,12 +198,170 @@ static void test_bus(void)
     }
     CHECK(p.code == CTRL_PROTECT_OVERVOLTAGE, "ov");
     init(&p);
-    in.v_dc_v = 0.0f; /* not measured (no SENSE_AUX yet) */
+    in.v_dc_v = 0.0f; /* not measured (no SENSE_AUX yet): the flag says so, not the value */
+    in.v_dc_valid = 0;
     for (k = 0; k < 100; ++k) CHECK(ctrl_protect_step(&p, &in) == CTRL_PROTECT_NONE, "no bus reading");
+    in.v_dc_v = 0.5f; /* a measured collapse (the old rule "> 1 V = measured" skipped it) */
+    in.v_dc_valid = 1;
+    for (k = 0; k < 10 && ctrl_protect_step(&p, &in) == CTRL_PROTECT_NONE; ++k) {
+    }
+    CHECK(p.code == CTRL_PROTECT_UNDERVOLTAGE && k == 9 && p.detail == 500, "0.5 V: uv %d %ld", k,
+          (long)p.detail);
+    init(&p);
+    in.v_dc_v = 0.0f;
+    for (k = 0; k < 10 && ctrl_protect_step(&p, &in) == CTRL_PROTECT_NONE; ++k) {
+    }
+    CHECK(p.code == CTRL_PROTECT_UNDERVOLTAGE && p.detail == 0, "0 V measured: uv");
+    in.v_dc_v = VDC;
     init(&p);
     for (k = 0; k < 100; ++k) { /* a glitch shorter than vdc_time_s */
         in.v_dc_v = (k % 5 == 0) ? 0.5f * VDC : VDC;
         CHECK(ctrl_protect_step(&p, &in) == CTRL_PROTECT_NONE, "glitch");
+    }
+}
+
+/* motion input: encoder in use at speed, not at the current limit */
+static void motion(ctrl_protect_motion_t *m)
+{
+    memset(m, 0, sizeof *m);
+    m->speed_control = 1;
+    m->i_q_limit_a = 9.0f;
+    m->i_q_ref_a = 3.0f;
+    m->i_q_a = 3.0f;
+    m->encoder_used = 1;
+    m->enc_valid = 1;
+}
+
+static void test_encoder(void)
+{
+    ctrl_protect_t p;
+    ctrl_protect_motion_t m;
+    int k;
+    /* healthy: a moving reading with a large EMF never trips; a missing reading is bridged */
+    init(&p);
+    motion(&m);
+    m.emf_v = 100.0f;
+    for (k = 0; k < 20000; ++k) {
+        m.theta_enc_rad = 1.0e-3f * (float)(k % 5000);
+        m.enc_valid = (k % 50) != 7; /* one reading in 50 lost */
+        CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "moving encoder %d", k);
+        if (p.code) break;
+    }
+    /* lost: no valid reading for enc_lost_time_s (10 periods) */
+    init(&p);
+    motion(&m);
+    m.enc_valid = 0;
+    for (k = 0; k < 20 && ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE; ++k) {
+    }
+    CHECK(p.code == CTRL_PROTECT_SENSOR_FAULT && k == 9, "lost after 1 ms: %d", k);
+    CHECK(p.detail / 10000000L == CTRL_PROTECT_DETAIL_ENC_LOST && p.detail % 10000000L >= 999 &&
+          p.detail % 10000000L <= 1001, "lost detail %ld", (long)p.detail);
+    /* not in use (sensorless): nothing */
+    init(&p);
+    motion(&m);
+    m.encoder_used = 0;
+    m.enc_valid = 0;
+    for (k = 0; k < 1000; ++k) CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "unused");
+    /* frozen while the voltage balance shows the rotor turning: the threshold is 0.1 * 310 / sqrt 3
+     * = 17.9 V; 30 V of EMF trips after enc_frozen_time_s (20 periods) */
+    init(&p);
+    motion(&m);
+    m.theta_enc_rad = 2.0f;
+    m.emf_v = 30.0f;
+    for (k = 0; k < 100 && ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE; ++k) {
+    }
+    CHECK(p.code == CTRL_PROTECT_SENSOR_FAULT && k == 20, "frozen after 2 ms: %d", k);
+    CHECK(p.detail == 5L * 10000000L + 30000L, "frozen detail %ld", (long)p.detail);
+    /* a standstill drive (reading still, EMF estimate = dead-time and resistance errors, 9 V): no */
+    init(&p);
+    for (k = 0; k < 50000; ++k) {
+        m.emf_v = 9.0f + 8.0f * (float)((k % 3) - 1);  /* 1 .. 17 V, mean 9 V */
+        CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "standstill %d", k);
+        if (p.code) break;
+    }
+    /* a reading that moves once in a while keeps restarting the frozen timer */
+    init(&p);
+    m.emf_v = 30.0f;
+    for (k = 0; k < 5000; ++k) {
+        m.theta_enc_rad = 2.0f + 1.0e-4f * (float)(k / 19);
+        CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "slowly moving %d", k);
+        if (p.code) break;
+    }
+    /* a missing reading neither freezes nor thaws: frozen at k = 1..10, lost 11..15, frozen
+     * again from 16: the 20th frozen period is k = 25 */
+    init(&p);
+    m.theta_enc_rad = 1.0f;
+    for (k = 0; k < 40; ++k) {
+        m.enc_valid = !(k >= 11 && k < 16);
+        if (ctrl_protect_motion_step(&p, &m) != CTRL_PROTECT_NONE) break;
+    }
+    CHECK(p.code == CTRL_PROTECT_SENSOR_FAULT && k == 25 && p.detail / 10000000L == 5,
+          "frozen across a gap: %d", k);
+}
+
+/* the speed loop at +-9 A; err(k) gives the speed error per period */
+static int stall_run(ctrl_protect_t *p, int dir, float i_q_frac, float err0, float derr_per_s, int n)
+{
+    ctrl_protect_motion_t m;
+    int k;
+    motion(&m);
+    m.encoder_used = 0;
+    m.i_q_ref_a = (float)dir * 9.0f;
+    m.i_q_a = (float)dir * 9.0f * i_q_frac;
+    for (k = 0; k < n; ++k) {
+        m.speed_err_rad_s = err0 + derr_per_s * TS * (float)k;
+        m.omega_m_hat_rad_s = -m.speed_err_rad_s;
+        if (ctrl_protect_motion_step(p, &m) != CTRL_PROTECT_NONE) return k;
+    }
+    return -1;
+}
+
+static void test_stall(void)
+{
+    ctrl_protect_t p;
+    ctrl_protect_motion_t m;
+    int hit, k;
+    /* locked: at the limit, current delivered, the error does not move: trips at stall_time_s */
+    init(&p);
+    hit = stall_run(&p, 1, 1.0f, 100.0f, 0.0f, 5000);
+    CHECK(p.code == CTRL_PROTECT_STALL && hit == 1000, "locked: %d", hit);
+    CHECK(p.detail == -100000L, "stall detail = speed estimate in mrad/s: %ld", (long)p.detail);
+    /* both directions; driven backwards by the load (the error grows) */
+    init(&p);
+    hit = stall_run(&p, -1, 1.0f, -50.0f, -20.0f, 5000);
+    CHECK(p.code == CTRL_PROTECT_STALL && hit == 1000, "driven backwards: %d", hit);
+    /* accelerating at the limit: 10 rad/s^2 shrinks the error by 1 rad/s per 0.1 s: no trip;
+     * slower (5 rad/s^2): trips at the end of the first window */
+    init(&p);
+    CHECK(stall_run(&p, 1, 1.0f, 100.0f, -10.5f, 9000) < 0 && p.code == 0, "accelerating");
+    init(&p);
+    hit = stall_run(&p, 1, 1.0f, 100.0f, -5.0f, 5000);
+    CHECK(p.code == CTRL_PROTECT_STALL && hit == 1000, "too slow: %d", hit);
+    /* at the voltage limit the current loop cannot deliver the torque: not a stall */
+    init(&p);
+    CHECK(stall_run(&p, 1, 0.85f, 100.0f, 0.0f, 5000) < 0, "voltage limit");
+    /* just below the limit (the loop still regulates): not judged */
+    init(&p);
+    motion(&m);
+    m.encoder_used = 0;
+    m.i_q_ref_a = 8.99f;
+    m.i_q_a = 8.99f;
+    m.speed_err_rad_s = 5.0f;
+    for (k = 0; k < 5000; ++k) CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "below limit");
+    /* current control (the host owns the torque, a held rotor may be the test): not judged */
+    m.speed_control = 0;
+    m.i_q_ref_a = 9.0f;
+    m.i_q_a = 9.0f;
+    for (k = 0; k < 5000; ++k) CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "current mode");
+    /* leaving the limit restarts the window */
+    init(&p);
+    motion(&m);
+    m.encoder_used = 0;
+    m.speed_err_rad_s = 10.0f;
+    for (k = 0; k < 3000; ++k) {
+        m.i_q_ref_a = m.i_q_a = (k % 900 == 899) ? 8.0f : 9.0f;
+        CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "interrupted windows %d", k);
+        if (p.code) break;
     }
 }
 
@@ -238,6 +398,21 @@ static void test_config_and_params(void)
     CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_OPEN_RATIO, 1.5f) == HIL_CONFIG_STATUS_OUT_OF_RANGE, "range");
     CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_LINK_TIMEOUT_PERIODS, 4.0f) == HIL_CONFIG_STATUS_OK &&
           fabsf(cc.prot.link_timeout_periods - 4.0f) < 1e-9f, "link periods");
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_ENC_LOST_TIME_S, 0.002f) == HIL_CONFIG_STATUS_OK &&
+          fabsf(cc.prot.enc_lost_time_s - 0.002f) < 1e-9f, "enc lost");
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_ENC_EMF_RATIO, 0.2f) == HIL_CONFIG_STATUS_OK &&
+          fabsf(cc.prot.enc_emf_ratio - 0.2f) < 1e-9f, "enc emf");
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_ENC_FROZEN_TIME_S, 0.004f) == HIL_CONFIG_STATUS_OK &&
+          fabsf(cc.prot.enc_frozen_time_s - 0.004f) < 1e-9f, "enc frozen");
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_STALL_TIME_S, 0.5f) == HIL_CONFIG_STATUS_OK &&
+          fabsf(cc.prot.stall_time_s - 0.5f) < 1e-9f, "stall time");
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_STALL_SPEED_RAD_S, 2.0f) == HIL_CONFIG_STATUS_OK &&
+          fabsf(cc.prot.stall_speed_rad_s - 2.0f) < 1e-9f, "stall speed");
+    CHECK(ctrl_param_set(&cc, HIL_PARAM_PROT_STALL_SPEED_RAD_S, -1.0f) == HIL_CONFIG_STATUS_OUT_OF_RANGE,
+          "stall speed range");
+    ctrl_protect_default_config(&cfg);
+    cfg.stall_time_s = -1.0f;
+    CHECK(ctrl_protect_init(&p, &cfg, TS, VDC) == -1, "negative stall time refused");
 }
 
 /* the controller: encoder angle source (closed loop at once), a trip turns the outputs off */
@@ -260,6 +435,8 @@ static void test_in_controller(void)
     CHECK(ctrl_start(&c) == 0, "start");
     memset(&s, 0, sizeof s);
     s.v_dc_v = VDC;
+    s.v_dc_valid = 1;
+    s.theta_enc_valid = 1;
     for (k = 0; k < 10; ++k) {
         o = ctrl_step(&c, &s);
         CHECK(o->state == CTRL_STATE_CLOSED_LOOP && o->fault == CTRL_FAULT_NONE, "running");
@@ -291,6 +468,32 @@ static void test_in_controller(void)
     CHECK(ctrl_link_tick(&c, 0.1f * TS) == CTRL_FAULT_LINK_TIMEOUT, "link timeout");
     CHECK(c.state == CTRL_STATE_FAULT && c.out.duty_abc[0] < 0.0f, "off after the timeout");
     CHECK(ctrl_link_tick(&c, TS) == CTRL_FAULT_NONE, "reported once");
+    /* a bus reading of 0.5 V is a collapse: under-voltage (not skipped as "not measured") */
+    ctrl_clear_fault(&c);
+    CHECK(ctrl_start(&c) == 0, "restart");
+    s.v_dc_v = 0.5f;
+    for (k = 0; k < 10; ++k) o = ctrl_step(&c, &s);
+    CHECK(o->fault == CTRL_FAULT_UNDERVOLTAGE && o->fault_detail == 500, "collapse: %d %ld", (int)o->fault,
+          (long)o->fault_detail);
+    /* no reading yet: the nominal bus, no bus check, the duties are finite */
+    ctrl_clear_fault(&c);
+    CHECK(ctrl_start(&c) == 0, "restart");
+    s.v_dc_v = 0.0f;
+    s.v_dc_valid = 0;
+    for (k = 0; k < 50; ++k) o = ctrl_step(&c, &s);
+    CHECK(o->state == CTRL_STATE_CLOSED_LOOP && o->duty_abc[0] >= 0.0f && o->duty_abc[0] <= 1.0f,
+          "no bus reading yet: runs on the nominal bus");
+    /* the encoder stops reporting a valid angle: bridged, then SENSOR_FAULT after 1 ms */
+    s.v_dc_v = VDC;
+    s.v_dc_valid = 1;
+    s.theta_enc_valid = 0;
+    for (k = 0; k < 9; ++k) {
+        o = ctrl_step(&c, &s);
+        CHECK(o->state == CTRL_STATE_CLOSED_LOOP, "bridged %d", k);
+    }
+    o = ctrl_step(&c, &s);
+    CHECK(o->fault == CTRL_FAULT_SENSOR_FAULT && o->fault_detail / 10000000L == 4 &&
+          o->duty_abc[0] < 0.0f, "encoder lost: %d %ld", (int)o->fault, (long)o->fault_detail);
 }
 
 int main(void)
@@ -299,6 +502,8 @@ int main(void)
     test_open_phase();
     test_sensor_plausibility();
     test_bus();
+    test_encoder();
+    test_stall();
     test_link();
     test_config_and_params();
     test_in_controller();

@@ -107,16 +107,21 @@ static void cmd(hil_session_t *s, unsigned command, uint16_t seq, float value)
     deliver(s, HIL_CMD_FRAME_ID, b, HIL_CMD_LENGTH);
 }
 
-static void sense_aux(hil_session_t *s, uint16_t seq, float theta, uint16_t flags)
+static void sense_aux_vdc(hil_session_t *s, uint16_t seq, float theta, uint16_t flags, float v_dc)
 {
     hil_sense_aux_t a;
     hil_octet_t b[8];
     a.seq = seq;
-    a.v_dc = hil_sense_aux_v_dc_encode(310.0f);
+    a.v_dc = hil_sense_aux_v_dc_encode(v_dc);
     a.theta_enc = hil_sense_aux_theta_enc_encode(theta);
     a.flags = flags;
     hil_sense_aux_pack(b, &a, sizeof b);
     deliver(s, HIL_SENSE_AUX_FRAME_ID, b, HIL_SENSE_AUX_LENGTH);
+}
+
+static void sense_aux(hil_session_t *s, uint16_t seq, float theta, uint16_t flags)
+{
+    sense_aux_vdc(s, seq, theta, flags, 310.0f);
 }
 
 static void sense(hil_session_t *s, uint16_t seq, float ia, float ib)
@@ -289,6 +294,93 @@ static void test_encoder_angle_rule(void)
     CHECK(s.theta_enc_rad < 1e-6f && s.theta_enc_rad > -1e-6f, "HELLO had no ENCODER_VALID: angle ignored");
 }
 
+/* FAULT_CTRL with the code and detail of the last fault the port sent; -1 if none */
+static int last_fault(const capture_t *cap, int32_t *detail)
+{
+    hil_fault_ctrl_t f;
+    int k = find(cap, HIL_FAULT_CTRL_FRAME_ID);
+    if (k < 0) {
+        return -1;
+    }
+    hil_fault_ctrl_unpack(&f, cap->data[k], 8u);
+    *detail = f.detail;
+    return (int)f.code;
+}
+
+/* The session tells the controller what it does not know: no SENSE_AUX yet (nominal bus, no bus
+ * check) versus a measured collapse (under-voltage), and an encoder that stopped reporting a
+ * valid angle (SENSOR_FAULT after 1 ms, not a silently held angle). */
+static void test_bus_and_encoder_reach_the_protection(void)
+{
+    static hil_session_t s;
+    capture_t cap;
+    hil_port_t port;
+    int32_t detail = 0;
+    int code = -1;
+    uint16_t seq;
+    memset(&cap, 0, sizeof cap);
+    port.ctx = &cap;
+    port.send = capture_send;
+    hil_session_init(&s, &port);
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_ENCODER, HIL_HELLO_FLAG_ENCODER_VALID) ==
+          HIL_HELLO_STATUS_OK, "ENCODER session");
+    configure_motor(&s, &cap);
+    cmd(&s, HIL_CMD_RUN, 1u, 0.0f);
+    CHECK(s.ctrl.state == CTRL_STATE_CLOSED_LOOP, "running");
+    /* 50 cycles without any SENSE_AUX: no bus reading, and no angle either (lost after 10) */
+    for (seq = 0u; seq < 50u && code < 0; seq++) {
+        cap.n = 0;
+        sense(&s, seq, 0.0f, 0.0f);
+        code = last_fault(&cap, &detail);
+    }
+    CHECK(code == HIL_FAULT_SENSOR_FAULT && seq == 10u && detail == 40001000L,
+          "no angle for 1 ms: SENSOR_FAULT (encoder lost) at cycle %u, code %d detail %ld",
+          (unsigned)seq, code, (long)detail);
+    CHECK(s.ctrl.state == CTRL_STATE_FAULT, "in FAULT");
+
+    /* a valid angle every cycle (at rest, where the PLL starts: the controller applies no
+     * voltage to these synthetic zero currents), the bus from SENSE_AUX: runs; then the bus
+     * collapses to 0.5 V */
+    cmd(&s, HIL_CMD_CLEAR_FAULT, 2u, 0.0f);
+    cmd(&s, HIL_CMD_RUN, 3u, 0.0f);
+    code = -1;
+    for (seq = 100u; seq < 150u && code < 0; seq++) {
+        cap.n = 0;
+        sense_aux(&s, seq, 0.0f, HIL_SENSE_AUX_FLAG_THETA_ENC_VALID);
+        sense(&s, seq, 0.0f, 0.0f);
+        code = last_fault(&cap, &detail);
+    }
+    CHECK(s.ctrl.state == CTRL_STATE_CLOSED_LOOP && code < 0, "healthy: %d", code);
+    for (seq = 150u; seq < 200u && code < 0; seq++) {
+        cap.n = 0;
+        sense_aux_vdc(&s, seq, 0.0f, HIL_SENSE_AUX_FLAG_THETA_ENC_VALID, 0.5f);
+        sense(&s, seq, 0.0f, 0.0f);
+        code = last_fault(&cap, &detail);
+    }
+    CHECK(code == HIL_FAULT_UNDERVOLTAGE && seq == 160u && detail == 500L,
+          "a 0.5 V bus is an under-voltage after 1 ms: cycle %u, code %d detail %ld", (unsigned)seq,
+          code, (long)detail);
+
+    /* the encoder's valid flag clears while the bus is fine: bridged, then reported */
+    cmd(&s, HIL_CMD_CLEAR_FAULT, 4u, 0.0f);
+    cmd(&s, HIL_CMD_RUN, 5u, 0.0f);
+    code = -1;
+    for (seq = 200u; seq < 300u && code < 0; seq++) {
+        cap.n = 0;
+        sense_aux(&s, seq, 0.0f, seq < 250u ? HIL_SENSE_AUX_FLAG_THETA_ENC_VALID : 0u);
+        sense(&s, seq, 0.0f, 0.0f);
+        code = last_fault(&cap, &detail);
+    }
+    CHECK(code == HIL_FAULT_SENSOR_FAULT && seq == 260u && detail / 10000000L == 4,
+          "THETA_ENC_VALID cleared at 250: SENSOR_FAULT at %u (code %d, %ld)", (unsigned)seq, code,
+          (long)detail);
+
+    /* a new session forgets the bus reading: no SENSE_AUX again means the nominal bus */
+    cap.n = 0;
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_OK, "SMO session");
+    CHECK(s.have_v_dc == 0, "HELLO forgets the bus reading");
+}
+
 /* 6.3 and 6.2 */
 static void test_cmd_seq_and_whole_parameters(void)
 {
@@ -323,6 +415,7 @@ int main(void)
     test_retry_is_answered_from_the_cache();
     test_hello_statuses();
     test_encoder_angle_rule();
+    test_bus_and_encoder_reach_the_protection();
     test_cmd_seq_and_whole_parameters();
     return check_summary("test_fw_session");
 }

@@ -6,11 +6,12 @@
 #   tests/fuzz/run.sh --time 20       # CI: 20 s per harness
 #   tests/fuzz/run.sh --runs N        # N executions per harness
 #   tests/fuzz/run.sh --only session  # one harness (deframer | msgs | session)
+#   tests/fuzz/run.sh --require ...   # CI: no libFuzzer is a failure (exit 1), not a skip
 #
 # Prints, per harness, the executions done and the result; exit 1 on a finding (the crashing
 # input is left in build-fuzz/<harness>/ as crash-*), 0 otherwise. Without clang it tries
 # `apt-get update && apt-get install -y clang` (root) and skips with a reason (exit 0) if that
-# is impossible. The corpora in tests/fuzz/corpus/<harness>/ are read, never written: new
+# is impossible -- or, with --require, fails with that reason (exit 1). The corpora in tests/fuzz/corpus/<harness>/ are read, never written: new
 # inputs go to build-fuzz/<harness>/corpus/.
 set -u
 HERE="$(cd "$(dirname "$0")" && pwd)"
@@ -19,12 +20,14 @@ OUT="${FUZZ_OUT:-$ROOT/build-fuzz}"
 RUNS=1000000
 TIME=0
 ONLY=""
+REQUIRE=0
 while [ $# -gt 0 ]; do
     case "$1" in
         --runs) RUNS="$2"; shift 2 ;;
         --time) TIME="$2"; shift 2 ;;
         --only) ONLY="$2"; shift 2 ;;
-        -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+        --require) REQUIRE=1; shift ;;
+        -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
         *) echo "run.sh: unknown option $1" >&2; exit 2 ;;
     esac
 done
@@ -59,6 +62,10 @@ if [ -z "$CC" ] || ! can_fuzz "$CC"; then
     fi
 fi
 if [ -z "$CC" ] || ! can_fuzz "$CC"; then
+    if [ "$REQUIRE" = 1 ]; then
+        echo "fuzz: FAILED (--require): no clang with -fsanitize=fuzzer (not installed and could not be installed)" >&2
+        exit 1
+    fi
     echo "fuzz: SKIPPED: no clang with -fsanitize=fuzzer (not installed and could not be installed)"
     exit 0
 fi
