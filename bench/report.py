@@ -147,9 +147,24 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | N
             continue
         first = (o.error.splitlines() or ["no error text"])[0]
         console.print(f"  {rid}: the bench broke the run ({first}): once more")
+        _keep_attempt(o.recording)
         ok, err, wall, cycles = _run_one(o.run, str(o.recording))
         outcomes[rid] = RunOutcome(o.run, o.recording, ok, err, wall, cycles, retried=first)
     return outcomes
+
+
+#: the files a run writes beside <run>.mcap (bench/runner.py: the serial and CAN captures)
+_RUN_SIBLINGS = (".mcap", ".serial.bin", ".log")
+
+
+def _keep_attempt(recording: Path) -> None:
+    """Move a broken attempt's files (<run>.mcap, <run>.serial.bin, <run>.log) to
+    <run>.attempt1.*: the recorder refuses to overwrite, and a record is never thrown away."""
+    stem = recording.name[:-len(".mcap")] if recording.name.endswith(".mcap") else recording.stem
+    for suffix in _RUN_SIBLINGS:
+        f = recording.with_name(stem + suffix)
+        if f.exists():
+            f.rename(recording.with_name(f"{stem}.attempt1{suffix}"))
 
 
 # -- measuring ------------------------------------------------------------------------------------

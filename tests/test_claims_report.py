@@ -72,3 +72,18 @@ def test_y5_as_the_paper_set_it_up(rep):
     assert rows["Y5.faster"].verdict == "FAIL"
     assert rows["Y5.ratio"].value == pytest.approx(7 / 23) and rows["Y5.ratio"].verdict == "COMPARED"
     assert rows["Y5.SDFT.step"].verdict == "COMPARED"         # no bound in the paper
+
+
+def test_a_broken_attempt_is_kept_beside_the_retry(tmp_path):
+    """The report runs a run the bench broke once more; the recorder refuses to overwrite, and
+    the first attempt's files are kept as <run>.attempt1.*, other runs' files untouched."""
+    from bench.report import _keep_attempt
+    names = ("Y1.conventional.mcap", "Y1.conventional.serial.bin", "Y1.conventional.keq5.mcap",
+             "Y1.conventional.keq5.serial.bin")
+    for n in names:
+        (tmp_path / n).write_text(n)
+    _keep_attempt(tmp_path / "Y1.conventional.mcap")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "Y1.conventional.attempt1.mcap", "Y1.conventional.attempt1.serial.bin",
+        "Y1.conventional.keq5.mcap", "Y1.conventional.keq5.serial.bin"]
+    assert (tmp_path / "Y1.conventional.attempt1.mcap").read_text() == "Y1.conventional.mcap"
