@@ -704,11 +704,13 @@ FAULT_LOOKBACK_S = 0.02
 
 def diagnose_fault(fault: str, i_true_a: np.ndarray, i_read_a: np.ndarray,
                    full_scale_a: float | None, speed_rpm: float, speed_ref_rpm: float,
-                   speed_hat_rpm: float) -> str:
+                   speed_hat_rpm: float, detail: int | None = None) -> str:
     """What a controller trip says about the drive, from the plant's record of the last
     FAULT_LOOKBACK_S before it: ``i_true_a`` / ``i_read_a`` the true and the sensed phase
     currents (any shape), ``full_scale_a`` the ADC's current full scale (None: exact sensing),
-    the true, reference and estimated speeds at the trip. '' for faults it has nothing to say on.
+    the true, reference and estimated speeds at the trip, ``detail`` the FAULT_CTRL detail (for
+    OVERCURRENT phase x 10^7 + the tripping reading in mA, docs/faults.md). '' for faults it has
+    nothing to say on.
 
     A SENSOR_FAULT (the three readings do not sum to zero) while a true current is beyond the
     ADC's full scale is an over-current the sensors could not read: the clipped readings stop
@@ -733,11 +735,15 @@ def diagnose_fault(fault: str, i_true_a: np.ndarray, i_read_a: np.ndarray,
                     + (f" ({state})" if state else "") + f"; {where}")
         return f"sensor plausibility trip with the currents inside the ADC range; {where}"
     if fault == "OVERCURRENT":
-        return "over-current" + (f": {state}" if state else "") + f"; {where}"
+        trip = ""
+        if detail is not None and 0 <= detail < 3 * 10**7:
+            trip = (f"; phase {'abc'[detail // 10**7]} read {detail % 10**7 / 1e3:.3f} A at the "
+                    "trip")
+        return "over-current" + (f": {state}" if state else "") + f"; {where}{trip}"
     return ""
 
 
-def _fault_context(rec: Recording, fault: str) -> str:
+def _fault_context(rec: Recording, fault: str, detail: int | None = None) -> str:
     """diagnose_fault on a recording (the last FAULT_LOOKBACK_S of /plant/state, /plant/sense,
     /controller/telemetry); '' if the recording lacks them."""
     try:
@@ -761,23 +767,20 @@ def _fault_context(rec: Recording, fault: str) -> str:
         ref = _speed_ref_at_end(rec)
     except (KeyError, ValueError, IndexError):
         return ""
-    return diagnose_fault(fault, i_true, i_read, fs, n, ref, n_hat)
+    return diagnose_fault(fault, i_true, i_read, fs, n, ref, n_hat, detail)
 
 
 def _speed_ref_at_end(rec: Recording) -> float:
-    """The speed reference in force at the end of the recording (the scenario's, then its
-    events)."""
-    import tomllib
+    """The speed reference in force at the end of the recording (its attached scenario's, then
+    its events'), NaN if the recording carries no valid scenario."""
+    from .check import scenario_of, speed_ref_at
+    from .recording import RecordingError
     try:
-        doc = tomllib.loads(rec.run.get("scenario", ""))
-    except tomllib.TOMLDecodeError:
+        scn = scenario_of(rec)
+    except RecordingError:
         return math.nan
-    ref = float(doc.get("controller", {}).get("speed_ref_rpm", 0.0))
     t_end = float(np.asarray(rec.topics[ch.PLANT_STATE]["t_s"], float)[-1])
-    for ev in sorted(doc.get("events", []), key=lambda e: e.get("t_s", 0.0)):
-        if ev.get("t_s", 0.0) <= t_end and "speed_ref_rpm" in ev:
-            ref = float(ev["speed_ref_rpm"])
-    return ref
+    return speed_ref_at(scn, t_end) * RPM_PER_RAD_S
 
 
 def run_failure(rec: Recording) -> tuple[str, str]:
@@ -790,8 +793,10 @@ def run_failure(rec: Recording) -> tuple[str, str]:
     if not err:
         return "", ""
     if "controller reported fault" in err:
-        m = re.search(r"fault (\w+)", err.split("controller reported", 1)[1])
-        cause = _fault_context(rec, m.group(1)) if m else ""
+        tail = err.split("controller reported", 1)[1]
+        m = re.search(r"fault (\w+)", tail)
+        d = re.search(r"detail (-?\d+)", tail)
+        cause = _fault_context(rec, m.group(1), int(d.group(1)) if d else None) if m else ""
         return "FAIL", f"the run ended early: {err}" + (f" [{cause}]" if cause else "")
     return "INVALID", f"the run ended early: {err}"
 

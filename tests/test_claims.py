@@ -167,8 +167,9 @@ def test_diagnose_fault_names_a_clipped_overcurrent_not_a_sensor_fault():
     small = 0.5 * true / 14.0
     assert cl.diagnose_fault("SENSOR_FAULT", small, small + 0.4, 10.0, 10.0, 10.0, 10.2) \
         .startswith("sensor plausibility trip")
-    oc = cl.diagnose_fault("OVERCURRENT", true, read, 10.0, -273.0, 10.0, 158.0)
+    oc = cl.diagnose_fault("OVERCURRENT", true, read, 10.0, -273.0, 10.0, 158.0, 10009854)
     assert oc.startswith("over-current: the drive had lost its operating point and its estimate")
+    assert oc.endswith("phase b read 9.854 A at the trip")           # FAULT_CTRL detail
     assert cl.diagnose_fault("STARTUP_FAILED", true, read, 10.0, 0.0, 10.0, 0.0) == ""
 
 
@@ -222,6 +223,7 @@ def test_runaways_end_as_named_overcurrents(tmp_path, run_id):
     rec = load_recording(out)
     kind, why = cl.run_failure(rec)
     assert kind == "FAIL" and "[over-current" in why and "phase current up to" in why, why
+    assert "(reference 10)" in why and "read" in why, why       # the scenario's reference
     claim = next(c for c in cl.CLAIMS.values() if any(r.id == run_id for r in c.runs))
     ctx = build_context(rec, scenario_of(rec))
     for q in claim.quantities:
