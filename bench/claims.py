@@ -1124,7 +1124,8 @@ Y4_CALIBRATION = ("calibration input: the plant's dead time (1.78 us) is fitted 
 
 
 def _claims() -> tuple[Claim, ...]:
-    y_src4 = "Yuan IV.C: 'significantly decrease from approximately 8.06% to 6.01% ...' (no bound, no scatter)"
+    y_src4 = ("Yuan IV.C: 'significantly decrease from approximately 8.06% to 6.01% ...' "
+              "(no bound, no scatter)")
     y4_runs = (Run("Y4.10.off", "yuan_y4_10rpm"), Run("Y4.10.on", "yuan_y4_10rpm_comp"),
                Run("Y4.50.off", "yuan_y4_50rpm"), Run("Y4.50.on", "yuan_y4_50rpm_comp"))
     # the controller's own current-loop rule (500 Hz: CUR_KP/KI = 0 select L w_c, R w_c) instead
