@@ -37,6 +37,13 @@ MISMATCH = (("nominal", ()), ("Rs -30%", (("RS_OHM", 0.7),)), ("Rs +30%", (("RS_
             ("psi_f -10%", (("PSI_F_WB", 0.9),)), ("psi_f +10%", (("PSI_F_WB", 1.1),)))
 
 
+def case_id(name: str) -> str:
+    """A mismatch case as a run id: a scenario name allows letters, digits, '_', '-', '@' and
+    '.' only ("Rs +30%" -> "Rs_plus30pct", "Ld,Lq -20%" -> "LdLq_minus20pct")."""
+    return (name.replace(",", "").replace(" +", "_plus").replace(" -", "_minus")
+            .replace("%", "pct").replace(" ", "_"))
+
+
 @dataclass
 class Plan:
     runs: list[Run] = field(default_factory=list)
@@ -100,7 +107,7 @@ def plan(quick: bool = False) -> Plan:
                 ov += (("controller.estimator", est), ("plant.adc_model", True),
                        ("plant.t_delay_s", 34.1e-6), ("events", []),
                        ("scenario.duration_s", 1.5), ("metrics.window_s", [1.0, 1.5]))
-            pl.runs.append(Run(f"B.sens.{est}.{name.replace(' ', '').replace(',', '')}", base, ov,
+            pl.runs.append(Run(f"B.sens.{est}.{case_id(name)}", base, ov,
                                f"{est}, controller told {name}"))
     for est in SMOS:
         pl.runs.append(Run(f"B.rev.{est}", "beyond_reversal", (("controller.estimator", est),),
@@ -133,24 +140,26 @@ def _rec(rep, rid):
 
 
 def _errors(rec, topic, window):
-    """(max |PEE| rad, mean PEE rad, max |n^ - n| rpm, mean true speed) in the window."""
+    """(max |PEE| rad, mean PEE rad, max |n^ - n| rpm, mean true speed) in the window: the
+    claims' metrics (bench.metrics.angle_error, speed_error_band_rpm) on the estimate of
+    ``topic`` and the plant truth at the same cycles."""
     st = rec.topic(ch.PLANT_STATE)
     if topic not in rec.topics:
         return (math.nan,) * 4
     te = rec.topic(topic)
     t = np.asarray(te["t_s"], float)
-    m = (t >= window[0]) & (t <= window[1])
+    m = metrics.window_mask(t, window)
     if not np.any(m):
         return (math.nan,) * 4
     idx = np.clip(np.searchsorted(st["t_s"], t[m]), 0, len(st["t_s"]) - 1)
-    pee = metrics.wrap_pi(np.asarray(te["theta_hat_rad"])[m] - np.asarray(st["theta_e_rad"])[idx])
-    n = np.asarray(st["speed_rpm"])[idx]
-    nerr = np.asarray(te["speed_hat_rpm"])[m] - n
-    pee, nerr = pee[np.isfinite(pee)], nerr[np.isfinite(nerr)]
-    if not pee.size:
+    pee = metrics.angle_error(np.asarray(te["theta_hat_rad"])[m],
+                              np.asarray(st["theta_e_rad"])[idx])
+    if not math.isfinite(pee.max_abs_rad):
         return (math.nan,) * 4
-    return (float(np.max(np.abs(pee))), float(np.mean(pee)),
-            float(np.max(np.abs(nerr))) if nerr.size else math.nan, float(np.mean(n)))
+    n = np.asarray(st["speed_rpm"])[idx]
+    return (pee.max_abs_rad, pee.mean_rad,
+            metrics.speed_error_band_rpm(np.asarray(te["speed_hat_rpm"])[m], n),
+            float(np.mean(n)))
 
 
 def _window(rep, rid):
@@ -174,7 +183,7 @@ def evaluate(pl: Plan, rep) -> dict:
             e = _errors(rec, ch.CONTROLLER_TELEMETRY, w) if rec is not None else (math.nan,) * 4
             fail = rep.outcomes[rid].error.splitlines()[0] if rid in rep.outcomes and \
                 rep.outcomes[rid].error else ""
-            held = math.isfinite(e[3]) and abs(e[3] - rpm) <= 0.1 * rpm + 0.5
+            held = metrics.holds_speed(e[3], rpm)
             out["speed"].append(dict(est="HFI_SDFT", rpm=rpm, ideal=bool(tag), pee_max=e[0],
                                      pee_mean=e[1], n_err=e[2], n_mean=e[3], held=held,
                                      error=fail))
@@ -189,12 +198,12 @@ def evaluate(pl: Plan, rep) -> dict:
                     t = np.asarray(te["t_s"], float)
                     m = t >= 0.17
                     if np.any(m) and not rep.outcomes[rid].error:
-                        e = metrics.wrap_pi(np.asarray(te["pee_rad"])[m])
-                        err = math.degrees(math.atan2(np.mean(np.sin(e)), np.mean(np.cos(e))))
+                        # the claims' initial-position error (H3): the circular mean of PEE
+                        err = math.degrees(metrics.mean_angle_rad(np.asarray(te["pee_rad"])[m]))
                 out["ipd"].append(dict(method=method, ideal=bool(tag), angle=a, err_deg=err))
     for est in SMOS + ("HFI_SDFT",):
         for name, _ in MISMATCH:
-            rid = f"B.sens.{est}.{name.replace(' ', '').replace(',', '')}"
+            rid = f"B.sens.{est}.{case_id(name)}"
             rec = _rec(rep, rid)
             w = _window(rep, rid) if rid in rep.outcomes else None
             e = _errors(rec, ch.CONTROLLER_TELEMETRY, w) if rec is not None else (math.nan,) * 4
@@ -202,8 +211,8 @@ def evaluate(pl: Plan, rep) -> dict:
                 rep.outcomes[rid].error else ""
             ref = 50.0 if est == "HFI_SDFT" else 500.0
             out["sens"].append(dict(est=est, case=name, pee_max=e[0], pee_mean=e[1], n_err=e[2],
-                                    n_mean=e[3], held=math.isfinite(e[3]) and
-                                    abs(e[3] - ref) <= 0.1 * ref + 0.5, error=fail))
+                                    n_mean=e[3], held=metrics.holds_speed(e[3], ref),
+                                    error=fail))
     for est in REVERSALS:
         rid = f"B.rev.{est}"
         rec = _rec(rep, rid)
@@ -218,15 +227,16 @@ def evaluate(pl: Plan, rep) -> dict:
             late = t >= t[-1] - 0.3
             row["n_final"] = float(np.mean(n[late])) if np.any(late) else math.nan
             row["done"] = bool(abs(row["n_final"] - final) <= 0.05 * abs(final))
-            pee = np.abs(metrics.wrap_pi(np.asarray(te["pee_rad"], float)))
-            row["pee_final"] = float(np.nanmax(pee[late])) if np.any(late) else math.nan
+            pee = np.asarray(te["pee_rad"], float)      # wrap(theta^ - theta), per cycle
+            row["pee_final"] = (metrics.angle_error(pee[late], 0.0 * pee[late]).max_abs_rad
+                                if np.any(late) else math.nan)
             t_ev = 0.8 if est == "HFI_SDFT" else 1.5
             after = t >= t_ev
             cross = np.nonzero(after & (n <= 0))[0]
             if cross.size:
                 tc = t[cross[0]]
                 mm = (t >= tc - 0.05) & (t <= tc + 0.1)
-                row["pee_cross"] = float(np.nanmax(pee[mm]))
+                row["pee_cross"] = metrics.angle_error(pee[mm], 0.0 * pee[mm]).max_abs_rad
                 row["t_cross"] = float(tc)
         out["rev"].append(row)
     out["plots"] = _plots(out, rep)

@@ -52,6 +52,22 @@ def angle_error(theta_hat_rad: np.ndarray, theta_true_rad: np.ndarray) -> AngleE
     return AngleError(float(np.max(np.abs(e))), float(np.mean(e)), float(np.sqrt(np.mean(e * e))))
 
 
+def mean_angle_rad(x: np.ndarray) -> float:
+    """Circular mean of angles: atan2(mean sin, mean cos) in (-pi, pi] (a wrapped angle's mean
+    that does not break at +-pi). NaN samples are ignored; NaN if none is left."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    if not x.size:
+        return math.nan
+    return float(math.atan2(np.mean(np.sin(x)), np.mean(np.cos(x))))
+
+
+def holds_speed(mean_rpm: float, ref_rpm: float) -> bool:
+    """The bench's operating-point check (a bench definition, not a paper's rule): a window
+    held ``ref_rpm`` when its true mean speed is within 10 % + 0.5 rpm of it."""
+    return math.isfinite(mean_rpm) and abs(mean_rpm - ref_rpm) <= 0.1 * abs(ref_rpm) + 0.5
+
+
 @dataclass(frozen=True)
 class Spectrum:
     """Harmonic analysis of one signal over an integer number of fundamental periods."""

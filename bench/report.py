@@ -27,8 +27,9 @@ from typing import Any
 
 from rich.console import Console
 
-from .claims import (CLAIMS, Claim, Context, Quantity, Relation, Run, derive, measure, relate,
-                     run_failure)
+from .claims import (CLAIMS, OPERATING_POINT_DEF, TELEM_EMF_LSB_V, TELEM_IQ_LSB_A,
+                     TELEM_OMEGA_LSB_RAD_S, TELEM_THETA_LSB_RAD, Claim, Context, Quantity, Relation,
+                     Run, derive, measure_with_resolution, relate, run_failure)
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -42,6 +43,7 @@ class RunOutcome:
     wall_s: float = 0.0
     cycles: int = 0
     reused: bool = False
+    retried: str = ""       # the error of a first attempt the bench broke (run once more)
 
 
 @dataclass
@@ -138,7 +140,31 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | N
                 if not console.is_terminal:
                     console.print(f"  {rid}: {'ok' if ok else 'ended: ' + err.splitlines()[0]}"
                                   f" ({wall:.1f} s)")
+    # a run the bench broke (not the controller: a link that timed out on a loaded machine, a
+    # dead stub) is run once more, alone; the report says so. A controller fault is a result.
+    for rid, o in list(outcomes.items()):
+        if o.ok or o.reused or "controller reported fault" in o.error:
+            continue
+        first = (o.error.splitlines() or ["no error text"])[0]
+        console.print(f"  {rid}: the bench broke the run ({first}): once more")
+        _keep_attempt(o.recording)
+        ok, err, wall, cycles = _run_one(o.run, str(o.recording))
+        outcomes[rid] = RunOutcome(o.run, o.recording, ok, err, wall, cycles, retried=first)
     return outcomes
+
+
+#: the files a run writes beside <run>.mcap (bench/runner.py: the serial and CAN captures)
+_RUN_SIBLINGS = (".mcap", ".serial.bin", ".log")
+
+
+def _keep_attempt(recording: Path) -> None:
+    """Move a broken attempt's files (<run>.mcap, <run>.serial.bin, <run>.log) to
+    <run>.attempt1.*: the recorder refuses to overwrite, and a record is never thrown away."""
+    stem = recording.name[:-len(".mcap")] if recording.name.endswith(".mcap") else recording.stem
+    for suffix in _RUN_SIBLINGS:
+        f = recording.with_name(stem + suffix)
+        if f.exists():
+            f.rename(recording.with_name(f"{stem}.attempt1{suffix}"))
 
 
 # -- measuring ------------------------------------------------------------------------------------
@@ -185,24 +211,26 @@ class _Contexts:
 
 
 def _measure_quantity(q: Quantity, ctxs: _Contexts, studies: dict, study_errors: dict,
-                      values: dict[str, float]) -> tuple[float, str, str]:
+                      values: dict[str, float]) -> tuple[float, str, str, float]:
+    """(value, verdict, note, resolution) of one quantity."""
     if q.metric == "derived":
         v = derive(q, values)
-        return v, ("COMPARED" if math.isfinite(v) else "INVALID"), "" if math.isfinite(v) else \
-            "an input quantity has no value"
+        if not math.isfinite(v):
+            return v, "INVALID", "an input quantity has no value", 0.0
+        return v, q.verdict(v), q.not_reproducible, 0.0
     if q.study:
         if q.study in study_errors:
-            return math.nan, "INVALID", study_errors[q.study]
+            return math.nan, "INVALID", study_errors[q.study], 0.0
         v = float(studies[q.study][dict(q.params)["key"]])
-        return v, q.verdict(v), q.not_reproducible
+        return v, q.verdict(v), q.not_reproducible, 0.0
     if q.aggregate:
         vals, notes = [], []
         for rid in q.runs:
             try:
                 ctx = ctxs.get(rid)
             except Exception as exc:  # noqa: BLE001
-                return math.nan, "INVALID", str(exc)
-            v, verdict, note = measure(q, ctx)
+                return math.nan, "INVALID", str(exc), 0.0
+            v, verdict, note, _res = measure_with_resolution(q, ctx)
             vals.append(v)
             if note:
                 notes.append(f"{rid}: {note}")
@@ -212,7 +240,7 @@ def _measure_quantity(q: Quantity, ctxs: _Contexts, studies: dict, study_errors:
             value = max(right) if right else math.nan
             note = f"per trial: {', '.join(_fmt(v) for v in vals)} deg"
             if not right:
-                return value, "FAIL", "no trial with the right polarity; " + note
+                return value, "FAIL", "no trial with the right polarity; " + note, 0.0
         elif q.aggregate == "polarity_failures":
             value = float(sum(1 for v in vals if not (math.isfinite(v) and abs(v) < 90.0)))
             note = f"of {len(vals)} trials"
@@ -220,12 +248,24 @@ def _measure_quantity(q: Quantity, ctxs: _Contexts, studies: dict, study_errors:
             raise ValueError(f"{q.key}: unknown aggregate {q.aggregate!r}")
         if notes:
             note += "; " + "; ".join(notes)
-        return value, q.verdict(value), note
+        return value, q.verdict(value), note, 0.0
     try:
         ctx = ctxs.get(q.runs[0])
     except Exception as exc:  # noqa: BLE001
-        return math.nan, "INVALID", str(exc)
-    return measure(q, ctx)
+        return math.nan, "INVALID", str(exc), 0.0
+    return measure_with_resolution(q, ctx)
+
+
+def _source_cell(q: Quantity) -> str:
+    """The rule's source, then what the measurement rests on that is the bench's own."""
+    out = q.rule.source
+    if q.definition:
+        out += f" | {q.definition}"
+    if q.at_speed_rpm is not None:
+        out += " | operating point checked (bench definition, see above)"
+    if q.calibration:
+        out += " | CALIBRATION: the plant was fitted to this number"
+    return out
 
 
 def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies: dict,
@@ -234,11 +274,13 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
     for c in claims:
         ctxs = _Contexts(outcomes)          # one claim's recordings in memory at a time
         values: dict[str, float] = {}
+        resolutions: dict[str, float] = {}
         qrows = []
         # derived quantities last: they read the others' values
         for q in sorted(c.quantities, key=lambda q: q.metric == "derived"):
-            v, verdict, note = _measure_quantity(q, ctxs, studies, study_errors, values)
+            v, verdict, note, res = _measure_quantity(q, ctxs, studies, study_errors, values)
             values[q.key] = v
+            resolutions[q.key] = res
             measured = _fmt(v, q.unit)
             if "lower bound" in note and math.isfinite(v):
                 measured = ">= " + measured
@@ -247,14 +289,15 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
                                            else "not measurable (see note)")
             qrows.append((q, Row(c.id, q.key, q.what, _fmt(q.paper_value, q.unit if not
                                                             isinstance(q.paper_value, str) else ""),
-                                 measured, q.unit, q.rule.text(), q.rule.source, verdict,
-                                 note, q.diagnostic, v)))
+                                 measured, q.unit,
+                                 "no verdict" if q.calibration else q.rule.text(),
+                                 _source_cell(q), verdict, note, q.diagnostic, v)))
         order = {q.key: i for i, q in enumerate(c.quantities)}
         rows += [r for _, r in sorted(qrows, key=lambda x: order[x[0].key])]
         nr = frozenset(r.key for _, r in qrows if r.verdict == "NOT REPRODUCIBLE")
         off = frozenset(r.key for _, r in qrows if "did not hold" in r.note)
         for rel in c.relations:
-            vals, verdict, note = relate(rel, values, nr, off)
+            vals, verdict, note = relate(rel, values, nr, off, resolutions)
             sym = {"<": " < ", ">": " > ", "=": " = "}[rel.op]
             rows.append(Row(c.id, rel.key, rel.what, rel.paper,
                             sym.join(_fmt(v) for v in vals), "",
@@ -270,22 +313,46 @@ def _short_fault(note: str) -> str:
     import re
     m = re.search(r"fault (\w+) at seq (\d+)", note)
     if m:
-        return f"the controller faulted ({m.group(1)}) at cycle {m.group(2)}"
+        cause = re.search(r"\[([^\];]+)", note)       # diagnose_fault's first clause
+        return (f"the controller faulted ({m.group(1)}"
+                + (f": {cause.group(1).strip()}" if cause else "") + f") at cycle {m.group(2)}")
     return "the run ended early"
 
 
 def claim_verdict(rows: list[Row]) -> str:
     """A claim's summary over its non-diagnostic rows: FAIL if any fails, INVALID if any could
     not be measured, PASS if every pass/fail row passed, else COMPARED / NOT REPRODUCIBLE."""
-    vs = [r.verdict for r in rows if not r.diagnostic]
+    vs = [r.verdict for r in rows if not r.diagnostic and r.verdict != "CALIBRATION"]
     for v in ("FAIL", "INVALID"):
         if v in vs:
             return v
     if "PASS" in vs:
         return "PASS" if all(v in ("PASS", "COMPARED") for v in vs) else "PARTLY"
-    if "NOT REPRODUCIBLE" in vs:
-        return "NOT REPRODUCIBLE"
+    for v in ("NOT REPRODUCIBLE", "NOT RESOLVED"):
+        if v in vs:
+            return v
     return "COMPARED"
+
+
+def _css_class(verdict: str) -> str:
+    return verdict.replace(" ", "_")
+
+
+#: what the report says about the resolution of the controller's telemetry and the bench's own
+#: definitions (the same text in report.md and report.html)
+RESOLUTION_TEXT = (
+    f"Telemetry resolution (docs/protocol.md): the controller reports its speed estimate in "
+    f"steps of {TELEM_OMEGA_LSB_RAD_S:g} rad/s electrical ({TELEM_OMEGA_LSB_RAD_S * 60 / (2 * math.pi) / 4:.3f} "
+    f"rpm at p = 4, {TELEM_OMEGA_LSB_RAD_S * 60 / (2 * math.pi) / 3:.3f} rpm at p = 3), its angle in "
+    f"{TELEM_THETA_LSB_RAD:.3g} rad, its EMF in {TELEM_EMF_LSB_V:g} V and its i_q reference in "
+    f"{TELEM_IQ_LSB_A * 1e3:g} mA. Where a host reference estimator ran on the same samples "
+    f"(the same C, recorded in float64) the speed metrics are computed from it; otherwise from "
+    f"the telemetry, and a relation whose difference is below one LSB is NOT RESOLVED (not "
+    f"FAIL).")
+DEFINITIONS_TEXT = (
+    "Bench definitions (not the papers'; each row that rests on one says so in its source "
+    "column): " + OPERATING_POINT_DEF + "; the estimator response time, the G8 settling band, "
+    "the Y3 chattering index and the Y5 2 % tracking criterion.")
 
 
 # -- writing --------------------------------------------------------------------------------------
@@ -302,8 +369,11 @@ def write_markdown(rep: Report) -> Path:
     L += ["Verdicts: **PASS** / **FAIL** against a rule from the paper; **COMPARED**: the paper "
           "gives a value without a bound or a stated resolution, so the value is compared, no "
           "pass/fail; **NOT REPRODUCIBLE**: the reason is given; **INVALID**: the bench could "
-          "not measure. Rows marked *diagnostic* are not the paper's setup (e.g. dead time off, "
-          "to locate a failure) and do not count for the claim.", ""]
+          "not measure; **NOT RESOLVED**: a relation whose difference is below the resolution of "
+          "what it was measured from; **CALIBRATION**: the plant was fitted to this number, so "
+          "the row is the fit's input (no verdict). Rows marked *diagnostic* are not the paper's "
+          "setup (e.g. dead time off, to locate a failure) and do not count for the claim.", ""]
+    L += [RESOLUTION_TEXT, "", DEFINITIONS_TEXT, ""]
     L += ["| claim | verdict | what |", "|---|---|---|"]
     by_claim = {c.id: [r for r in rep.rows if r.claim == c.id] for c in rep.claims}
     for c in rep.claims:
@@ -331,7 +401,9 @@ def write_markdown(rep: Report) -> Path:
             L.append("Runs: " + "; ".join(
                 f"`{o.run.id}` ({o.run.name}{': ' + o.run.label if o.run.label else ''}) "
                 f"{'ok' if o.ok else 'ended early: ' + o.error.splitlines()[0] if o.error else ''}"
-                f"{', reused' if o.reused else f', {o.wall_s:.1f} s'}" for o in runs))
+                f"{', reused' if o.reused else f', {o.wall_s:.1f} s'}"
+                f"{f' (second attempt; the first ended: {o.retried})' if o.retried else ''}"
+                for o in runs))
             L.append("")
         for p in rep.plots.get(c.id, []):
             L += [f"![{c.id}]({p.relative_to(rep.out_dir)})", ""]
@@ -349,7 +421,9 @@ table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
 td, th { border: 1px solid #bbb; padding: 3px 6px; vertical-align: top; }
 th { background: #eee; }
 .PASS { background: #c8f0c8; } .FAIL { background: #f6c4c4; } .COMPARED { background: #e8e8f8; }
-.INVALID { background: #f6e0a8; } .NOT { background: #ead8f0; } .PARTLY { background: #f0f0b0; }
+.INVALID { background: #f6e0a8; } .NOT_REPRODUCIBLE { background: #ead8f0; }
+.PARTLY { background: #f0f0b0; } .NOT_RESOLVED { background: #dde8ee; }
+.CALIBRATION { background: #eeeeee; }
 tr.diag td { color: #666; font-style: italic; }
 img { max-width: 100%; border: 1px solid #ccc; margin: 0.5em 0; }
 code { background: #f4f4f4; }
@@ -370,13 +444,16 @@ def write_html(rep: Report) -> Path:
              f"Command: <code>.venv/bin/bench claims --run --out {e(str(rep.out_dir))}</code>.</p>")
     H.append("<p>Verdicts: PASS / FAIL against a rule from the paper; COMPARED: value compared, "
              "no pass/fail (the paper gives no bound and no resolution); NOT REPRODUCIBLE (reason "
-             "given); INVALID: the bench could not measure. <i>Diagnostic</i> rows are not the "
+             "given); INVALID: the bench could not measure; NOT RESOLVED: a relation whose "
+             "difference is below the resolution of what it was measured from; CALIBRATION: the "
+             "plant was fitted to this number (no verdict). <i>Diagnostic</i> rows are not the "
              "paper's setup and do not count.</p>")
+    H.append(f"<p>{e(RESOLUTION_TEXT)}</p><p>{e(DEFINITIONS_TEXT)}</p>")
     by_claim = {c.id: [r for r in rep.rows if r.claim == c.id] for c in rep.claims}
     H.append("<table><tr><th>claim</th><th>verdict</th><th>what</th></tr>")
     for c in rep.claims:
         v = claim_verdict(by_claim[c.id])
-        H.append(f"<tr><td><a href='#{c.id}'>{c.id}</a></td><td class='{v.split()[0]}'>{v}</td>"
+        H.append(f"<tr><td><a href='#{c.id}'>{c.id}</a></td><td class='{_css_class(v)}'>{v}</td>"
                  f"<td>{e(c.text)}</td></tr>")
     H.append("</table>")
     for c in rep.claims:
@@ -391,7 +468,7 @@ def write_html(rep: Report) -> Path:
             what = ("relation: " if r.is_relation else "") + r.what
             H.append(f"<tr class='{'diag' if r.diagnostic else ''}'><td>{e(what)}</td>"
                      f"<td>{e(r.paper)}</td><td>{e(r.measured)}</td><td>{e(r.rule)}</td>"
-                     f"<td>{e(r.source)}</td><td class='{r.verdict.split()[0]}'>{e(r.verdict)}"
+                     f"<td>{e(r.source)}</td><td class='{_css_class(r.verdict)}'>{e(r.verdict)}"
                      f"</td><td>{e(r.note)}</td></tr>")
         H.append("</table>")
         for p in rep.plots.get(c.id, []):

@@ -362,9 +362,14 @@ def plot_g1(rep):
     rows = {r.key: r.value for r in rep.rows if r.claim == "G1"}
     ms = [m for m, _ in G1_MS]
     axes[1].loglog(ms, [t for _, t in G1_MS], "ks--", label="paper THD")
-    axes[1].loglog(ms, [rows.get(f"G1.m{m:g}.thd", np.nan) for m in ms], "o-", label="bench THD")
+    axes[1].loglog(ms, [rows.get(f"G1.m{m:g}.thd", np.nan) for m in ms], "o-",
+                   label="bench THD (10 kHz, closed loop)")
+    from .claims import G1_STEPS_US
+    for ts_us in G1_STEPS_US[1:]:
+        axes[1].loglog(ms, [max(rows.get(f"G1.step{ts_us:g}us.m{m:g}.thd", np.nan), 1e-5)
+                            for m in ms], "x:", label=f"host observer, Ts = {ts_us:g} us")
     axes[1].set_xlabel("m [1/A]")
-    axes[1].set_ylabel("THD of e_alpha [%]")
+    axes[1].set_ylabel("THD+N of e_alpha [%] (floored at 1e-5)")
     axes[1].set_title("G1 (Fig. 7e): THD vs m", fontsize=9)
     axes[1].legend(fontsize=7)
     axes[1].grid(alpha=0.3, which="both")
@@ -438,22 +443,25 @@ def plot_g5(rep):
 def plot_g6(rep):
     fig, axes = plt.subplots(1, 3, figsize=(15, 4))
     for ax, rpm in zip(axes[:2], (2000, 3000)):
-        for state in ("off", "on"):
+        for state in ("off", "on", "naive"):
             rec = _load(rep, f"G67.{rpm}.{state}")
             if rec is None:
                 continue
             w = {2000: (2.1, 2.2), 3000: (2.7, 2.8)}[rpm]
             _pee_panel(ax, rec, *w, f"{rpm} rpm: PEE without / with pre-compensation",
-                       label=f"compensation {state}")
+                       label={"off": "compensation off", "on": "compensation on",
+                              "naive": "Gong's naive baseline"}[state])
         ax.legend(fontsize=7)
     rows = {r.key: r.value for r in rep.rows if r.claim == "G6"}
     speeds = [500, 2000, 3000]
     axes[2].bar(np.arange(3) - 0.2, [rows.get(f"G6.{s}.off.iq", np.nan) for s in speeds], 0.4,
-                label="i_q without")
+                label="controller's i_q without")
     axes[2].bar(np.arange(3) + 0.2, [rows.get(f"G6.{s}.on.iq", np.nan) for s in speeds], 0.4,
-                label="i_q with")
+                label="controller's i_q with")
+    axes[2].plot([-0.2, 0.2, 0.8, 1.2], [0.87, 0.83, 1.15, 1.08], "k*", ms=9,
+                 label="paper (Gong V-B)")
     axes[2].set_xticks(np.arange(3), [f"{s} rpm" for s in speeds])
-    axes[2].set_ylabel("mean i_q [A]")
+    axes[2].set_ylabel("mean i_q reference of the controller [A]")
     axes[2].set_title("G6: i_q at no load (paper: -4.6 / -6.1 / -7.5 % with compensation)",
                       fontsize=9)
     axes[2].legend(fontsize=7)

@@ -1,10 +1,12 @@
-"""The claims registry (bench/claims.py) without running anything: all 19 claims, every rule
-with a source and none of the old unsourced '~' tolerances, every run's scenario loads, every
-window inside its run, relations over existing quantities; and the TOML writer behind derived
-scenarios."""
+"""The claims registry (bench/claims.py): all 19 claims, every rule with a source and none of the
+old unsourced '~' tolerances, every run's scenario loads, every window inside its run, relations
+over existing quantities (labels agreeing with their operators, ties below one telemetry LSB not
+resolved); the fault diagnosis and the over-current trip below every ADC's full scale; three
+short runaway runs end as named over-currents; and the TOML writer behind derived scenarios."""
 import math
 import tomllib
 
+import numpy as np
 import pytest
 
 from bench import claims as cl
@@ -108,3 +110,123 @@ def test_rules():
     w = cl.within(1.5, 2.5, "s")
     assert (w.verdict(1.5), w.verdict(2.5), w.verdict(1.46)) == ("PASS", "FAIL", "FAIL")
     assert cl.compared("s").verdict(123.0) == "COMPARED"
+
+
+def test_relation_label_must_match_its_operator():
+    with pytest.raises(ValueError, match="does not match"):
+        cl.Relation("x", "with <= without", ("a", "b"), "<", "", "src")
+    cl.Relation("x", "with < without", ("a", "b"), "<", "", "src")       # fine
+
+
+def test_relation_below_one_lsb_is_not_resolved():
+    """A tie (or any difference under one LSB of what the values came from) cannot decide an
+    ordering: NOT RESOLVED, never FAIL; one LSB or more decides it."""
+    lsb = cl.speed_lsb_rpm(4)
+    assert lsb == pytest.approx(0.1 / 4 * 60 / (2 * math.pi))           # 0.239 rpm
+    assert cl.speed_lsb_rpm(3) == pytest.approx(0.3183, abs=1e-4)
+    rel = cl.Relation("r", "with < without", ("on", "off"), "<", "", "src")
+    res = {"on": lsb, "off": lsb}
+    assert cl.relate(rel, {"on": 0.3773, "off": 0.3773}, resolutions=res)[1] == "NOT RESOLVED"
+    assert cl.relate(rel, {"on": 0.30, "off": 0.3773}, resolutions=res)[1] == "NOT RESOLVED"
+    assert cl.relate(rel, {"on": 1.049 + lsb, "off": 1.049}, resolutions=res)[1] == "FAIL"
+    assert cl.relate(rel, {"on": 1.049, "off": 1.049 + lsb}, resolutions=res)[1] == "PASS"
+    assert cl.relate(rel, {"on": 0.3773, "off": 0.3773})[1] == "FAIL"      # exact values: a tie
+    chain = cl.Relation("c", "falls", ("a", "b", "c"), ">", "", "src")
+    r = {"a": 0.1, "b": 0.1, "c": 0.1}
+    # one pair resolved and wrong outweighs an unresolved one
+    assert cl.relate(chain, {"a": 3.0, "b": 3.05, "c": 1.0}, resolutions=r)[1] == "NOT RESOLVED"
+    assert cl.relate(chain, {"a": 3.0, "b": 3.05, "c": 3.5}, resolutions=r)[1] == "FAIL"
+
+
+def test_derived_ratio_and_rule_on_derived_rows():
+    q = cl.Quantity("d", "", "derived", "1/3", cl.compared("s"),
+                    params=(("op", "ratio"), ("a", "g"), ("b", "s")))
+    assert cl.derive(q, {"g": 7.0, "s": 23.0}) == pytest.approx(7 / 23)
+    faster = cl.CLAIMS["Y5"].quantities[[q.key for q in cl.CLAIMS["Y5"].quantities]
+                                        .index("Y5.faster")]
+    assert faster.verdict(3.0) == "PASS" and faster.verdict(3.34) == "FAIL"   # '2-3 cycles'
+
+
+def test_calibration_input_has_no_verdict():
+    y4 = {q.key: q for q in cl.CLAIMS["Y4"].quantities}
+    assert y4["Y4.10.off.THD"].verdict(8.61) == "CALIBRATION"
+    calibrated = [k for k, q in y4.items() if q.calibration]
+    assert calibrated == ["Y4.10.off.THD"]      # every other Y4 row is the check
+
+
+def test_diagnose_fault_names_a_clipped_overcurrent_not_a_sensor_fault():
+    """A runaway whose currents pass the ADC's full scale: the clipped readings stop summing to
+    zero and the sum check trips SENSOR_FAULT. The diagnosis must say over-current."""
+    t = np.arange(200) * 1e-4
+    true = np.stack([14.0 * np.sin(300 * t + k * 2 * np.pi / 3) for k in range(3)])
+    read = np.clip(true, -10.0, 10.0 - 10.0 / 2048)
+    why = cl.diagnose_fault("SENSOR_FAULT", true, read, 10.0, 565.0, 10.0, 899.0)
+    assert why.startswith("not a sensor fault: an over-current beyond the ADC full scale")
+    assert "lost its operating point" in why and "14 A" in why
+    # inside the range: a real plausibility trip, said as such
+    small = 0.5 * true / 14.0
+    assert cl.diagnose_fault("SENSOR_FAULT", small, small + 0.4, 10.0, 10.0, 10.0, 10.2) \
+        .startswith("sensor plausibility trip")
+    oc = cl.diagnose_fault("OVERCURRENT", true, read, 10.0, -273.0, 10.0, 158.0, 10009854)
+    assert oc.startswith("over-current: the drive had lost its operating point and its estimate")
+    assert oc.endswith("phase b read 9.854 A at the trip")           # FAULT_CTRL detail
+    assert cl.diagnose_fault("STARTUP_FAILED", true, read, 10.0, 0.0, 10.0, 0.0) == ""
+
+
+def _plan_runs():
+    from bench.beyond import plan
+    runs = dict(cl.all_runs())
+    runs.update({r.id: r for r in plan(quick=True).runs})
+    return list(runs.values())
+
+
+def _ctrl_default_trip_a() -> float:
+    from firmware_stub._binding import ffi, lib
+    cfg = ffi.new("ctrl_config_t *")
+    lib.ctrl_config_defaults(cfg)
+    return float(cfg.i_trip_a)
+
+
+@pytest.mark.parametrize("run", _plan_runs(), ids=lambda r: r.id)
+def test_overcurrent_trips_before_the_adc_clips(run):
+    """No claim run's verdict may rest on an unexplained SENSOR_FAULT: where the plant's ADC is
+    on, the over-current trip sits below its full scale, so a current the ADC cannot read (a
+    clipped reading, which no longer sums to zero with the others) trips OVERCURRENT on that
+    very sample, before the sum check's 5 ms filter can call it a sensor fault."""
+    from plant_rt.plant import Plant
+    from plant_rt.profile import load_profile
+    from protocol.messages import Param
+    scn = scenario_for(run)
+    p = Plant(load_profile(scn.profile), **scn.plant_overrides).params
+    if not p.adc_model:
+        return
+    trip = scn.controller_params.get(Param.I_MAX_TRIP_A, _ctrl_default_trip_a())
+    assert trip < p.adc_full_scale_a, (run.id, trip, p.adc_full_scale_a)
+    # and above what the scenario commands (I-f, alignment, the speed loop's limit)
+    asked = max(scn.controller_params.get(Param[k], 0.0) for k in ("IQ_MAX_A", "IF_I_A",
+                                                                    "ALIGN_I_A"))
+    assert asked < trip, (run.id, asked, trip)
+
+
+@pytest.mark.parametrize("run_id", ["H2.smo", "H2.smo.nodt", "Y2.conventional.nodt"])
+def test_runaways_end_as_named_overcurrents(tmp_path, run_id):
+    """Runs that ended in SENSOR_FAULT before the trip level was set below the ADC's full scale
+    (the drive ran away, the currents clipped): they now end in OVERCURRENT, and the report's
+    note names what the plant shows."""
+    from bench.check import build_context, scenario_of
+    from bench.recording import load_recording
+    from bench.runner import run_scenario
+    run = cl.all_runs()[run_id]
+    out = tmp_path / f"{run_id}.mcap"
+    res = run_scenario(scenario_for(run), out_path=out, progress=False)
+    assert not res.ok and "fault OVERCURRENT" in res.error, res.error
+    rec = load_recording(out)
+    kind, why = cl.run_failure(rec)
+    assert kind == "FAIL" and "[over-current" in why and "phase current up to" in why, why
+    assert "(reference 10)" in why and "read" in why, why       # the scenario's reference
+    claim = next(c for c in cl.CLAIMS.values() if any(r.id == run_id for r in c.runs))
+    ctx = build_context(rec, scenario_of(rec))
+    for q in claim.quantities:
+        if run_id in q.runs and not q.study and not q.aggregate:
+            _, verdict, note = cl.measure(q, ctx)
+            assert "SENSOR_FAULT" not in note and "over-current" in note, (q.key, note)

@@ -152,3 +152,72 @@ def test_pll_locked_pi_off_is_realigned_after_the_resync_time():
     assert np.all(err[:99] > 3.0)          # pi off until the 10 ms have passed ...
     assert np.all(err[100:] < 1e-3)        # ... then on the rotor, and the PLL with it
     assert abs(wrap_pi(pll.theta_rad - theta[-1] - w0 * ts)) < 0.01
+
+
+def _ramp_through_zero(w0=209.4, accel=-1000.0, t_hold=0.3, i_q=1.0, ts=1e-4):
+    """Currents and voltages of the gong2020 motor (Table I) whose electrical speed ramps from
+    w0 through zero to -w0 and holds there: i = i_q (-sin, cos)(theta), the voltage over
+    [t_k-1, t_k] = R i + L di/dt + e at the interval's middle."""
+    r, l, psi = P["rs_ohm"], P["ls_h"], P["psi_f_wb"]
+    t_rev = 2 * w0 / abs(accel)
+    n = int(round((t_rev + t_hold) / ts))
+    t = np.arange(n + 1) * ts
+    w = np.where(t < t_rev, w0 + accel * t, -w0)
+    th = 0.3 + np.concatenate([[0.0], np.cumsum((w[1:] + w[:-1]) / 2 * ts)])
+    ia, ib = -i_q * np.sin(th), i_q * np.cos(th)
+    thm, wm = (th[1:] + th[:-1]) / 2, (w[1:] + w[:-1]) / 2
+    va = np.concatenate([[0.0], r * (ia[1:] + ia[:-1]) / 2 + l * np.diff(ia) / ts
+                         - wm * psi * np.sin(thm)])
+    vb = np.concatenate([[0.0], r * (ib[1:] + ib[:-1]) / 2 + l * np.diff(ib) / ts
+                         + wm * psi * np.cos(thm)])
+    return t, w, th, ia, ib, va, vb
+
+
+def test_sign_smo_adaptive_gain_follows_the_emf_it_observes_through_zero():
+    """The adaptive gain k = k_factor |E| (eq. 5) takes |E| from the PLL speed, but not above
+    twice the observer's own EMF (LPF attenuation undone): near zero the PLL follows the angle of
+    the chattering and its speed can stray far above the true one; a gain following it grows the
+    chattering, which feeds the stray speed (in closed loop the drive then hung at zero). Here
+    the library's settings (k_min 5 V, k_factor 1.5, wc 1000 rad/s) on a ramp through zero:
+    the gain stays at its floor while |E| < k_min / k_factor, and the angle is the rotor's
+    after the reversal."""
+    t, w, th, ia, ib, va, vb = _ramp_through_zero()
+    est = SmoSign(**P)                              # k_v = 0: the adaptive gain
+    cfg = est.config
+    out = np.empty((len(t), 3))
+    out[0] = 0.0, 0.0, cfg["k_min_v"]
+    for k in range(1, len(t)):
+        o = est.step(ia[k], ib[k], va[k], vb[k])
+        out[k] = o.theta_e_rad, o.omega_e_rad_s, est.state.k_now_v
+    weak = np.abs(w) * P["psi_f_wb"] * cfg["k_factor"] < 0.5 * cfg["k_min_v"]
+    assert np.any(weak) and np.all(out[weak, 2] == pytest.approx(cfg["k_min_v"])), \
+        out[weak, 2].max()
+    # the speed estimate did stray near zero (what drove the old gain up) ...
+    assert np.max(np.abs(out[weak, 1] - w[weak])) > 10.0
+    # ... and at -500 rpm the angle and the signed speed are the rotor's
+    late = t > t[-1] - 0.1
+    assert np.max(np.abs(wrap_pi(out[late, 0] - th[late]))) < 0.25
+    assert np.max(np.abs(out[late, 1] - w[late])) < 0.02 * abs(w[-1])
+    # at speed the cap is off: k = k_factor |E| as before (|w^| psi_f, within the PLL's ripple)
+    e_true = abs(w[-1]) * P["psi_f_wb"]
+    assert np.max(np.abs(out[late, 2] / (cfg["k_factor"] * e_true) - 1.0)) < 0.02
+
+
+def test_sign_smo_closes_the_loop_through_a_reversal(tmp_path):
+    """beyond_reversal (+500 -> -500 rpm at 1.5 s, gong2020) with the sign SMO and the library's
+    adaptive gain closing the loop: the drive reaches -500 rpm and holds it on the rotor angle
+    (before the gain rule above it hung at zero speed with its estimate at about 400 rpm)."""
+    from bench import channels as ch
+    from bench.recording import load_recording
+    from bench.runner import run_scenario
+    from bench.scenario import derive_scenario
+    scn = derive_scenario("beyond_reversal", "beyond_reversal@sign_test",
+                          (("controller.estimator", "SMO_SIGN"),))
+    out = tmp_path / "rev.mcap"
+    res = run_scenario(scn, out_path=out, progress=False)
+    assert res.ok, res.error
+    rec = load_recording(out)
+    st, te = rec.topic(ch.PLANT_STATE), rec.topic(ch.CONTROLLER_TELEMETRY)
+    late = st["t_s"] >= 2.0
+    assert np.all(np.abs(st["speed_rpm"][late] + 500.0) < 25.0)
+    assert np.max(np.abs(wrap_pi(te["pee_rad"][late]))) < 0.3

@@ -178,3 +178,20 @@ def test_delay_estimate_on_piecewise_linear_currents():
 
 def test_percent_change():
     assert metrics.percent_change(1.15, 1.08) == pytest.approx(-6.087, abs=1e-3)
+
+
+def test_mean_angle_does_not_break_at_pi():
+    """Circular mean: angles scattered about +-pi average to pi, not to 0 (their plain mean)."""
+    x = np.array([math.pi - 0.1, -math.pi + 0.1, math.pi - 0.05, -math.pi + 0.05])
+    assert abs(abs(metrics.mean_angle_rad(x)) - math.pi) < 1e-12
+    assert np.mean(x) == pytest.approx(0.0, abs=1e-12)           # what it must not be
+    assert metrics.mean_angle_rad(np.array([0.2, 0.4, np.nan])) == pytest.approx(0.3, abs=1e-12)
+    assert math.isnan(metrics.mean_angle_rad(np.array([np.nan])))
+
+
+def test_holds_speed_is_ten_percent_plus_half_rpm():
+    assert metrics.holds_speed(10.0 + 1.5, 10.0)            # 10 % + 0.5 rpm = 1.5 rpm
+    assert not metrics.holds_speed(10.0 + 1.51, 10.0)
+    assert metrics.holds_speed(-550.0, -500.0)              # signed reference
+    assert not metrics.holds_speed(0.6, 0.0) and metrics.holds_speed(0.5, 0.0)
+    assert not metrics.holds_speed(math.nan, 10.0)

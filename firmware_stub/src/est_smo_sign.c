@@ -2,6 +2,9 @@
 
 #include <math.h>
 
+/** The adaptive gain's |e| may exceed the observed |E^| (LPF undone) by this factor at most. */
+#define EST_SMO_SIGN_EMF_CAP 2.0f
+
 void est_smo_sign_default_config(est_smo_sign_config_t *cfg, float rs_ohm, float ls_h,
                                  float psi_f_wb, float ts_s)
 {
@@ -89,11 +92,20 @@ const est_output_t *est_smo_sign_step(est_smo_sign_t *s, fw_vec2_t i_ab_a, fw_ve
     s->out.e_alpha_v = s->e_hat_v.x;
     s->out.e_beta_v = s->e_hat_v.y;
 
-    /* gain for the next step (eq. 5: k >= max|e|) */
+    /* gain for the next step (eq. 5: k >= max|e|). The EMF |e| = |w| psi_f is taken from the
+     * speed estimate, but not above twice what the observer's own EMF supports (|E^| with the
+     * LPF's attenuation undone; twice: at speed |E^| ripples some 20 % about |e| and must not
+     * modulate the gain). Near zero speed the PLL follows the angle of the chattering, its speed
+     * can stray far above the true one, and a gain following it would make the chattering - and
+     * so the stray speed - grow: a positive feedback that held the drive at zero speed in a
+     * reversal (docs/estimators_smo.md). */
     if (c->k_v > 0.0f) {
         s->k_now_v = c->k_v;
     } else {
-        float k = c->k_factor * fabsf(s->out.omega_e_rad_s) * c->psi_f_wb;
+        const float w_over_wc = s->out.omega_e_rad_s / c->wc_rad_s;
+        const float e_speed = fabsf(s->out.omega_e_rad_s) * c->psi_f_wb;
+        const float e_obs = EST_SMO_SIGN_EMF_CAP * e_mag * sqrtf(1.0f + w_over_wc * w_over_wc);
+        const float k = c->k_factor * (e_speed < e_obs ? e_speed : e_obs);
         s->k_now_v = k > c->k_min_v ? k : c->k_min_v;
     }
     return &s->out;

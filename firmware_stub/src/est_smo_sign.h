@@ -13,7 +13,10 @@
  * Discretisation: the current model is integrated exactly over one period with the voltage and
  * switching term held (zero-order hold): i^[k+1] = F i^[k] + G (u - z), F = exp(-R Ts/Ls),
  * G = (1 - F)/R. The LPF is the ZOH equivalent of wc/(s + wc). The gain k follows eq. (5):
- * k >= max|e|; with k_v <= 0 it adapts as k = max(k_min_v, k_factor * |w^e| * psi_f).
+ * k >= max|e|; with k_v <= 0 it adapts as
+ *   k = max(k_min_v, k_factor * min(|w^e| psi_f, 2 |E^| sqrt(1 + (w^e/wc)^2)))
+ * i.e. |e| from the speed estimate, capped by the EMF the observer sees (LPF attenuation undone):
+ * near zero speed a stray PLL speed must not raise the gain (a positive feedback, see the .c).
  *
  * Step inputs: the currents sampled at t_k and the voltage applied over [t_{k-1}, t_k].
  */
@@ -29,7 +32,7 @@ typedef struct {
     float psi_f_wb;        /**< PM flux linkage (for eq. 10 and the adaptive gain) */
     float ts_s;            /**< step period */
     float k_v;             /**< switching gain k; <= 0 selects the adaptive gain */
-    float k_factor;        /**< adaptive gain: k = k_factor * |w^e| * psi_f ... */
+    float k_factor;        /**< adaptive gain: k = k_factor * |w^e| * psi_f (capped, above) ... */
     float k_min_v;         /**< ... but not below k_min_v */
     float wc_rad_s;        /**< LPF cut-off */
     int speed_from_emf;    /**< 1: Yuan eq. 10; 0: PLL on the angle */
