@@ -266,6 +266,13 @@ class Runner:
             params[Param.CTRL_DELAY_S] = float(self.plant.params.t_delay_s)
         params.update(estimator_defaults(self.scn.estimator, self.profile, self.ts_s,
                                          self.scn.controller_params))
+        pp = self.plant.params
+        if bool(pp.adc_model) and float(pp.adc_full_scale_a) > 0.0:
+            # a drive's over-current trip sits below its ADC's full scale: a clipped reading is
+            # not a measurement (and the current-sum check would call it a sensor fault). 2 %
+            # below: 40 LSB of a 12-bit ADC, far above its noise (docs/claims.md, finding 1).
+            trip = 0.98 * float(pp.adc_full_scale_a)
+            params[Param.I_MAX_TRIP_A] = min(params.get(Param.I_MAX_TRIP_A, trip), trip)
         params.update(self.scn.controller_params)
         return params
 
