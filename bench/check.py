@@ -128,7 +128,7 @@ CHECK_FIELDS: dict[str, tuple[str, ...]] = {
                      "i_alpha_a", "i_beta_a"),
     ch.PLANT_SENSE: ("t_s", "seq", "i_a_a", "i_b_a", "i_c_a", "v_dc_v"),
     ch.CONTROLLER_TELEMETRY: ("t_s", "theta_hat_rad", "speed_hat_rpm", "e_alpha_v", "e_beta_v",
-                              "duty_a", "duty_b", "duty_c"),
+                              "duty_a", "duty_b", "duty_c", "i_q_ref_a"),
     "/reference/*": ("t_s", "theta_hat_rad", "speed_hat_rpm", "e_alpha_v", "e_beta_v"),
     ch.LINK_FRAMES: ("t_s", "seq", "tx"),   # read only with dual sampling: the SENSE_DUAL frames
 }

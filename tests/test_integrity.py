@@ -341,9 +341,9 @@ def test_a_long_window_is_checked_without_keeping_unused_fields(tmp_path):
     assert rows[ch.PLANT_STATE] == rows[ch.CONTROLLER_TELEMETRY] == 15000
     assert rows["/reference/SMO_TANH"] <= 15000
     kept = sum(v.nbytes for cols in per_cycle.values() for v in cols.values())
-    assert sum(len(cols) for cols in per_cycle.values()) == 27
+    assert sum(len(cols) for cols in per_cycle.values()) == 28
     assert kept == 8 * sum(len(cols) * rows[t] for t, cols in per_cycle.items())
-    assert kept / 1.5 <= 27 * 8 * 10_000                  # 2.16 MB per second of window at 10 kHz
+    assert kept / 1.5 <= 28 * 8 * 10_000                  # 2.24 MB per second of window at 10 kHz
     full = load_recording(out)
     everything = sum(v.nbytes for t in per_cycle for v in full.topics[t].values())
     assert kept < 0.6 * everything   # and the topics it does not read at all come on top

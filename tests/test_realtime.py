@@ -118,10 +118,24 @@ def undisturbed(t_s: np.ndarray, stalls: list[tuple[float, float]],
     return ok
 
 
+def _stalls_of(out: Path, ts_s: float) -> list[tuple[float, float]]:
+    try:
+        return host_stalls(load_recording(out).topic(ch.TIMING), ts_s)
+    except Exception:  # noqa: BLE001 - no readable /timing: no stall known
+        return []
+
+
 def run_real_time(scn, out: Path, *, need_clean_from_s: float | None = None, **kwargs):
-    """Run a real-time scenario; repeat once, then skip with the figures, if the machine lost
-    more than LOST_PERIODS_LIMIT of the periods or (with need_clean_from_s) left less than
-    MIN_CLEAN_S of undisturbed time after need_clean_from_s."""
+    """Run a real-time scenario; repeat once, then skip with the figures, if the host, not the
+    loop, decided the run:
+
+    * with ``need_clean_from_s`` (the hold tests): the host's stalls (host_stalls, from the
+      run's own /timing) left less than MIN_CLEAN_S undisturbed after need_clean_from_s, or the
+      run ended early within RECOVERY_S of a stall (a trip the stall caused). Scattered single
+      misses do not decide anything: the undisturbed samples are judged whatever their number;
+    * without it: more than LOST_PERIODS_LIMIT of the periods were lost.
+
+    A run that ended early with no stall before it is returned: the test then fails, as it must."""
     why = ""
     for attempt in (1, 2):
         if attempt == 2:
@@ -131,20 +145,26 @@ def run_real_time(scn, out: Path, *, need_clean_from_s: float | None = None, **k
         lost = (t.get("overruns", 0) + t.get("missed", 0)) / max(result.cycles_done, 1)
         why = (f"{lost:.1%} of the periods were lost ({t.get('overruns')} bench overruns, "
                f"{t.get('missed')} missed duties; jitter p99 {t.get('jitter_p99_us', 0):.0f} us)")
-        if lost > LOST_PERIODS_LIMIT:
-            continue
-        if need_clean_from_s is None or not result.ok or not out.exists():
+        if need_clean_from_s is None:
+            if lost > LOST_PERIODS_LIMIT:
+                continue
             return result
-        rec = load_recording(out)
-        stalls = host_stalls(rec.topic(ch.TIMING), result.ts_s)
-        state_t = rec.topic(ch.PLANT_STATE)["t_s"]
-        window = state_t >= need_clean_from_s
-        clean = np.count_nonzero(undisturbed(state_t, stalls) & window)
+        stalls = _stalls_of(out, result.ts_s) if out.exists() else []
+        if not result.ok:
+            t_end = result.cycles_done * result.ts_s
+            if any(b >= t_end - RECOVERY_S for _, b in stalls):
+                why = (f"the run ended {1e3 * (t_end - max(b for _, b in stalls)):.0f} ms after a "
+                       f"host stall ({len(stalls)} stall(s), {why})")
+                continue
+            return result
+        state_t = load_recording(out).topic(ch.PLANT_STATE)["t_s"]
+        clean = np.count_nonzero(undisturbed(state_t, stalls) & (state_t >= need_clean_from_s))
         if clean * result.ts_s >= MIN_CLEAN_S:
             return result
         why = (f"host stalls left {clean * result.ts_s:.3f} s undisturbed after "
-               f"t = {need_clean_from_s} s: " + ", ".join(f"{a:.4f}-{b:.4f} s" for a, b in stalls))
-    pytest.skip(f"this machine could not keep real time: {why} twice; see bench.perf.loop"
+               f"t = {need_clean_from_s} s: " + ", ".join(f"{a:.4f}-{b:.4f} s" for a, b in stalls[:8])
+               + f" ({why})")
+    pytest.skip(f"this machine could not keep real time: {why}, twice; see bench.perf.loop"
                 + (f"; the run ended: {result.error}" if result.error else ""))
 
 
@@ -214,18 +234,25 @@ def test_real_time_closes_the_loop_and_holds_500_rpm(tmp_path, rate_hz, update):
     assert rec.run["mode"] == "realtime" and rec.run["duty_update"] == update
 
 
+#: the free-running stub: its timer's phase after the first SENSE. A pty carries a frame one way
+#: in 20-60 us here, with a tail to hundreds: SENSE(k) must be in before the tick and DUTY(k) back
+#: before t_(k+1) - guard. A SENSE that comes after its tick makes the stub one period behind for
+#: good (its answers all late, discarded: the loop is lost), so the margin is what decides; at
+#: 2 kHz a 150 us phase leaves 150 us for the SENSE and 340 us for the DUTY (measured: 14-77
+#: misses in 1.5 s, where 5 kHz with 40 us lost the loop in one run of two).
+FREE_RUNNING = 'stub_isr = "timer"\nstub_phase_us = 150'
+FREE_RUNNING_HZ = 2000
+
+
 def test_free_running_controller_closes_the_loop(tmp_path):
-    """The stub's ISR on its own timer (a drive's PWM interrupt), using the latest SENSE. The
-    timer starts 40 us after the first SENSE arrives; a pty carries a frame one way in about
-    20-60 us here, so at 5 kHz SENSE(k) is in before the tick and DUTY(k) back well before the
-    period's deadline (at 10 kHz the two pty trips and the phase leave no room on this
-    machine)."""
+    """The stub's ISR on its own timer (a drive's PWM interrupt), using the latest SENSE."""
     out = tmp_path / "timer.mcap"
-    scn = rt_scenario(rate_hz=5000, extra='stub_isr = "timer"\nstub_phase_us = 40')
-    result = run_real_time(scn, out)
+    scn = rt_scenario(rate_hz=FREE_RUNNING_HZ, duration=2.5, extra=FREE_RUNNING)
+    result = run_real_time(scn, out, need_clean_from_s=1.2)
     assert result.ok, result.error
-    speed = load_recording(out).topic(ch.PLANT_STATE)["speed_rpm"][-2000:]
-    assert abs(np.mean(speed) - 500.0) < 10.0
+    state = load_recording(out).topic(ch.PLANT_STATE)
+    clean = undisturbed(state["t_s"], _stalls_of(out, result.ts_s)) & (state["t_s"] >= 1.2)
+    assert abs(np.mean(state["speed_rpm"][clean]) - 500.0) < 10.0
 
 
 def test_late_answers_are_counted_and_the_last_duties_held(tmp_path):
@@ -252,10 +279,11 @@ def test_late_answers_are_counted_and_the_last_duties_held(tmp_path):
     # the stub counts its own cycles: periods the bench lost (overruns) move its cycle 1000
     # later in seq; from the first miss after it on, every period is missed
     seq, missed = timing["seq"].astype(np.int64), timing["missed"].astype(bool)
-    answered = seq[~missed]
+    exchanged = ~timing["overrun"].astype(bool)      # the periods the bench lost had no exchange
+    answered = seq[~missed & exchanged]
     last_in_time = int(answered.max()) if len(answered) else -1
     assert last_in_time <= 1000 + result.timing["overruns"] + 1
-    assert np.count_nonzero(seq > last_in_time) >= 100        # the rest of the run: all missed
+    assert np.count_nonzero((seq > last_in_time) & exchanged) >= 100   # the rest: all missed
     assert int(rec.topic(ch.LINK_STATS)["late_duty"][-1]) == result.timing["late"]
 
 
@@ -429,30 +457,29 @@ def test_real_time_cpu_layout(monkeypatch):
 
 
 def test_a_link_stall_in_real_time_trips_the_free_running_controller(tmp_path):
-    """Issue 12: the engine stalls the link for 30 periods (nothing crosses either way) while the
+    """Issue 12: the engine stalls the link towards the controller for 30 periods while the
     stub's ISR runs on its own timer. The stub's link-timeout check (10 periods without a SENSE,
     docs/faults.md) sends FAULT_CTRL LINK_TIMEOUT with the gap it measured; the bench records the
     stall, counts the missed duties, keeps recording the reaction (post_trip_s) and ends the run
     on the controller's fault. The engine's watchdog is set out of reach."""
     out = tmp_path / "stall.mcap"
-    scn = rt_scenario(rate_hz=5000, duration=1.0, misses=1_000_000,
-                      extra='stub_isr = "timer"\nstub_phase_us = 40')
-    text = scn.text + ('\n[[faults]]\nkind = "stall"\nstall_periods = 30\nt_s = 0.8\n'
-                       'detect_within_s = 0.05\n')
+    ts = 1.0 / FREE_RUNNING_HZ
+    scn = rt_scenario(rate_hz=FREE_RUNNING_HZ, duration=1.0, misses=1_000_000, extra=FREE_RUNNING)
+    # towards the controller only: a stall both ways would also swallow the FAULT_CTRL (it does,
+    # and is recorded so: a stall_drop of frame 0x011)
+    text = scn.text + ('\n[[faults]]\nkind = "stall"\ndirection = "to_controller"\n'
+                       'stall_periods = 30\nt_s = 0.8\ndetect_within_s = 0.05\n')
     scn = parse_scenario(text, Path("stall.toml"))
     for attempt in (1, 2):
         out.unlink(missing_ok=True)
         result = run_scenario(scn, out_path=out, progress=False, force=True)
         rec = load_recording(out)
-        timing = rec.topic(ch.TIMING)
-        before = timing["t_s"] < 0.8
-        lost = (np.count_nonzero(timing["missed"][before]) +
-                np.count_nonzero(timing["overrun"][before])) / max(np.count_nonzero(before), 1)
-        if lost <= LOST_PERIODS_LIMIT and result.end == "CONTROLLER_FAULT":
-            break
+        if result.cycles_done * ts >= 0.8:
+            break      # the run got to the stall: what happened then is the test's
+        # it ended before the stall: a host stall tripped the free-running stub's own timeout
     else:
-        pytest.skip(f"this machine could not keep real time before the stall: {lost:.1%} of the "
-                    f"periods lost twice ({result.error})")
+        pytest.skip(f"this machine could not keep real time before the stall, twice "
+                    f"({result.error}); see bench.perf.loop")
     assert "LINK_TIMEOUT" in result.error, result.error
     from bench.faults import outcomes
 
@@ -460,11 +487,11 @@ def test_a_link_stall_in_real_time_trips_the_free_running_controller(tmp_path):
     assert o.kind == "stall" and o.t_on_s == pytest.approx(0.8)
     assert o.detected and o.trip_code == "LINK_TIMEOUT"
     # the stub's timer notices 10 periods without SENSE; the stall is 30: it trips inside it
-    assert 10 * 2e-4 <= o.trip_s <= 30 * 2e-4 + 0.01, o.trip_s
+    assert 10 * ts <= o.trip_s <= 30 * ts + 0.01, o.trip_s
     faults = rec.topic(ch.FAULTS)
     trips = [v for a, v in zip(faults["action"], faults["text"]) if a == "trip"]
     detail_us = int(trips[0].split("detail ")[1])
-    assert 10 * 200 <= detail_us <= 30 * 200 + 5000, trips[0]   # the gap it measured [us]
+    assert 10 * ts * 1e6 <= detail_us <= 30 * ts * 1e6 + 5000, trips[0]   # the gap it measured
     assert "missed_duty" in o.evidence or "ctrl_faults" in o.evidence, o.evidence
 
 

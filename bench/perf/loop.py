@@ -145,8 +145,8 @@ def recorder_rate(messages: int) -> dict:
         "SENSE": ch.encode_row("SENSE", (0.1, 7, 1.1, -0.5, -0.6, 310.0, float("nan"))),
         "TELEMETRY": ch.encode_row("TELEMETRY", (0.1, 7, 1.2, 200.0, 500.0, 3, 1, 1.0, 2.0, 0.5,
                                                  0.5, 0.4, 0.6, 0.01)),
-        "TIMING": ch.encode_row("TIMING", (0.1, 7, float("nan"), 20.0, float("nan"), 30.0, 0, 0,
-                                           0, 0)),
+        "TIMING": ch.encode_row("TIMING", {"t_s": 0.1, "seq": 7, "rtt_us": 20.0,
+                                           "cycle_us": 30.0}),
         "REFERENCE": ch.encode_row("REFERENCE", (0.1, 7, 1.2, 200.0, 500.0, 1.0, 2.0, 0.01)),
         "FRAMES": ch.encode_row("FRAMES", (0.1, 7, "101#07009479000000 100#0700E803A2FEA2FE",
                                            "181#0700A312F1FF0300 182#0700E8030A000A00 "
