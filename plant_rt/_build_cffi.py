@@ -18,7 +18,7 @@ C_DIR = Path(__file__).resolve().parent / "c"
 SOURCES = ("pmsm_machine.c", "inverter.c", "mechanics.c", "sensor.c", "plant.c", "plant_fault.c",
            # the cycle engine and the recording ring / schema (engine.h, rec_ring.h, rec_schema.h)
            "engine.c", "engine_faults.c", "engine_link.c", "engine_refs.c", "rec_ring.c",
-           "rec_schema.c")
+           "rec_schema.c", "rec_mcap.c")
 ROOT = C_DIR.parents[1]
 FW_SRC = ROOT / "firmware_stub" / "src"
 PROTOCOL_C = ROOT / "protocol" / "c"
@@ -204,6 +204,14 @@ size_t rec_ring_read(rec_ring_t *r, uint8_t *out, size_t cap);
 #define REC_RING_RECORD_HEADER 16
 
 const char *rec_schema_layout(void);
+typedef struct { uint64_t offset; uint64_t log_time; uint16_t channel_id; uint16_t pad_[3]; }
+    rec_mcap_entry_t;
+typedef struct { size_t in_used; size_t out_len; size_t n_entries; size_t raw_len;
+                 int stopped_at_limit; } rec_mcap_result_t;
+void rec_to_mcap(const uint8_t *in, size_t n_in, const int32_t *channel_map, size_t n_map,
+                 uint32_t *seqs, int64_t start_ns, size_t limit, uint8_t *out, size_t out_cap,
+                 rec_mcap_entry_t *entries, size_t entries_cap, uint8_t *raw_out, size_t raw_cap,
+                 rec_mcap_result_t *res);
 typedef struct { double t_s; const char *kind; const char *text; double value; } rec_event_t;
 typedef struct { double t_s; int32_t seq; const char *tx; const char *rx; } rec_frames_t;
 size_t rec_encode_event(uint8_t *out, size_t cap, const rec_event_t *m);
@@ -319,7 +327,7 @@ def make_builder(sanitize: bool = False) -> FFI:
     builder.cdef(CDEF + ENGINE_CDEF)
     builder.set_source(
         "plant_rt._plant_c",
-        '#include "plant.h"\n#include "engine.h"\n',
+        '#include "plant.h"\n#include "engine.h"\n#include "rec_mcap.h"\n',
         sources=[str(C_DIR / name) for name in SOURCES]
         # the reference estimators are the firmware's own library; the engine frames with the
         # protocol's codec

@@ -35,6 +35,7 @@ add_library(hil_engine STATIC
   ${HIL_ROOT}/plant_rt/c/engine_link.c
   ${HIL_ROOT}/plant_rt/c/engine_refs.c
   ${HIL_ROOT}/plant_rt/c/rec_ring.c
+  ${HIL_ROOT}/plant_rt/c/rec_mcap.c
   ${HIL_ROOT}/plant_rt/c/rec_schema.c
 )
 target_include_directories(hil_engine PUBLIC ${HIL_ROOT}/plant_rt/c)
