@@ -511,17 +511,34 @@ def test_soak_miss_classifier_on_synthetic_timing():
     answered after its deadline, or unexplained (no answer ever)."""
     from bench.perf.loop import classify_misses
 
-    n = 40
+    n = 90
     missed = np.zeros(n, dtype=np.uint32)
     overrun = np.zeros(n, dtype=np.uint32)
     start = np.zeros(n)
     late = np.zeros(n)
     missed[3:6] = 1                      # three in a row: a host stall
-    missed[10] = 1
-    start[10] = 80.0                     # started 80 us late in a 200 us period
-    missed[20] = 1
-    late[21:] = 1.0                      # its DUTY came in the next period: late
-    missed[30] = 1                       # nothing explains it
+    missed[12] = 1                       # within 10 periods after it: the link's backlog
+    missed[25] = 1
+    start[25] = 80.0                     # started 80 us late in a 200 us period
+    missed[40] = 1
+    late[44:] = 1.0                      # its DUTY came 4 periods later: late
+    missed[70] = 1                       # nothing explains it
     timing = {"missed": missed, "overrun": overrun, "start_err_us": start, "late_total": late}
-    assert classify_misses(timing, 200.0) == {"missed": 6, "host_stall": 3, "late_start": 1,
+    assert classify_misses(timing, 200.0) == {"missed": 7, "host_stall": 4, "late_start": 1,
                                               "late_answer": 1, "unanswered": 1}
+
+
+@pytest.mark.parametrize("update", ["on_arrival", "next_period"])
+def test_an_out_of_range_duty_is_never_applied_in_real_time(tmp_path, update):
+    """--inject bad-duty: one DUTY with raw 40000 (> 32768): counted, an /events row, the
+    previous duties held -- in real time as in lockstep (the same validation in the engine)."""
+    out = tmp_path / "bad.mcap"
+    result = run_scenario(rt_scenario(update, duration=0.2, misses=1_000_000), out_path=out,
+                          progress=False, stub_args=("--inject", "bad-duty@300"))
+    rec = load_recording(out)
+    events = rec.topic(ch.EVENTS)
+    bad = [t for k, t in zip(events["kind"], events["text"]) if k == "bad_duty"]
+    assert len(bad) == 1 and "40000" in bad[0] and "previous duties held" in bad[0], bad
+    assert result.link_stats["bad_duties"] == 1
+    telem = rec.topic(ch.CONTROLLER_TELEMETRY)
+    assert np.all(telem["duty_a"][np.isfinite(telem["duty_a"])] <= 1.0)   # never 40000/32768
