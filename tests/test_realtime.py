@@ -268,8 +268,9 @@ def test_free_running_controller_closes_the_loop(tmp_path):
 
 def test_late_answers_are_counted_and_the_last_duties_held(tmp_path):
     """From cycle 1000 every answer comes 1.5 periods late (the stub falls further behind with
-    each): every later period is a miss, the answers that come one period late are counted as
-    late, the duties hold. The watchdog is set out of reach (it has its own test)."""
+    each): every later period is a miss, every answer that comes is counted as late however many
+    periods behind it is (none is a sequence-number mismatch: each answers a period that ended
+    without its DUTY), the duties hold. The watchdog is set out of reach (it has its own test)."""
     out = tmp_path / "slow.mcap"
     for attempt in (1, 2):
         out.unlink(missing_ok=True)
@@ -295,7 +296,11 @@ def test_late_answers_are_counted_and_the_last_duties_held(tmp_path):
     last_in_time = int(answered.max()) if len(answered) else -1
     assert last_in_time <= 1000 + result.timing["overruns"] + 1
     assert np.count_nonzero((seq > last_in_time) & exchanged) >= 100   # the rest: all missed
-    assert int(rec.topic(ch.LINK_STATS)["late_duty"][-1]) == result.timing["late"]
+    stats = rec.topic(ch.LINK_STATS)
+    assert int(stats["late_duty"][-1]) == result.timing["late"]
+    # by the end the stub answers ~500 periods behind: late, not a wrong sequence number
+    assert result.timing["late"] > 100
+    assert int(stats["seq_mismatch"][-1]) == 0
 
 
 def test_silent_controller_drives_the_inverter_to_its_safe_state(tmp_path):
@@ -522,9 +527,11 @@ def test_soak_miss_classifier_on_synthetic_timing():
     start[25] = 80.0                     # started 80 us late in a 200 us period
     missed[40] = 1
     late[44:] = 1.0                      # its DUTY came 4 periods later: late
+    missed[58] = 1                       # the bench lost the next period: it was descheduled
+    overrun[59] = 1                      # across this one's deadline (a host stall too)
     missed[70] = 1                       # nothing explains it
     timing = {"missed": missed, "overrun": overrun, "start_err_us": start, "late_total": late}
-    assert classify_misses(timing, 200.0) == {"missed": 7, "host_stall": 4, "late_start": 1,
+    assert classify_misses(timing, 200.0) == {"missed": 8, "host_stall": 5, "late_start": 1,
                                               "late_answer": 1, "unanswered": 1}
 
 

@@ -89,7 +89,7 @@ CAN_LINKS = ("stub-slcan", "stub-socketcand")
 
 def scenario(duration_s: float, mode: str = "lockstep", rate_hz: float = 10000.0,
              realtime: str = "", telemetry_emf: bool = True, estimator: str = "SMO_SIGN",
-             params: str = ""):
+             params: str = "", speed_rpm: float = 500.0):
     from bench.scenario import parse_scenario
 
     plant = "" if rate_hz == 10000.0 else f"ts_s = {1.0 / rate_hz!r}"
@@ -100,6 +100,8 @@ def scenario(duration_s: float, mode: str = "lockstep", rate_hz: float = 10000.0
         text = text.replace("[controller.params]", f"[controller.params]\n{params}")
     if not telemetry_emf:
         text = text.replace('speed_ref_rpm = 500', 'speed_ref_rpm = 500\ntelemetry_emf = false')
+    if speed_rpm != 500.0:
+        text = text.replace("speed_ref_rpm = 500", f"speed_ref_rpm = {speed_rpm!r}")
     return parse_scenario(text, Path("perf_loop.toml"))
 
 
@@ -272,7 +274,8 @@ def classify_misses(timing: dict, period_us: float) -> dict[str, int]:
 
     * ``host_stall``: inside a streak of >= 3 periods lost in a row (misses or periods the bench
       itself lost), or within 10 periods after one (the link's backlog): the host stopped
-      scheduling the bench or the stub for a while;
+      scheduling the bench or the stub for a while; or followed by a period the bench itself
+      lost (the engine was descheduled across this period's deadline);
     * ``late_start``: the period started more than a quarter period late (the engine woke late),
       leaving the round trip less than its budget;
     * ``late_answer``: the DUTY did come, after its deadline (counted late within 10 periods):
@@ -303,6 +306,7 @@ def classify_misses(timing: dict, period_us: float) -> dict[str, int]:
     answered_late = later > late
     out = {"missed": int(missed.sum()), "host_stall": 0, "late_start": 0, "late_answer": 0,
            "unanswered": 0}
+    stall[:-1] |= overrun[1:]
     for i in np.flatnonzero(missed):
         if stall[i]:
             out["host_stall"] += 1
@@ -315,7 +319,7 @@ def classify_misses(timing: dict, period_us: float) -> dict[str, int]:
     return out
 
 
-def soak_realtime(minutes: float, rate_hz: float) -> int:
+def soak_realtime(minutes: float, rate_hz: float, keep: Path | None = None) -> int:
     """Real time for ``minutes`` at ``rate_hz``, recording on: resident memory of every process
     at start and end, and every miss explained (classify_misses). The controller closes its
     loop on the encoder: a sensorless loop does not survive ten minutes of this VM's host stalls
@@ -330,7 +334,8 @@ def soak_realtime(minutes: float, rate_hz: float) -> int:
     samples: list[tuple[float, dict]] = []
     stop = threading.Event()
     scn = scenario(minutes * 60.0, "realtime", rate_hz, estimator="ENCODER",
-                   params="I_MAX_TRIP_A = 100.0")
+                   speed_rpm=float(os.environ.get("SOAK_RPM", "500")),
+                   params=os.environ.get("SOAK_PARAMS", "I_MAX_TRIP_A = 1000.0\nPROT_SUM_MAX_A = 0.0"))
 
     def watch(r):
         while not stop.is_set() and (getattr(r, "engine", None) is None
@@ -343,7 +348,7 @@ def soak_realtime(minutes: float, rate_hz: float) -> int:
             stop.wait(5.0)
 
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "soak_rt.mcap"
+        out = keep if keep is not None else Path(tmp) / "soak_rt.mcap"
         r = Runner(scn, out_path=out, progress=False)
         th = threading.Thread(target=watch, args=(r,), daemon=True)
         th.start()
@@ -402,6 +407,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="also 10 kHz real time with docs/realtime.md's tuned set-up")
     ap.add_argument("--soak", type=float, default=None, metavar="MINUTES",
                     help="only the lockstep soak: memory of every process at start and end")
+    ap.add_argument("--soak-keep", type=Path, default=None, metavar="MCAP",
+                    help="keep the real-time soak's recording here (to look at its misses)")
     ap.add_argument("--soak-realtime", type=float, default=None, metavar="MINUTES",
                     help="only the real-time soak: memory, and every missed duty explained")
     ap.add_argument("--soak-rate", type=float, default=5000.0, metavar="HZ",
@@ -410,7 +417,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.soak is not None:
         return soak(args.soak)
     if args.soak_realtime is not None:
-        return soak_realtime(args.soak_realtime, args.soak_rate)
+        return soak_realtime(args.soak_realtime, args.soak_rate, args.soak_keep)
     quick = args.quick
     cycles = 20000 if quick else 50000
     repeat = 1 if quick else 3

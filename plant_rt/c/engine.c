@@ -1006,14 +1006,18 @@ static int build_sense(engine_t *e, cycle_t *c)
     return 0;
 }
 
-/** TELEM / TELEM_EMF that is not this cycle's first (docs/protocol.md 6.6): a second one of
- *  this cycle is a duplicate, one of the cycle before is stale (ignored, counted apart), any
- *  other seq is a sequence mismatch. */
+/** TELEM / TELEM_EMF that is not this cycle's first (docs/protocol.md 6.5): a second one of
+ *  this cycle is a duplicate, one of the cycle before or of a missed period in the late window
+ *  is stale (ignored, counted apart), any other seq is a sequence mismatch. */
 static void telem_other_seq(engine_t *e, cycle_t *c, uint16_t seq)
 {
     if (seq == c->seq) {
         e->n.duplicates++;
-    } else if (seq == (uint16_t)(c->seq - 1u)) {
+    } else if (seq == (uint16_t)(c->seq - 1u) ||
+               ((uint16_t)(c->seq - seq) < ENGINE_LATE_WINDOW &&
+                e->late_state[seq & (ENGINE_LATE_WINDOW - 1)] != 0)) {
+        /* the cycle before, or (real time) a late answer to a period that ended without its
+         * DUTY: the telemetry of a cycle that is over */
         e->n.stale_frames++;
         c->stale++;
     } else {
@@ -1068,8 +1072,15 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
         }
         if ((d.seq == c->seq && c->have_duty) || (d.seq == prev_seq && e->prev_had_duty)) {
             e->n.duplicates++; /* a second answer to a completed cycle (e.g. a cached re-send) */
-        } else if (d.seq == c->seq || d.seq == prev_seq) {
-            e->n.late_duty++;  /* real time: the answer to a period that ended without it */
+        } else if ((uint16_t)(c->seq - d.seq) < ENGINE_LATE_WINDOW &&
+                   e->late_state[d.seq & (ENGINE_LATE_WINDOW - 1)] == 1) {
+            /* real time: the answer to a period that ended without it (however many periods
+             * ago, up to the window: after a stall of the host the answers come in a burst) */
+            e->late_state[d.seq & (ENGINE_LATE_WINDOW - 1)] = 2;
+            e->n.late_duty++;
+        } else if ((uint16_t)(c->seq - d.seq) < ENGINE_LATE_WINDOW &&
+                   e->late_state[d.seq & (ENGINE_LATE_WINDOW - 1)] == 2) {
+            e->n.duplicates++; /* a second late answer to the same period */
         } else {
             e->n.seq_mismatch++;
             c->seq_bad++;
@@ -1431,6 +1442,7 @@ static void begin_cycle(engine_t *e, cycle_t *c, long k)
     memset(c, 0, sizeof *c);
     c->k = k;
     c->seq = (uint16_t)(k & 0xFFFF);
+    e->late_state[c->seq & (ENGINE_LATE_WINDOW - 1)] = 0; /* this seq's earlier lap is over */
     c->t_s = (double)k * e->cfg.ts_s;
     e->cur_k = k;
     e->cur_t_s = c->t_s;
@@ -2190,6 +2202,7 @@ static int run_realtime(engine_t *e)
             rtt_evidence(e, &c, sent_ns);
         } else {
             e->n.missed_duty++;
+            e->late_state[c.seq & (ENGINE_LATE_WINDOW - 1)] = 1; /* its DUTY may still come */
             e->consecutive_miss++;
             split_s = 0.0;
             if (e->consecutive_miss >= cfg->max_consecutive_misses) {

@@ -65,6 +65,11 @@
 #define ENGINE_EVENT_TEXT 96
 #define ENGINE_STATE_NAMES 16
 #define ENGINE_MESSAGE 768
+/** How far back (periods) a DUTY still counts as the late answer to a missed period; older or
+ * never-asked sequence numbers are seq_mismatch (docs/protocol.md 6.5). A power of two. */
+#ifndef ENGINE_LATE_WINDOW
+#define ENGINE_LATE_WINDOW 1024
+#endif
 #define ENGINE_FRAMES_TEXT 2048
 /* histogram of wall times: 0.1 us bins below 1 ms, 10 us bins up to 100 ms, then overflow */
 #define ENGINE_HIST_FINE 10000
@@ -316,6 +321,9 @@ typedef struct engine {
     double duties[3];
     int consecutive_bad, consecutive_miss;
     int prev_had_duty;
+    /* real time: per seq (mod ENGINE_LATE_WINDOW) 1 = the period ended without its DUTY,
+     * 2 = its late DUTY came; 0 = no such period (cleared as each period begins) */
+    uint8_t late_state[ENGINE_LATE_WINDOW];
     int recorder_stalled;       /* lockstep: the recorder made no room within recorder_stall_s */
     unsigned length_error_said; /* ids (low 2 bits) whose wrong length was said */
     int last_state;
