@@ -321,12 +321,16 @@ def classify_misses(timing: dict, period_us: float) -> dict[str, int]:
 
 def soak_realtime(minutes: float, rate_hz: float, keep: Path | None = None) -> int:
     """Real time for ``minutes`` at ``rate_hz``, recording on: resident memory of every process
-    at start and end, and every miss explained (classify_misses). The controller closes its
-    loop on the encoder: a sensorless loop does not survive ten minutes of this VM's host stalls
-    (5 ms stalls several times a second; docs/realtime.md), and the soak measures the bench, not
-    the observer (the reference SMO still runs on the host every cycle). For the same reason its
-    over-current trip is at 100 A: a host stall of several ms makes the stub's 30 A trip end the
-    run (it did at 6.5 min), which would end the soak of the bench, not measure it."""
+    at start and end, and every miss explained (classify_misses). The soak measures the bench
+    (timing, recorder, memory), not the drive's protection, so the controller rides through
+    this VM's host stalls: it closes its loop on the encoder (a sensorless loop does not survive
+    ten minutes of 5 ms stalls several times a second, docs/realtime.md; the reference SMO still
+    runs on the host every cycle), and its over-current trip (1000 A) and current-sum check (off)
+    are out of the way: a stall of the stub or the bench holds the duties for several periods
+    and the currents swing past 30 A (measured: OVERCURRENT at 6.5 min with the sensorless loop
+    and the 30 A trip; with the encoder, a current-sum SENSOR_FAULT at 2.9 s with a 100 A trip --
+    the ADC clipped -- and OVERCURRENT at 7.8 s at 150 rpm with the defaults). SOAK_RPM and
+    SOAK_PARAMS override the speed and these parameters."""
     from bench import channels as ch
     from bench.recording import load_recording
     from bench.runner import Runner
