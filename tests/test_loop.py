@@ -199,17 +199,21 @@ def test_unknown_link_spec_is_refused():
 def test_ctrl_c_finalises_the_recording(tmp_path):
     out = tmp_path / "interrupted.mcap"
     scn = tmp_path / "long.toml"
-    scn.write_text(SHORT.format(duration=30.0))
+    # 600 s of plant time (several minutes of wall time): the run cannot end by itself before the
+    # Ctrl-C, however slowly the recorder (nice 19) gets the CPU on a loaded machine -- with 30 s
+    # a CI run finished, the recorder starved, before its file passed 300 kB
+    scn.write_text(SHORT.format(duration=600.0))
     proc = subprocess.Popen([sys.executable, "-m", "bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     # wait until cycles flow (the file grows past its header and first chunk)
-    deadline = time.monotonic() + 20
+    deadline = time.monotonic() + 60
     part = partial_path(out)                      # written under a temporary name until final
     while time.monotonic() < deadline and (not part.exists() or part.stat().st_size < 300_000):
         time.sleep(0.1)
+    assert proc.poll() is None, f"the run ended before the Ctrl-C: {proc.communicate()}"
     proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=20)
+    stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
     assert "interrupted by the user" in stderr
     rec = load_recording(out)

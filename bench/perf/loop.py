@@ -223,6 +223,25 @@ def rss_kb(pid: int) -> int:
     return -1
 
 
+def memory_watch(samples: list, stop: threading.Event, stop_after_s: float | None = None):
+    """A Runner watcher for the soaks: once the engine has run 1000 cycles, the resident memory
+    of the bench, the recorder and the stub every 5 s into ``samples`` as (s, {name: kB});
+    with ``stop_after_s`` it asks the engine to stop once that much wall time has passed."""
+    def watch(r):
+        while not stop.is_set() and (getattr(r, "engine", None) is None
+                                     or r.engine.cycles_done < 1000):
+            time.sleep(0.05)
+        t0 = time.monotonic()
+        while not stop.is_set() and r.engine.running():
+            pids = {"bench": os.getpid(), "recorder": r.rec.pid, "stub": r.opened.stub.proc.pid}
+            samples.append((time.monotonic() - t0, {k: rss_kb(p) for k, p in pids.items()}))
+            if stop_after_s is not None and time.monotonic() - t0 >= stop_after_s:
+                r.engine.request_stop()
+                break
+            stop.wait(5.0)
+    return watch
+
+
 def soak(minutes: float) -> int:
     """Lockstep for ``minutes`` of wall time; resident memory of every process at start and end."""
     samples: list[tuple[float, dict]] = []
@@ -233,19 +252,7 @@ def soak(minutes: float) -> int:
     cycles = int(3.0 * probe["cycles_per_s"] * minutes * 60.0)
     scn = scenario(cycles * 1e-4)
 
-    def watch(r):
-        while not stop.is_set() and (getattr(r, "engine", None) is None
-                                     or r.engine.cycles_done < 1000):
-            time.sleep(0.05)
-        t0 = time.monotonic()
-        while not stop.is_set() and r.engine.running():
-            pids = {"bench": os.getpid(), "recorder": r.rec.pid, "stub": r.opened.stub.proc.pid}
-            samples.append((time.monotonic() - t0, {k: rss_kb(p) for k, p in pids.items()}))
-            if time.monotonic() - t0 >= minutes * 60.0:
-                r.engine.request_stop()
-                break
-            stop.wait(5.0)
-
+    watch = memory_watch(samples, stop, stop_after_s=minutes * 60.0)
     result = run(scn, watch=watch, stop_ok=True)
     stop.set()
     if len(samples) < 2:
@@ -341,16 +348,7 @@ def soak_realtime(minutes: float, rate_hz: float, keep: Path | None = None) -> i
                    speed_rpm=float(os.environ.get("SOAK_RPM", "500")),
                    params=os.environ.get("SOAK_PARAMS", "I_MAX_TRIP_A = 1000.0\nPROT_SUM_MAX_A = 0.0"))
 
-    def watch(r):
-        while not stop.is_set() and (getattr(r, "engine", None) is None
-                                     or r.engine.cycles_done < 1000):
-            time.sleep(0.05)
-        t0 = time.monotonic()
-        while not stop.is_set() and r.engine.running():
-            pids = {"bench": os.getpid(), "recorder": r.rec.pid, "stub": r.opened.stub.proc.pid}
-            samples.append((time.monotonic() - t0, {k: rss_kb(p) for k, p in pids.items()}))
-            stop.wait(5.0)
-
+    watch = memory_watch(samples, stop)
     with tempfile.TemporaryDirectory() as tmp:
         out = keep if keep is not None else Path(tmp) / "soak_rt.mcap"
         r = Runner(scn, out_path=out, progress=False)
