@@ -199,13 +199,15 @@ def test_unknown_link_spec_is_refused():
 def test_ctrl_c_finalises_the_recording(tmp_path):
     out = tmp_path / "interrupted.mcap"
     scn = tmp_path / "long.toml"
-    # 600 s of plant time (several minutes of wall time): the run cannot end by itself before the
-    # Ctrl-C, however slowly the recorder (nice 19) gets the CPU on a loaded machine -- with 30 s
-    # a CI run finished, the recorder starved, before its file passed 300 kB
+    # 600 s of plant time (minutes of wall time): the run cannot end by itself before the Ctrl-C
     scn.write_text(SHORT.format(duration=600.0))
+    # SIGINT at its default in the child whatever this process inherited: a test run started in
+    # the background by a shell (`.ci/run &`) ignores SIGINT, the bench would inherit that and
+    # Python would not install its KeyboardInterrupt handler (the Ctrl-C would go nowhere)
     proc = subprocess.Popen([sys.executable, "-m", "bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # wait until cycles flow (the file grows past its header and first chunk)
     deadline = time.monotonic() + 60
     part = partial_path(out)                      # written under a temporary name until final
