@@ -42,7 +42,6 @@ from __future__ import annotations
 import csv
 import itertools
 import math
-import os
 import time
 import tomllib
 from dataclasses import dataclass, field
@@ -298,13 +297,12 @@ def judge(case: Case, outcomes: list, run_error: str, end: str) -> tuple[str, li
     return ("FAIL" if reasons else "PASS"), reasons
 
 
-def _run_case(camp_path: str, case_index: int, out_dir: str, link: str) -> dict:
-    """One run (in a worker process): returns what the table needs."""
+def _run_case(camp: Campaign, case_index: int, out_dir: str, link: str) -> dict:
+    """One run (here or in a worker process): returns what the table needs."""
     from .check import read_for_check
     from .faults import outcomes as fault_outcomes
     from .runner import RunAborted, run_scenario
 
-    camp = load_campaign(camp_path)
     case = camp.cases[case_index]
     scn = scenario_for(camp, case)
     out = Path(out_dir) / f"{case.name}.mcap"
@@ -328,6 +326,8 @@ def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int = 1, link: str | No
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from .recorder import SIDE_SUFFIXES
+
     console = console or Console(stderr=True)
     rec_dir = out_dir / "recordings"
     rec_dir.mkdir(parents=True, exist_ok=True)
@@ -343,7 +343,7 @@ def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int = 1, link: str | No
 
         def finished():
             """(case index, result) as the runs end: in this process (jobs = 1) or in workers."""
-            args = [(str(camp.path), i, str(rec_dir), link or camp.link)
+            args = [(camp, i, str(rec_dir), link or camp.link)
                     for i in range(len(camp.cases))]
             if jobs <= 1:
                 for a in args:
@@ -372,7 +372,7 @@ def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int = 1, link: str | No
                 verdict, reasons = judge(case, outs, r["error"], r["end"])
             rec = Path(r["recording"]) if r.get("recording") else None
             if rec is not None and verdict == "PASS" and not keep_all:
-                for p in (rec, rec.with_suffix(".serial.bin"), rec.with_suffix(".log")):
+                for p in (rec, *(rec.with_suffix(sfx) for sfx, _ in SIDE_SUFFIXES)):
                     p.unlink(missing_ok=True)
                 rec = None
             results[i] = CaseResult(case, rec, verdict, reasons, outs, r["error"], r["wall_s"])
@@ -446,6 +446,3 @@ def write_report(camp: Campaign, results: list[CaseResult], out_dir: Path, wall_
     md.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return md
 
-
-def default_jobs() -> int:
-    return max(1, min((os.cpu_count() or 1) // 2, 4))

@@ -964,10 +964,25 @@ def _keq5(run: Run, profile: str) -> Run:
                + f"sign SMO gain floor {K_EQ5_MIN_V[profile]:g} V by eq. 5 (diagnostic)")
 
 
+def _keq5_pair(run: Run, profile: str) -> tuple[Run, Run]:
+    """A sign-SMO run with the gain floor of eq. 5, with dead time and without (diagnostics)."""
+    return _keq5(run, profile), _keq5(_nodt(run), profile)
+
+
+def _variants(rid: str, keq5: bool) -> list[tuple[str, str, bool]]:
+    """(run id, label suffix, diagnostic) of a claim's run and its diagnostics: dead time off,
+    and for the sign SMO the eq. 5 gain floor with and without dead time."""
+    out = [(rid, "", False), (rid + ".nodt", " [dead time off: diagnostic]", True)]
+    if keq5:
+        out += [(rid + ".keq5", " [k floor by eq. 5: diagnostic]", True),
+                (rid + ".nodt.keq5", " [k floor by eq. 5, dead time off: diagnostic]", True)]
+    return out
+
+
 # Yuan Y1 -----------------------------------------------------------------------------------------
 _Y1_RUNS = (Run("Y1.improved", "yuan_y1_improved", label="improved SMO closes the loop"),
             Run("Y1.conventional", "yuan_y1_conventional", label="sign SMO closes the loop"))
-_Y1_KEQ5 = (_keq5(_Y1_RUNS[1], "yuan2020"), _keq5(_nodt(_Y1_RUNS[1]), "yuan2020"))
+_Y1_KEQ5 = _keq5_pair(_Y1_RUNS[1], "yuan2020")
 _Y1_SRC = "Yuan IV.B.1: 'the estimation errors are within +-6 rpm and +-3 rpm ... +-4 rpm and +-1.5 rpm'"
 
 
@@ -975,12 +990,7 @@ def _y1_quantities() -> tuple[Quantity, ...]:
     out = []
     for run, tag, b50, b10 in (("Y1.improved", "improved", 3.0, 1.5),
                                ("Y1.conventional", "conventional", 6.0, 4.0)):
-        variants = [(run, "", False), (run + ".nodt", " [dead time off: diagnostic]", True)]
-        if run == "Y1.conventional":
-            variants += [(run + ".keq5", " [k floor by eq. 5: diagnostic]", True),
-                         (run + ".nodt.keq5", " [k floor by eq. 5, dead time off: diagnostic]",
-                          True)]
-        for rid, sfx, diag in variants:
+        for rid, sfx, diag in _variants(run, run == "Y1.conventional"):
             out.append(_q(f"{rid}.50", f"{tag} SMO: speed-estimation error at 50 rpm{sfx}",
                           "speed_est_error_rpm", b50, at_most(b50, _Y1_SRC), rid,
                           window_s=(3.8, 4.3), at_speed_rpm=50.0, diagnostic=diag))
@@ -1164,12 +1174,12 @@ def _claims() -> tuple[Claim, ...]:
     g67_naive = tuple(_g67_run(rpm, "naive") for rpm in (500.0, 2000.0, 3000.0))
     h1_runs = (Run("H1.hfi", "hou_h1_hfi", label="HFI + SDFT closes the loop"),
                Run("H1.smo", "hou_h1_smo", label="sign SMO closes the loop"))
-    h1_keq5 = (_keq5(h1_runs[1], "hou2021"), _keq5(_nodt(h1_runs[1]), "hou2021"))
+    h1_keq5 = _keq5_pair(h1_runs[1], "hou2021")
     h2_runs = (Run("H2.hfi", "hou_h2_hfi"), Run("H2.smo", "hou_h2_smo"))
-    h2_keq5 = (_keq5(h2_runs[1], "hou2021"), _keq5(_nodt(h2_runs[1]), "hou2021"))
+    h2_keq5 = _keq5_pair(h2_runs[1], "hou2021")
     h2_dyno = tuple(_h2_dyno(_nodt(r)) for r in h2_runs)
     y2_runs = (Run("Y2.improved", "yuan_y2_improved"), Run("Y2.conventional", "yuan_y2_conventional"))
-    y2_keq5 = (_keq5(y2_runs[1], "yuan2020"), _keq5(_nodt(y2_runs[1]), "yuan2020"))
+    y2_keq5 = _keq5_pair(y2_runs[1], "yuan2020")
 
     def pair_rel(prefix, a, b, what, paper, source, diag=False):
         return Relation(prefix, what, (a, b), "<", paper, source, diag)
@@ -1272,12 +1282,7 @@ def _claims() -> tuple[Claim, ...]:
                                                       (50, "about 3 (4.2); within 3 (5)",
                                                        (2.8, 3.2)))),
                             ("H1.smo", "SMO", ((10, 4.0, (2.9, 3.3)), (50, 6.0, (3.7, 4.1))))):
-        variants = [(rid0, "", False), (rid0 + ".nodt", " [dead time off: diagnostic]", True)]
-        if rid0 == "H1.smo":
-            variants += [(rid0 + ".keq5", " [k floor by eq. 5: diagnostic]", True),
-                         (rid0 + ".nodt.keq5", " [k floor by eq. 5, dead time off: diagnostic]",
-                          True)]
-        for rid, sfx, diag in variants:
+        for rid, sfx, diag in _variants(rid0, rid0 == "H1.smo"):
             for rpm, paper, w in wins:
                 rule = at_most(3.0, hou_h1_bound) if rid0 == "H1.hfi" else compared(hou_h1_smo)
                 h1_q.append(_q(f"{rid}.{rpm}", f"{tag}: speed-estimation error at {rpm} rpm{sfx}",
@@ -1292,13 +1297,9 @@ def _claims() -> tuple[Claim, ...]:
              "which a coupled dynamometer could provide; Hou gives no inertia for it "
              "(docs/claims.md, finding 3; the .dyno rows run it)")
     for rid0, tag, resp, drop in (("H2.hfi", "HFI", 4.1, 1.2), ("H2.smo", "SMO", 6.5, 2.0)):
-        variants = [(rid0, "", False), (rid0 + ".nodt", " [dead time off: diagnostic]", True),
-                    (rid0 + ".nodt.dyno", f" [dead time off, J = {H2_DYNO_J_KGM2:g} kg m^2 "
-                                          "(motor + dynamometer): diagnostic]", True)]
-        if rid0 == "H2.smo":
-            variants += [(rid0 + ".keq5", " [k floor by eq. 5: diagnostic]", True),
-                         (rid0 + ".nodt.keq5", " [k floor by eq. 5, dead time off: diagnostic]",
-                          True)]
+        variants = _variants(rid0, rid0 == "H2.smo")
+        variants.insert(2, (rid0 + ".nodt.dyno", f" [dead time off, J = {H2_DYNO_J_KGM2:g} kg m^2 "
+                                                 "(motor + dynamometer): diagnostic]", True))
         for rid, sfx, diag in variants:
             h2_q.append(_q(f"{rid}.resp", f"{tag}: estimator response time{sfx}",
                            "response_time_ms", resp,
@@ -1319,12 +1320,7 @@ def _claims() -> tuple[Claim, ...]:
     y2_q = []
     for rid0, tag, val in (("Y2.improved", "improved SMO", 4.1),
                            ("Y2.conventional", "conventional SMO", 6.5)):
-        variants = [(rid0, "", False), (rid0 + ".nodt", " [dead time off: diagnostic]", True)]
-        if rid0 == "Y2.conventional":
-            variants += [(rid0 + ".keq5", " [k floor by eq. 5: diagnostic]", True),
-                         (rid0 + ".nodt.keq5", " [k floor by eq. 5, dead time off: diagnostic]",
-                          True)]
-        for rid, sfx, diag in variants:
+        for rid, sfx, diag in _variants(rid0, rid0 == "Y2.conventional"):
             y2_q.append(_q(f"{rid}.resp", f"{tag}: estimator response time{sfx}",
                            "response_time_ms", val,
                            compared("Yuan IV.B.2: 'the dynamic response times are 6.5 ms and "

@@ -149,11 +149,10 @@ def run_params(profile, plant, scn, ts_s: float, cycles: int) -> dict[Param, flo
     """The parameters the kit runs with: the motor's, the plant's delay and the scenario's, with the
     alignment shortened to at most ALIGN_SHARE of the cycles so that the outputs move (I-f ramp, then
     closed loop) by the time the SENSE is repeated."""
-    params = {
-        Param.RS_OHM: profile.rs_ohm, Param.LD_H: profile.ld_h, Param.LQ_H: profile.lq_h,
-        Param.PSI_F_WB: profile.psi_f_wb, Param.POLE_PAIRS: float(profile.pole_pairs),
-        Param.J_KGM2: profile.j_kgm2, Param.B_NMS: profile.b_nms, Param.V_DC_NOM_V: profile.v_dc_v,
-        Param.CTRL_DELAY_S: float(plant.params.t_delay_s), **scn.controller_params}
+    from .runner import motor_params
+
+    params = {**motor_params(profile), Param.CTRL_DELAY_S: float(plant.params.t_delay_s),
+              **scn.controller_params}
     align_s = ALIGN_SHARE * cycles * ts_s
     if float(params.get(Param.ALIGN_TIME_S, math.inf)) > align_s:
         params[Param.ALIGN_TIME_S] = align_s
@@ -305,8 +304,12 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
 
     # -- commands and LOCKED (6.3, 6.2) -----------------------------------------------------------------
     cmd = M["CMD"]
-    s.send([(cmd.frame_id, cmd.pack(command=int(Command.SET_SPEED_REF), seq=1, value=scn.speed_ref_rad_s)),
-            (cmd.frame_id, cmd.pack(command=int(Command.RUN), seq=2, value=0.0))])
+
+    def start_running() -> None:
+        s.send([(cmd.frame_id, cmd.pack(command=int(Command.SET_SPEED_REF), seq=1, value=scn.speed_ref_rad_s)),
+                (cmd.frame_id, cmd.pack(command=int(Command.RUN), seq=2, value=0.0))])
+
+    start_running()
     a = config(int(Param.RS_OHM), float(profile.rs_ohm))
     add(Item("6.2", "CONFIG while running: LOCKED", a is not None and a["status"] == ConfigStatus.LOCKED,
              "no CONFIG_ACK" if a is None else f"status {_status(ConfigStatus, a['status'])}"))
@@ -336,10 +339,6 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
     def step(pl, got) -> None:
         raw = M["DUTY"].unpack_raw(got[-1][1])
         pl.step(*(-1.0 if r == DUTY_RAW_OFF else r / DUTY_RAW_FULL for r in raw[1:]))
-
-    def start_running() -> None:
-        s.send([(cmd.frame_id, cmd.pack(command=int(Command.SET_SPEED_REF), seq=1, value=scn.speed_ref_rad_s)),
-                (cmd.frame_id, cmd.pack(command=int(Command.RUN), seq=2, value=0.0))])
 
     prepared: list[tuple[int, bytes]] | None = None
     for k in range(cycles):
@@ -443,7 +442,8 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
         configured = ack is not None and ack["status"] == HelloStatus.OK and all(
             (a := config(int(pid), float(value))) is not None and a["status"] == ConfigStatus.OK
             for pid, value in params.items())
-        start_running() if configured else None
+        if configured:
+            start_running()
         ref: list[list[tuple[int, bytes]]] = []
         for k in range(repeat_at + 1 + AFTER_REPEAT if configured else 0):
             got = answer(k, cycle_frames(ref_plant, k))

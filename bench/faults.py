@@ -279,8 +279,8 @@ def first_cycle_at(t_s: float, ts_s: float) -> int:
     return max(0, int(math.ceil(t_s / ts_s - 0.5 + 1e-9)))
 
 
-def schedule(engine, faults: tuple[FaultSpec, ...], ts_s: float, *, controller_pid: int | None,
-             n_cycles: int) -> list[tuple[int, dict]]:
+def schedule(engine, faults: tuple[FaultSpec, ...], ts_s: float, *,
+             controller_pid: int | None) -> list[tuple[int, dict]]:
     """Put the scenario's link faults on the engine's injector, and return the plant faults and
     controller resets as (cycle, keyword arguments of Engine.add_fault_event), in cycle order:
     the caller merges them with the scenario's other events (the engine takes events in cycle
@@ -342,7 +342,6 @@ class FaultOutcome:
     peak_torque_nm: float = math.nan  # max |T_e| likewise
     duties_after_trip: int = 0
     state_after: str = ""           # the controller's state at the end of the run
-    actions: int = 0                # /faults rows of this fault that acted (frames, on/off)
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -369,6 +368,7 @@ def outcomes(rec) -> list[FaultOutcome]:
     import numpy as np
 
     from . import channels as ch
+    from .integrity import run_result_counters
     from protocol.messages import Fault, State
 
     try:
@@ -385,11 +385,8 @@ def outcomes(rec) -> list[FaultOutcome]:
     trips = [(float(t), float(v)) for t, a, v in zip(rows["t_s"], rows["action"], rows["value"])
              if a == "trip"]
     after_trip = sum(1 for a in rows["action"] if a == "duty_after_trip")
-    counters = (rec.metadata.get("run_result") or {}).get("counters", "")
     try:
-        import json
-
-        after_trip = int(json.loads(counters).get("duties_after_trip", after_trip))
+        after_trip = int(run_result_counters(rec).get("duties_after_trip", after_trip))
     except (ValueError, TypeError):
         pass
     last_state = ""
@@ -412,10 +409,8 @@ def outcomes(rec) -> list[FaultOutcome]:
             o.evidence_s = None if not math.isfinite(float(value)) else float(value)
         elif action in ("refused",):
             o.notes.append(f"refused: {text}")
-        elif action != "off":
-            o.actions += 1
-            if o.t_on_s is None:
-                o.t_on_s = float(t)
+        elif action != "off" and o.t_on_s is None:
+            o.t_on_s = float(t)
     starts = sorted(o.t_on_s for o in out.values() if o.t_on_s is not None)
     for o in out.values():
         if o.t_on_s is None:

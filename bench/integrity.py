@@ -128,6 +128,18 @@ def _topic(rec, name: str) -> dict[str, np.ndarray] | None:
         return None
 
 
+
+def run_result_counters(rec) -> dict:
+    """The engine's final counters, from the run_result record's ``counters`` JSON ({} when the
+    record, the field or its JSON is missing or not an object)."""
+    result = rec.metadata.get("run_result") or {}
+    try:
+        final = json.loads(result.get("counters", "") or "{}")
+    except ValueError:
+        return {}
+    return final if isinstance(final, dict) else {}
+
+
 def _last_counters(rec) -> dict[str, int]:
     """Each counter: the largest of the /link/stats rows (cumulative: the largest is the last) and of
     the run_result record's ``counters`` and ``rows_dropped`` (the final values, written through the
@@ -141,13 +153,7 @@ def _last_counters(rec) -> dict[str, int]:
             finite = values[np.isfinite(values)]
             out[c] = int(finite.max()) if len(finite) else 0
     result = rec.metadata.get("run_result") or {}
-    final: dict = {}
-    try:
-        final = json.loads(result.get("counters", "") or "{}")
-    except ValueError:
-        pass
-    if not isinstance(final, dict):
-        final = {}
+    final = run_result_counters(rec)
     if "rows_dropped" in result:
         final = {**final, "rows_dropped": max(_int(result["rows_dropped"]) or 0,
                                               _int(final.get("rows_dropped", 0)) or 0)}
@@ -255,12 +261,7 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
     # design: the engine counts the rows it wrote (run_result counters state_rows)
     expected = out.cycles_done
     if result is not None:
-        try:
-            import json
-
-            written = json.loads(result.get("counters", "") or "{}").get("state_rows")
-        except ValueError:
-            written = None
+        written = run_result_counters(rec).get("state_rows")
         if written is not None and expected is not None and int(written) < expected:
             expected = int(written)
     if expected is not None and rows < expected:

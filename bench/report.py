@@ -29,7 +29,8 @@ from rich.console import Console
 
 from .claims import (CLAIMS, OPERATING_POINT_DEF, TELEM_EMF_LSB_V, TELEM_IQ_LSB_A,
                      TELEM_OMEGA_LSB_RAD_S, TELEM_THETA_LSB_RAD, Claim, Context, Quantity, Relation,
-                     Run, derive, measure_with_resolution, relate, run_failure)
+                     Run, derive, measure_with_resolution, relate, run_failure, speed_lsb_rpm)
+from .recorder import SIDE_SUFFIXES
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -153,8 +154,8 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | N
     return outcomes
 
 
-#: the files a run writes beside <run>.mcap (bench/runner.py: the serial and CAN captures)
-_RUN_SIBLINGS = (".mcap", ".serial.bin", ".log")
+#: <run>.mcap and the files a run writes beside it (bench/recorder.py: the serial and CAN captures)
+_RUN_SIBLINGS = (".mcap",) + tuple(sfx for sfx, _ in SIDE_SUFFIXES)
 
 
 def _keep_attempt(recording: Path) -> None:
@@ -342,8 +343,8 @@ def _css_class(verdict: str) -> str:
 #: definitions (the same text in report.md and report.html)
 RESOLUTION_TEXT = (
     f"Telemetry resolution (docs/protocol.md): the controller reports its speed estimate in "
-    f"steps of {TELEM_OMEGA_LSB_RAD_S:g} rad/s electrical ({TELEM_OMEGA_LSB_RAD_S * 60 / (2 * math.pi) / 4:.3f} "
-    f"rpm at p = 4, {TELEM_OMEGA_LSB_RAD_S * 60 / (2 * math.pi) / 3:.3f} rpm at p = 3), its angle in "
+    f"steps of {TELEM_OMEGA_LSB_RAD_S:g} rad/s electrical ({speed_lsb_rpm(4):.3f} "
+    f"rpm at p = 4, {speed_lsb_rpm(3):.3f} rpm at p = 3), its angle in "
     f"{TELEM_THETA_LSB_RAD:.3g} rad, its EMF in {TELEM_EMF_LSB_V:g} V and its i_q reference in "
     f"{TELEM_IQ_LSB_A * 1e3:g} mA. Where a host reference estimator ran on the same samples "
     f"(the same C, recorded in float64) the speed metrics are computed from it; otherwise from "

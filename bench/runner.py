@@ -32,7 +32,7 @@ from protocol.messages import Command, Estimator, Fault, HelloFlag, Mode, Param
 
 from . import channels as ch
 from .host_session import HostSession
-from .links import LinkError, OpenedLink, open_link
+from .links import STUB_CAN_MODES, LinkError, OpenedLink, open_link
 from .links.engine_fd import engine_link_for
 from .recorder import ProcessRecorder, RecorderError, check_target
 from .scenario import RPM_PER_RAD_S, Scenario
@@ -138,6 +138,11 @@ def event_cycles(scenario: Scenario, ts_s: float) -> list[tuple[int, object]]:
     return out
 
 
+def _is_stub_link(link_spec: str) -> bool:
+    """The firmware stub is the controller (``stub`` on a pty, ``stub-<can mode>``)."""
+    return link_spec == "stub" or link_spec.startswith("stub-")
+
+
 def realtime_cpus(engine_cpu: int | None, stub_cpu: int | None) -> tuple[int | None, int | None]:
     """The CPU layout of a real-time run (docs/realtime.md): the engine (and the recorder, below
     it) on the last CPU this process may use, the stub on the first; the kernel's workers that
@@ -187,7 +192,7 @@ class Runner:
                                      f"{', '.join(map(str, allowed))} only; a real-time run "
                                      f"pinned elsewhere would not be what was asked for")
             self.cpu, stub_cpu = realtime_cpus(self.cpu, stub_cpu)
-        if self.mode == "realtime" and (link_spec == "stub" or link_spec.startswith("stub-")):
+        if self.mode == "realtime" and _is_stub_link(link_spec):
             rt = scenario.realtime
             isr = rt.stub_isr + (f":{rt.stub_phase_us:g}" if rt.stub_phase_us is not None else "")
             self.stub_args += ("--isr", isr, "--rt-priority", str(rt.stub_priority))
@@ -196,7 +201,7 @@ class Runner:
             if stub_cpu is not None:
                 self.stub_args += ("--cpu", str(stub_cpu))
         self._check_faults_fit_the_link(scenario, link_spec)
-        if scenario.faults and (link_spec == "stub" or link_spec.startswith("stub-")):
+        if scenario.faults and _is_stub_link(link_spec):
             # the stub reports its receive errors while cycles flow (HEARTBEAT_CTRL, protocol
             # 6.7 "may"): faults on the frames it receives then leave a trace on the bench
             self.stub_args += ("--heartbeat-always",)
@@ -215,8 +220,8 @@ class Runner:
     @staticmethod
     def _check_faults_fit_the_link(scn: Scenario, link_spec: str) -> None:
         """Faults this link cannot carry are refused before any process or device is touched."""
-        is_stub = link_spec == "stub" or link_spec.startswith("stub-")
-        is_can = link_spec.startswith(("can:", "stub-slcan", "stub-socketcand", "stub-socketcan"))
+        is_stub = _is_stub_link(link_spec)
+        is_can = link_spec.startswith(("can:", *STUB_CAN_MODES))
         for fs in scn.faults:
             where = f"{scn.display_path}: faults[{fs.index}] ({fs.kind})"
             if fs.kind == "controller_reset" and not is_stub:
@@ -578,7 +583,7 @@ class Runner:
 
         stub = getattr(getattr(self, "opened", None), "stub", None)
         try:
-            fault_events = schedule(e, self.scn.faults, self.ts_s, n_cycles=self.n_cycles,
+            fault_events = schedule(e, self.scn.faults, self.ts_s,
                                     controller_pid=stub.proc.pid if stub is not None else None)
         except ValueError as exc:
             raise RunAborted(f"{self.scn.display_path}: {exc}") from None

@@ -607,7 +607,7 @@ def check_against_profile(scn: Scenario) -> None:
     must last at least one period) and the pole pairs (speeds must fit TELEM.omega_hat); the plant
     overrides are checked by building the plant. Raises ScenarioError naming file, line and field."""
     from plant_rt.plant import Plant
-    from plant_rt.profile import ProfileError, load_profile
+    from plant_rt.profile import ProfileError, available_profiles, load_profile
 
     text, where = scn.text, scn.display_path
 
@@ -616,7 +616,7 @@ def check_against_profile(scn: Scenario) -> None:
         dotted = f"{table}.{key}" if table else key
         return ScenarioError(f"{where}:{line}: {dotted}: {why}" if line else f"{where}: {dotted}: {why}")
 
-    if PROFILE_NAME.match(scn.profile) and scn.profile not in _bundled_profiles().split(", "):
+    if PROFILE_NAME.match(scn.profile) and scn.profile not in available_profiles():
         raise fail("scenario", "profile", f"no bundled motor profile {scn.profile!r} (bundled: "
                                           f"{_bundled_profiles()}; or give the path of a .toml file)")
     try:

@@ -29,7 +29,6 @@ EV_PLANT_FAULT, EV_PLANT_FAULT_CLEAR, EV_CONTROLLER_RESET = 4, 5, 6
 #: link faults (plant_rt/c/engine_faults.h): kinds and directions
 LINK_FAULT_KIND = {"drop": 1, "duplicate": 2, "reorder": 3, "bitflip": 4, "delay": 5, "stall": 6,
                    "garbage": 7}
-TO_CONTROLLER, FROM_CONTROLLER = 1, 2
 
 END_NAMES = {0: "DONE", 1: "STOPPED", 2: "LINK", 3: "NO_DUTY", 4: "CONTROLLER_FAULT",
              5: "BAD_DUTIES", 6: "WATCHDOG", 7: "PLANT", 8: "CONFIG", 9: "PROTOCOL"}
@@ -249,27 +248,6 @@ class Engine:
         f.detect_within_s = detect_within_s
         if lib.engine_add_link_fault(self._e, f) != 0:
             raise ValueError(ffi.string(self._e.message).decode())
-
-    def traces(self) -> list[dict]:
-        """What became of each fault (by [[faults]] index): its name, target, whether it acted,
-        first evidence [s after the first action] (None: none) and whether its window closed."""
-        out = []
-        for i in range(64):
-            t = self._e.traces[i]
-            if not t.name[0]:
-                continue
-            acted = int(t.state) > 0
-            out.append({"index": i, "name": ffi.string(t.name).decode(),
-                        "target": ffi.string(t.target).decode(), "acted": acted,
-                        "first_cycle": int(t.first_k) if acted else None,
-                        "evidence_s": ((int(t.seen_k) - int(t.first_k)) * float(self._cfg.ts_s)
-                                       if acted and int(t.seen_k) >= 0 else None)})
-        return out
-
-    @property
-    def trip_cycle(self) -> int:
-        """The cycle of the controller's first FAULT_CTRL in a fault run (-1: none)."""
-        return int(self._e.trip_cycle)
 
     def preload_link_counters(self, deframer: dict[str, int] | None = None,
                               link: dict[str, int] | None = None) -> None:

@@ -242,6 +242,17 @@ def memory_watch(samples: list, stop: threading.Event, stop_after_s: float | Non
     return watch
 
 
+def print_rss_rows(first: dict, last: dict, out: dict) -> None:
+    """A soak's memory table (one row a process: kB at the first and last sample, change), and
+    the same figures into ``out`` as rss_<process>_start_kb / _end_kb / _change."""
+    for k in first:
+        change = (last[k] - first[k]) / first[k]
+        print(f"{k:10s} {first[k]:13d} {last[k]:11d} {change:+8.1%}")
+        out[f"rss_{k}_start_kb"] = first[k]
+        out[f"rss_{k}_end_kb"] = last[k]
+        out[f"rss_{k}_change"] = change
+
+
 def soak(minutes: float) -> int:
     """Lockstep for ``minutes`` of wall time; resident memory of every process at start and end."""
     samples: list[tuple[float, dict]] = []
@@ -266,12 +277,7 @@ def soak(minutes: float) -> int:
           f"rows dropped {result['rows_dropped']}")
     print(f"{'process':10s} {'RSS start kB':>13s} {'RSS end kB':>11s} {'change':>8s}")
     out = {"soak_minutes": result["engine_s"] / 60, "soak_cycles": result["cycles"]}
-    for k in first:
-        change = (last[k] - first[k]) / first[k]
-        print(f"{k:10s} {first[k]:13d} {last[k]:11d} {change:+8.1%}")
-        out[f"rss_{k}_start_kb"] = first[k]
-        out[f"rss_{k}_end_kb"] = last[k]
-        out[f"rss_{k}_change"] = change
+    print_rss_rows(first, last, out)
     print(json.dumps(out))
     return 0
 
@@ -389,12 +395,7 @@ def soak_realtime(minutes: float, rate_hz: float, keep: Path | None = None) -> i
                 **{f"soak_rt_{k}": v for k, v in why.items()},
                 "soak_rt_overruns": t["overruns"], "soak_rt_jitter_p99_us": t["jitter_p99_us"],
                 "soak_rt_rows_dropped": result.link_stats.get("rows_dropped", 0)}
-    for k in first:
-        change = (last[k] - first[k]) / first[k]
-        print(f"{k:10s} {first[k]:13d} {last[k]:11d} {change:+8.1%}")
-        out_json[f"rss_{k}_start_kb"] = first[k]
-        out_json[f"rss_{k}_end_kb"] = last[k]
-        out_json[f"rss_{k}_change"] = change
+    print_rss_rows(first, last, out_json)
     print(json.dumps(out_json))
     return 0
 

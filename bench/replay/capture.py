@@ -463,12 +463,8 @@ class CycleAssembler:
             telem["duty_a"][i], telem["duty_b"][i], telem["duty_c"][i] = duties
             if c.telem is not None:
                 r["has_telem"] = 1
-                r["theta_hat_rad"] = c.telem["theta_hat_rad"]
-                r["omega_hat_rad_s"] = c.telem["omega_hat_rad_s"]
-                r["state"] = c.telem["state"]
-                r["estimator"] = c.telem["estimator"]
                 for key in ("theta_hat_rad", "omega_hat_rad_s", "state", "estimator"):
-                    telem[key][i] = c.telem[key]
+                    r[key] = telem[key][i] = c.telem[key]
             if c.emf is not None:
                 r["has_emf"] = 1
                 for key, v in c.emf.items():

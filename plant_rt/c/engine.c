@@ -686,6 +686,18 @@ int engine_add_reference(engine_t *e, int kind, const void *config, size_t confi
     return 0;
 }
 
+/** The plant fault an ENGINE_EV_PLANT_FAULT event switches on. */
+static plant_fault_t event_plant_fault(const engine_event_t *ev)
+{
+    plant_fault_t pf;
+    pf.kind = ev->fault_kind;
+    pf.phase = ev->fault_phase;
+    pf.phase2 = ev->fault_phase2;
+    pf.level = ev->fault_level;
+    pf.value = ev->value;
+    return pf;
+}
+
 /** Name a fault's trace and its detection window. */
 static int trace_setup(engine_t *e, int index, const char *name, const char *target,
                        double detect_within_s, double delay_s)
@@ -725,14 +737,8 @@ int engine_add_event(engine_t *e, const engine_event_t *ev)
         return -1;
     }
     if (ev->kind == ENGINE_EV_PLANT_FAULT) {
-        plant_fault_t pf;
-        const char *why;
-        pf.kind = ev->fault_kind;
-        pf.phase = ev->fault_phase;
-        pf.phase2 = ev->fault_phase2;
-        pf.level = ev->fault_level;
-        pf.value = ev->value;
-        why = plant_fault_check(e->plant, &pf);
+        const plant_fault_t pf = event_plant_fault(ev);
+        const char *why = plant_fault_check(e->plant, &pf);
         if (why != NULL) {
             set_message(e, "engine: plant fault %s at cycle %ld: %s", ev->fault_name, ev->cycle, why);
             return -1;
@@ -878,17 +884,12 @@ static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
             plant_set_dyno_speed(e->plant, ev->value);
             break;
         case ENGINE_EV_PLANT_FAULT: {
-            plant_fault_t pf;
+            const plant_fault_t pf = event_plant_fault(ev);
             char text[160];
-            pf.kind = ev->fault_kind;
-            pf.phase = ev->fault_phase;
-            pf.phase2 = ev->fault_phase2;
-            pf.level = ev->fault_level;
-            pf.value = ev->value;
             if (plant_set_fault(e->plant, &pf) != 0) {
+                const char *why = plant_fault_check(e->plant, &pf);
                 snprintf(text, sizeof text, "refused by the plant: %s",
-                         plant_fault_check(e->plant, &pf) ? plant_fault_check(e->plant, &pf)
-                                                           : "(no reason)");
+                         why != NULL ? why : "(no reason)");
                 record_fault(e, (int32_t)c->seq, ev->fault_index, "plant", ev->fault_name, "",
                              "refused", text, ev->value);
             } else {
@@ -1006,6 +1007,14 @@ static int build_sense(engine_t *e, cycle_t *c)
     return 0;
 }
 
+/** Real time: the late state of `seq` (0 none, 1 its period ended without its DUTY, 2 its late
+ *  DUTY came) if it is within ENGINE_LATE_WINDOW periods before cycle c, else 0. */
+static int late_state_of(const engine_t *e, const cycle_t *c, uint16_t seq)
+{
+    return ((uint16_t)(c->seq - seq) < ENGINE_LATE_WINDOW)
+               ? (int)e->late_state[seq & (ENGINE_LATE_WINDOW - 1)] : 0;
+}
+
 /** TELEM / TELEM_EMF that is not this cycle's first (docs/protocol.md 6.5): a second one of
  *  this cycle is a duplicate, one of the cycle before or of a missed period in the late window
  *  is stale (ignored, counted apart), any other seq is a sequence mismatch. */
@@ -1013,9 +1022,7 @@ static void telem_other_seq(engine_t *e, cycle_t *c, uint16_t seq)
 {
     if (seq == c->seq) {
         e->n.duplicates++;
-    } else if (seq == (uint16_t)(c->seq - 1u) ||
-               ((uint16_t)(c->seq - seq) < ENGINE_LATE_WINDOW &&
-                e->late_state[seq & (ENGINE_LATE_WINDOW - 1)] != 0)) {
+    } else if (seq == (uint16_t)(c->seq - 1u) || late_state_of(e, c, seq) != 0) {
         /* the cycle before, or (real time) a late answer to a period that ended without its
          * DUTY: the telemetry of a cycle that is over */
         e->n.stale_frames++;
@@ -1072,14 +1079,12 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
         }
         if ((d.seq == c->seq && c->have_duty) || (d.seq == prev_seq && e->prev_had_duty)) {
             e->n.duplicates++; /* a second answer to a completed cycle (e.g. a cached re-send) */
-        } else if ((uint16_t)(c->seq - d.seq) < ENGINE_LATE_WINDOW &&
-                   e->late_state[d.seq & (ENGINE_LATE_WINDOW - 1)] == 1) {
+        } else if (late_state_of(e, c, d.seq) == 1) {
             /* real time: the answer to a period that ended without it (however many periods
              * ago, up to the window: after a stall of the host the answers come in a burst) */
             e->late_state[d.seq & (ENGINE_LATE_WINDOW - 1)] = 2;
             e->n.late_duty++;
-        } else if ((uint16_t)(c->seq - d.seq) < ENGINE_LATE_WINDOW &&
-                   e->late_state[d.seq & (ENGINE_LATE_WINDOW - 1)] == 2) {
+        } else if (late_state_of(e, c, d.seq) == 2) {
             e->n.duplicates++; /* a second late answer to the same period */
         } else {
             e->n.seq_mismatch++;

@@ -162,17 +162,6 @@ static void report(elf_t *f, int i, int dir, const char *action, const eng_frame
     }
 }
 
-int elf_stalled(const elf_t *f, int64_t now_ns)
-{
-    int i;
-    for (i = 0; i < f->n; ++i) {
-        if (f->cfg[i].kind == ELF_STALL && f->once_done[i] && now_ns < f->stall_until_ns[i]) {
-            return f->cfg[i].direction;
-        }
-    }
-    return 0;
-}
-
 static int stall_index(const elf_t *f, int64_t now_ns, int dir)
 {
     int i;

@@ -120,7 +120,5 @@ int elf_rx_pop(elf_t *f, eng_frame_t *out, int64_t now_ns);
 unsigned elf_rx_ready(const elf_t *f, int64_t now_ns);
 /** The earliest instant something held becomes due (INT64_MAX: nothing held). */
 int64_t elf_next_due_ns(const elf_t *f);
-/** A stall is on now (nothing crosses). */
-int elf_stalled(const elf_t *f, int64_t now_ns);
 
 #endif
