@@ -58,10 +58,10 @@ sanitize: $(STAMP)
 	@test -f "$$(gcc -print-file-name=libasan.so)" || echo "sanitize: WARNING: gcc has no libasan.so: tests/test_loop_sanitized.py will skip"
 
 demo: build
-	$(VPY) -m bench run $(SCENARIO)
+	$(VPY) -m hil_bench run $(SCENARIO)
 
 perf: build
-	$(VPY) -m bench.perf.loop
+	$(VPY) -m hil_bench.perf.loop
 
 # libFuzzer harnesses (clang; installs it with apt-get if missing, skips if it cannot):
 # >= 10^6 executions per harness, or a 20 s pass per harness for CI (tests/fuzz/run.sh). The CI

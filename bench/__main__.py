@@ -1,3 +1,3 @@
-from .cli import main
+from hil_bench.cli import main
 
 raise SystemExit(main())

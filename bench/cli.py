@@ -1,5 +1,5 @@
 """Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``, ``bench recover``,
-``bench conformance``, ``bench campaign`` (bench/campaign.py), ``bench replay`` (bench/replay/cli.py)."""
+``bench conformance``, ``bench campaign`` (bench/faults/campaign.py), ``bench replay`` (bench/replay/cli.py)."""
 from __future__ import annotations
 
 import argparse
@@ -10,12 +10,12 @@ from rich.console import Console
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .check import check_recording, print_report
-    from .links import LinkError
-    from .recording import RecordingError
-    from .recorder import RecorderError
-    from .runner import RunAborted, run_scenario
-    from .scenario import ScenarioError, load_scenario
+    from hil_bench.loop.links import LinkError
+    from hil_bench.loop.runner import RunAborted, run_scenario
+    from hil_bench.papers.check import check_recording, print_report
+    from hil_bench.record.recorder import RecorderError
+    from hil_bench.record.recording import RecordingError
+    from hil_bench.scenario import ScenarioError, load_scenario
 
     out = Console()
     err = Console(stderr=True)
@@ -66,8 +66,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from .check import check_recording, print_report
-    from .recording import RecordingError
+    from hil_bench.papers.check import check_recording, print_report
+    from hil_bench.record.recording import RecordingError
 
     err = Console(stderr=True)
     path = Path(args.recording)
@@ -88,7 +88,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
-    from .recover import RecoverError, recover
+    from hil_bench.record.recover import RecoverError, recover
 
     try:
         report = recover(args.recording, args.out, force=args.force)
@@ -100,13 +100,13 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 
 
 def _cmd_conformance(args: argparse.Namespace) -> int:
-    from .conformance import main as conformance_main
+    from hil_bench.conformance import main as conformance_main
 
     return conformance_main(args)
 
 
 def _cmd_scenarios(args: argparse.Namespace) -> int:
-    from .scenario import SCENARIO_DIR, ScenarioError, load_scenario
+    from hil_bench.scenario import SCENARIO_DIR, ScenarioError, load_scenario
 
     for path in sorted(SCENARIO_DIR.glob("*.toml")):
         try:
@@ -121,7 +121,7 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
 def _cmd_campaign(args: argparse.Namespace) -> int:
     import time
 
-    from .campaign import CampaignError, load_campaign, run_campaign, write_report
+    from hil_bench.faults.campaign import CampaignError, load_campaign, run_campaign, write_report
 
     err = Console(stderr=True)
     try:
@@ -149,10 +149,10 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
 
 def _cmd_claims(args: argparse.Namespace) -> int:
-    from .claims import CLAIMS, METRICS
+    from hil_bench.papers.claims import CLAIMS, METRICS
 
     if args.run:
-        from .report import run_report
+        from hil_bench.papers.report import run_report
 
         only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
@@ -161,7 +161,7 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         except ValueError as exc:
             Console(stderr=True).print(f"[red]error:[/red] {exc}")
             return 2
-        from .report import claim_verdict
+        from hil_bench.papers.report import claim_verdict
         out = Console()
         for c in rep.claims:
             rows = [r for r in rep.rows if r.claim == c.id]
@@ -260,7 +260,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="reuse recordings already in <out>/recordings (development)")
     k.set_defaults(func=_cmd_claims)
 
-    from .replay.cli import add_parser as add_replay_parser
+    from hil_bench.replay.cli import add_parser as add_replay_parser
 
     add_replay_parser(sub)
     return p

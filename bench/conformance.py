@@ -3,7 +3,7 @@
 For drive teams: point it at a drive (``--link serial:/dev/ttyUSB0@3000000``, ``--link can:...``) or at
 the stub (``--link stub``) and it prints, item by item, what the controller got right and wrong, each
 item tied to a section of docs/protocol.md. It is a test tool, not the bench's cycle loop: it drives the
-link directly (``bench.links.open_link``), one frame at a time, with a plant (``plant_rt``) supplying the
+link directly (``hil_bench.loop.links.open_link``), one frame at a time, with a plant (``plant_rt``) supplying the
 currents so the controller runs its real start-up.
 
 The session: idle heartbeats; HELLO with a wrong version, an unknown mode, ENCODER without the encoder
@@ -27,10 +27,21 @@ import struct
 import time
 from dataclasses import dataclass, field
 
-from protocol import params as param_info
-from protocol.framing import cobs_encode, crc16
-from protocol.messages import (DUTY_RAW_OFF, MESSAGES, PROTO_VERSION, Command, ConfigStatus, Estimator,
-                               HelloFlag, HelloStatus, Mode, Param, State)
+from hil_bench.protocol import params as param_info
+from hil_bench.protocol.framing import cobs_encode, crc16
+from hil_bench.protocol.messages import (
+    DUTY_RAW_OFF,
+    MESSAGES,
+    PROTO_VERSION,
+    Command,
+    ConfigStatus,
+    Estimator,
+    HelloFlag,
+    HelloStatus,
+    Mode,
+    Param,
+    State,
+)
 
 ANSWER_TIMEOUT_S = 0.5      # the host's patience for an answer (docs/protocol.md 6.1-6.5)
 AFTER_REPEAT = 8            # cycles after the repeated SENSE compared with the reference session
@@ -149,7 +160,7 @@ def run_params(profile, plant, scn, ts_s: float, cycles: int) -> dict[Param, flo
     """The parameters the kit runs with: the motor's, the plant's delay and the scenario's, with the
     alignment shortened to at most ALIGN_SHARE of the cycles so that the outputs move (I-f ramp, then
     closed loop) by the time the SENSE is repeated."""
-    from .runner import motor_params
+    from hil_bench.loop.runner import motor_params
 
     params = {**motor_params(profile), Param.CTRL_DELAY_S: float(plant.params.t_delay_s),
               **scn.controller_params}
@@ -175,12 +186,11 @@ def _status(table, value) -> str:
 def run_conformance(link_spec: str = "stub", stub_args: tuple[str, ...] = (), cycles: int = 300,
                     estimator: str = "SMO_SIGN", scenario: str = "gong_g2_500rpm") -> Result:
     """Run the scripted session against the controller on ``link_spec``; never raises for a bad controller."""
-    from plant_rt.plant import Plant
-    from plant_rt.profile import load_profile
-
-    from .links import LinkError, open_link
-    from .links.serial_link import SerialLink
-    from .scenario import load_scenario
+    from hil_bench.loop.links import LinkError, open_link
+    from hil_bench.loop.links.serial_link import SerialLink
+    from hil_bench.plant_rt.plant import Plant
+    from hil_bench.plant_rt.profile import load_profile
+    from hil_bench.scenario import load_scenario
 
     result = Result(link_spec)
     scn = load_scenario(scenario)
@@ -494,7 +504,7 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
 
 def main(args: argparse.Namespace) -> int:
     """``bench conformance`` (see ``bench/cli.py``)."""
-    from .scenario import ScenarioError
+    from hil_bench.scenario import ScenarioError
 
     try:
         result = run_conformance(args.link, cycles=args.cycles, estimator=args.estimator.upper())

@@ -6,7 +6,7 @@ from typing import Any, NamedTuple
 try:
     from ._fw_c import ffi, lib
 except ImportError as exc:  # pragma: no cover - exercised only without a build
-    raise ImportError("firmware_stub._fw_c is not built: run `make build` "
+    raise ImportError("hil_bench.firmware_stub._fw_c is not built: run `make build` "
                       f"(tools/build_native.py) first ({exc})") from None
 
 

@@ -3,7 +3,7 @@
 Declarations live in ``firmware_stub/cdef/*.cdef`` (one file per C module, cffi syntax; partial
 structs end in ``...;`` so the real header fixes the layout). Every ``firmware_stub/src/*.c`` is
 compiled in, with the generated protocol codec, exactly as the stub and the DSP build them.
-Built by ``tools/build_native.py`` (``make build``) into ``firmware_stub._fw_c``;
+Built by ``tools/build_native.py`` (``make build``) into ``hil_bench.firmware_stub._fw_c``;
 ``make_builder(sanitize=True)`` is the AddressSanitizer + UndefinedBehaviorSanitizer build
 (``tools/build_native.py --sanitize``, into build-asan/python/).
 """
@@ -32,7 +32,7 @@ def make_builder(sanitize: bool = False) -> FFI:
     sources = sorted(str(p) for p in SRC.glob("*.c"))
     sources += [str(PROTOCOL_C / "hil_msgs.c"), str(PROTOCOL_C / "hil_framing.c")]
     builder.set_source(
-        "firmware_stub._fw_c", headers, sources=sources,
+        "hil_bench.firmware_stub._fw_c", headers, sources=sources,
         include_dirs=[str(SRC), str(PROTOCOL_C)],
         extra_compile_args=SANITIZE_COMPILE_ARGS if sanitize else ["-O2", "-std=c99"],
         extra_link_args=SANITIZE_LINK_ARGS if sanitize else [],

@@ -9,7 +9,7 @@
   derived from the profile by the papers' rules when not given.
 
 The SMOs' ``step`` takes the currents sampled at t_k and the alpha-beta voltage applied over
-the previous period and returns :class:`firmware_stub.estimators.EstimatorOutput`. Outputs are
+the previous period and returns :class:`hil_bench.firmware_stub.estimators.EstimatorOutput`. Outputs are
 float32 values promoted to Python floats. Equations, discretisation and parameter choices:
 docs/estimators_smo.md.
 """
@@ -17,7 +17,8 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple, Sequence
 
-from ._binding import EstimatorOutput, configure as _configure, ffi, lib
+from ._binding import EstimatorOutput, ffi, lib
+from ._binding import configure as _configure
 
 #: lag_comp values of SmoSigmoid (EST_SMO_SIGMOID_LAG_*)
 LAG_NONE = lib.EST_SMO_SIGMOID_LAG_NONE

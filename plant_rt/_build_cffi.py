@@ -1,4 +1,4 @@
-"""cffi API-mode builder for the C plant: module ``plant_rt._plant_c``.
+"""cffi API-mode builder for the C plant: module ``hil_bench.plant_rt._plant_c``.
 
 Run ``python tools/build_native.py`` (or ``make build``), which compiles ``ffibuilder`` and
 places the extension next to this file. ``make_builder(sanitize=True)`` is the same module built
@@ -326,7 +326,7 @@ def make_builder(sanitize: bool = False) -> FFI:
     builder = FFI()
     builder.cdef(CDEF + ENGINE_CDEF)
     builder.set_source(
-        "plant_rt._plant_c",
+        "hil_bench.plant_rt._plant_c",
         '#include "plant.h"\n#include "engine.h"\n#include "rec_mcap.h"\n',
         sources=[str(C_DIR / name) for name in SOURCES]
         # the reference estimators are the firmware's own library; the engine frames with the

@@ -16,8 +16,9 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass
 
-from plant_rt._plant_c import ffi, lib
-from protocol.messages import (DUTY_RAW_OFF, MESSAGES, SenseAuxFlag, State)
+from hil_bench.protocol.messages import DUTY_RAW_OFF, MESSAGES, SenseAuxFlag, State
+
+from ._plant_c import ffi, lib
 
 LOCKSTEP, REALTIME = 0, 1
 #: engine_source_t: the live loop, or a replay (plant_rt/c/engine.h)
@@ -176,7 +177,7 @@ class Engine:
 
     def add_reference(self, kind: int, estimator, channel: int) -> None:
         """A firmware_stub estimator wrapper's configuration, run by the engine on its own state."""
-        from firmware_stub._binding import ffi as fw_ffi
+        from hil_bench.firmware_stub._binding import ffi as fw_ffi
 
         cfg = estimator._cfg
         data = bytes(fw_ffi.buffer(cfg))

@@ -1,6 +1,6 @@
-"""Python API over the C plant (cffi API mode, module ``plant_rt._plant_c``).
+"""Python API over the C plant (cffi API mode, module ``hil_bench.plant_rt._plant_c``).
 
-    from plant_rt.plant import Plant
+    from hil_bench.plant_rt.plant import Plant
     plant = Plant.from_profile("gong2020", t_delay_s=0.0)   # overrides are validated
     s = plant.snapshot()              # live cffi plant_snapshot_t: s.i_a_a, s.theta_e_rad, ...
     plant.step(0.6, 0.4, 0.5)         # one PWM period; duty < 0 disables a leg
@@ -28,23 +28,23 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from plant_rt.profile import (
+from .profile import (
     PARAM_FIELDS,
     MotorProfile,
     ProfileError,
     c_struct,
     coerce_value,
-    unknown_key_error,
     display_path,
     load_profile,
+    unknown_key_error,
     validate_params,
 )
 
 try:
-    from plant_rt._plant_c import ffi, lib
+    from ._plant_c import ffi, lib
 except ImportError as _exc:  # pragma: no cover - exercised by a subprocess test
     raise ImportError(
-        "plant_rt._plant_c (the compiled C plant) is not built: run `make build` "
+        "hil_bench.plant_rt._plant_c (the compiled C plant) is not built: run `make build` "
         "(or `.venv/bin/python tools/build_native.py`)"
     ) from _exc
 
@@ -132,7 +132,7 @@ def _as_dict(self) -> dict[str, Any]:
 
 
 #: Read-only copy of the parameters the plant was built with (SI; every flat key of
-#: plant_rt.profile.PARAM_FIELDS: the 11 plant_params_t base fields, then the non-idealities).
+#: hil_bench.plant_rt.profile.PARAM_FIELDS: the 11 plant_params_t base fields, then the non-idealities).
 PlantParams = make_dataclass(
     "PlantParams", [(name, Any) for name in PARAM_FIELDS], frozen=True,
     namespace={"as_dict": _as_dict, "__doc__": "Read-only copy of the plant parameters (SI)."})
@@ -141,7 +141,7 @@ PlantParams = make_dataclass(
 class Plant:
     """PMSM + inverter + mechanics, one ``step`` per PWM/control period.
 
-    Plant(profile, **overrides): any parameter (flat key, plant_rt.profile.PARAM_FIELDS) can be
+    Plant(profile, **overrides): any parameter (flat key, hil_bench.plant_rt.profile.PARAM_FIELDS) can be
     overridden (same validation as profile files; errors are ProfileError naming the profile
     file and the field). Non-idealities are switched on by overrides, e.g.
     ``Plant(prof, inverter_nonlinear=True, dead_time_s=2e-6)``.

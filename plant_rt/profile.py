@@ -410,7 +410,7 @@ def c_check_params(params: Mapping[str, Any]) -> str | None:
 
     Raises ImportError if the C module is not built.
     """
-    from plant_rt._plant_c import ffi, lib  # noqa: PLC0415 (optional dependency)
+    from ._plant_c import ffi, lib  # noqa: PLC0415 (optional dependency)
 
     cp = ffi.new("plant_params_t *", c_struct(params))
     msg = lib.plant_params_check(cp)

@@ -14,14 +14,10 @@ import platform
 import statistics
 import sys
 import timeit
-from pathlib import Path
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from protocol import dbc  # noqa: E402
-from protocol.framing import Deframer, encode_frame  # noqa: E402
-from protocol.messages import MESSAGES  # noqa: E402
+from hil_bench.protocol import dbc
+from hil_bench.protocol.framing import Deframer, encode_frame
+from hil_bench.protocol.messages import MESSAGES
 
 
 def cases() -> dict[str, object]:

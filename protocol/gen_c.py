@@ -23,11 +23,8 @@ import difflib
 import sys
 from pathlib import Path
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from protocol import dbc  # noqa: E402
-from protocol.dbc import MessageSpec, SignalSpec  # noqa: E402
+from hil_bench.protocol import dbc
+from hil_bench.protocol.dbc import MessageSpec, SignalSpec
 
 OUT_DIR = Path(__file__).resolve().parent / "c"
 BANNER = ("/* GENERATED FROM hil.dbc BY protocol/gen_c.py -- DO NOT EDIT.\n"

@@ -15,11 +15,8 @@ import re
 import sys
 from pathlib import Path
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from protocol import budget, dbc, framing  # noqa: E402
-from protocol.messages import MESSAGES  # noqa: E402
+from hil_bench.protocol import budget, dbc, framing
+from hil_bench.protocol.messages import MESSAGES
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "protocol.md"
 
@@ -148,7 +145,7 @@ def section_value_tables() -> str:
 
 
 def section_params() -> str:
-    from protocol import params
+    from hil_bench.protocol import params
 
     return params.markdown_table()
 

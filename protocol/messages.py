@@ -2,7 +2,7 @@
 
 One ``Message`` per DBC message, in ``MESSAGES`` (by name) and ``BY_ID`` (by frame id)::
 
-    from protocol.messages import MESSAGES, decode, State
+    from hil_bench.protocol.messages import MESSAGES, decode, State
     SENSE = MESSAGES["SENSE"]
     data = SENSE.pack_values((k, i_a, i_b, i_c))        # physical, in signal (start-bit) order
     msg, values = decode(0x100, data)                     # -> (SENSE, {"seq": k, "i_a": ..., ...})

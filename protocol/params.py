@@ -2,7 +2,7 @@
 
 The DBC's ``Param`` value table is the single source of the ids and names; this table adds what a DBC
 cannot say, once, for the spec (``python protocol/gen_docs.py`` writes docs/protocol.md section 6.2 from it),
-for the scenario loader (``bench/scenario.py`` refuses an integer parameter given as 4.5 before anything
+for the scenario loader (``bench/scenario/scenario.py`` refuses an integer parameter given as 4.5 before anything
 starts) and for the conformance kit. A test checks that it names exactly the parameters of the DBC.
 
 Kinds (docs/protocol.md 6.2):

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant_rt import openloop
-from plant_rt.plant import Plant
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.plant_rt.verify import openloop
 
 RPM = 2.0 * math.pi / 60.0
 

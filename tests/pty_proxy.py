@@ -16,8 +16,8 @@ import threading
 import tty
 from typing import Callable
 
-from bench.links.stub import stub_path
-from protocol.framing import decode_chunk, encode_frame
+from hil_bench.loop.links.stub import stub_path
+from hil_bench.protocol.framing import decode_chunk, encode_frame
 
 Hook = Callable[[bytes], list[bytes]]
 

@@ -3,8 +3,8 @@ from pathlib import Path
 
 import pytest
 
-from bench.scenario import SCENARIO_DIR, ScenarioError, load_scenario, speed_ref_at
-from protocol.messages import Estimator, Param
+from hil_bench.protocol.messages import Estimator, Param
+from hil_bench.scenario import SCENARIO_DIR, ScenarioError, load_scenario, speed_ref_at
 
 GOOD = """
 [scenario]
@@ -197,8 +197,8 @@ def test_new_keys_and_their_defaults(tmp_path):
 
 
 def test_bench_run_refuses_a_bad_scenario_before_touching_a_process(tmp_path, monkeypatch, capsys):
-    from bench import cli
-    from bench.links import stub
+    from hil_bench import cli
+    from hil_bench.loop.links import stub
 
     def touched(*a, **k):
         raise AssertionError("a process was started for a bad scenario")
@@ -213,8 +213,8 @@ def test_bench_run_refuses_a_bad_scenario_before_touching_a_process(tmp_path, mo
 
 def test_plant_values_are_refused_before_any_process_starts(tmp_path, monkeypatch):
     """`bench run` with a bad plant value: the error, no stub started, no file written."""
-    from bench import runner
-    from bench.cli import main as cli_main
+    from hil_bench.cli import main as cli_main
+    from hil_bench.loop import runner
 
     started = []
     monkeypatch.setattr(runner, "open_link", lambda *a, **k: started.append(a) or (_ for _ in ()).throw(
@@ -227,8 +227,8 @@ def test_plant_values_are_refused_before_any_process_starts(tmp_path, monkeypatc
 
 def test_a_bundled_load_within_the_limit_loads(tmp_path):
     """The limit is far above every bundled load (2 N m at G8, 6.5 N m at Hou's full load)."""
-    from bench.scenario import load_torque_limit_nm
-    from plant_rt.profile import load_profile
+    from hil_bench.plant_rt.profile import load_profile
+    from hil_bench.scenario import load_torque_limit_nm
 
     assert load_torque_limit_nm(load_profile("gong2020"), 1.5, 819.175) == pytest.approx(23.81, abs=0.01)
     load_scenario(write(tmp_path, G2.replace("initial_theta_e_rad = 0.4",

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from bench.campaign import CampaignError, load_campaign, run_campaign, write_report
-from bench.cli import main as cli_main
+from hil_bench.cli import main as cli_main
+from hil_bench.faults.campaign import CampaignError, load_campaign, run_campaign, write_report
 
 REPO = Path(__file__).resolve().parents[1]
 

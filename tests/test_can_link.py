@@ -10,10 +10,10 @@ from pathlib import Path
 import can
 import pytest
 
-from bench.links import LinkError, open_link, parse_can_spec, parse_stub_can_spec
-from bench.links.can_link import CanLink, CanSpec
-from protocol import budget
-from protocol.messages import MESSAGES
+from hil_bench.loop.links import LinkError, open_link, parse_can_spec, parse_stub_can_spec
+from hil_bench.loop.links.can_link import CanLink, CanSpec
+from hil_bench.protocol import budget
+from hil_bench.protocol.messages import MESSAGES
 
 ROOT = Path(__file__).resolve().parents[1]
 DUTY = MESSAGES["DUTY"]
@@ -64,7 +64,7 @@ def test_unknown_ids_are_counted_and_passed_on_extended_and_remote_dropped(pair)
 
 def test_wrong_dlc_is_counted_dropped_and_reported_once(pair, caplog):
     link, drive, _ = pair
-    with caplog.at_level(logging.WARNING, logger="bench.links.can"):
+    with caplog.at_level(logging.WARNING, logger="hil_bench.loop.links.can"):
         _drive_send(drive, 0x181, b"\x01" * 6)
         _drive_send(drive, 0x181, b"\x01" * 7)
         _drive_send(drive, 0x180, b"\x00" * 8)
@@ -206,7 +206,7 @@ def test_opening_a_virtual_bus_through_the_spec(tmp_path):
 # -- budget -------------------------------------------------------------------------------------------
 
 def test_can_scenario_period_fits_classic_can_at_1mbit():
-    from bench.scenario import load_scenario
+    from hil_bench.scenario import load_scenario
 
     scn = load_scenario("gong_g2_500rpm_can")
     ts = scn.plant_overrides["ts_s"]
@@ -231,4 +231,4 @@ def test_docs_can_table_is_current():
     text = (ROOT / "docs" / "protocol.md").read_text()
     m = re.search(r"<!-- BEGIN CAN LINK TABLE[^\n]*-->\n(.*?)<!-- END CAN LINK TABLE -->", text, re.S)
     assert m, "docs/protocol.md lacks the CAN link table markers"
-    assert m.group(1) == budget.can_link_table(), "regenerate with protocol.budget.can_link_table()"
+    assert m.group(1) == budget.can_link_table(), "regenerate with hil_bench.protocol.budget.can_link_table()"

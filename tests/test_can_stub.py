@@ -25,15 +25,15 @@ import cantools
 import numpy as np
 import pytest
 
-import bench.runner as runner_mod
-from bench import channels as ch
-from bench.links import LinkError, open_link, parse_stub_can_spec
-from bench.links.stub import StubProcess, stub_path
-from bench.recording import load_recording
-from bench.runner import RunAborted, Runner, run_scenario
-from bench.scenario import SCENARIO_DIR, load_scenario, parse_scenario
-from protocol import budget, dbc
-from protocol.messages import MESSAGES, Command, HelloStatus
+import hil_bench.loop.runner as runner_mod
+from hil_bench.loop.links import LinkError, open_link, parse_stub_can_spec
+from hil_bench.loop.links.stub import StubProcess, stub_path
+from hil_bench.loop.runner import RunAborted, Runner, run_scenario
+from hil_bench.protocol import budget, dbc
+from hil_bench.protocol.messages import MESSAGES, Command, HelloStatus
+from hil_bench.record import channels as ch
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import SCENARIO_DIR, load_scenario, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 CAN_LINKS = ["stub-slcan", "stub-socketcand"]

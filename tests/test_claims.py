@@ -1,4 +1,4 @@
-"""The claims registry (bench/claims.py): all 19 claims, every rule with a source and none of the
+"""The claims registry (bench/papers/claims.py): all 19 claims, every rule with a source and none of the
 old unsourced '~' tolerances, every run's scenario loads, every window inside its run, relations
 over existing quantities (labels agreeing with their operators, ties below one telemetry LSB not
 resolved); the fault diagnosis and the over-current trip below every ADC's full scale; three
@@ -9,9 +9,9 @@ import tomllib
 import numpy as np
 import pytest
 
-from bench import claims as cl
-from bench import tomlw
-from bench.report import scenario_for
+from hil_bench.papers import claims as cl
+from hil_bench.papers.report import scenario_for
+from hil_bench.scenario import tomlw
 
 PAPER_IDS = [f"Y{i}" for i in range(1, 9)] + ["H1", "H2", "H3"] + [f"G{i}" for i in range(1, 9)]
 
@@ -69,7 +69,7 @@ def test_derived_scenario_keeps_everything_else_and_names_the_override():
 
 
 def cl_param(name):
-    from protocol.messages import Param
+    from hil_bench.protocol.messages import Param
     return Param[name]
 
 
@@ -174,14 +174,14 @@ def test_diagnose_fault_names_a_clipped_overcurrent_not_a_sensor_fault():
 
 
 def _plan_runs():
-    from bench.beyond import plan
+    from hil_bench.papers.beyond import plan
     runs = dict(cl.all_runs())
     runs.update({r.id: r for r in plan(quick=True).runs})
     return list(runs.values())
 
 
 def _ctrl_default_trip_a() -> float:
-    from firmware_stub._binding import ffi, lib
+    from hil_bench.firmware_stub._binding import ffi, lib
     cfg = ffi.new("ctrl_config_t *")
     lib.ctrl_config_defaults(cfg)
     return float(cfg.i_trip_a)
@@ -193,9 +193,9 @@ def test_overcurrent_trips_before_the_adc_clips(run):
     on, the over-current trip sits below its full scale, so a current the ADC cannot read (a
     clipped reading, which no longer sums to zero with the others) trips OVERCURRENT on that
     very sample, before the sum check's 5 ms filter can call it a sensor fault."""
-    from plant_rt.plant import Plant
-    from plant_rt.profile import load_profile
-    from protocol.messages import Param
+    from hil_bench.plant_rt.plant import Plant
+    from hil_bench.plant_rt.profile import load_profile
+    from hil_bench.protocol.messages import Param
     scn = scenario_for(run)
     p = Plant(load_profile(scn.profile), **scn.plant_overrides).params
     if not p.adc_model:
@@ -213,19 +213,20 @@ def test_runaways_end_as_named_overcurrents(tmp_path, run_id):
     """Runs that ended in SENSOR_FAULT before the trip level was set below the ADC's full scale
     (the drive ran away, the currents clipped): they now end in OVERCURRENT, and the report's
     note names what the plant shows."""
-    from bench.check import build_context, scenario_of
-    from bench.recording import load_recording
-    from bench.runner import run_scenario
+    from hil_bench.loop.runner import run_scenario
+    from hil_bench.papers.check import build_context
+    from hil_bench.record.recording import load_recording
+    from hil_bench.scenario import scenario_of
     run = cl.all_runs()[run_id]
     out = tmp_path / f"{run_id}.mcap"
     res = run_scenario(scenario_for(run), out_path=out, progress=False)
     assert not res.ok and "fault OVERCURRENT" in res.error, res.error
     rec = load_recording(out)
-    kind, why = cl.run_failure(rec)
+    ctx = build_context(rec, scenario_of(rec))
+    kind, why = cl.run_failure(rec, ctx.speed_ref_at)
     assert kind == "FAIL" and "[over-current" in why and "phase current up to" in why, why
     assert "(reference 10)" in why and "read" in why, why       # the scenario's reference
     claim = next(c for c in cl.CLAIMS.values() if any(r.id == run_id for r in c.runs))
-    ctx = build_context(rec, scenario_of(rec))
     for q in claim.quantities:
         if run_id in q.runs and not q.study and not q.aggregate:
             _, verdict, note = cl.measure(q, ctx)

@@ -8,8 +8,8 @@ import re
 import numpy as np
 import pytest
 
-from bench.claims import CLAIMS, speed_lsb_rpm
-from bench.report import run_report
+from hil_bench.papers.claims import CLAIMS, speed_lsb_rpm
+from hil_bench.papers.report import run_report
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +48,7 @@ def test_g3_closed_by_the_tanh_smo_reproduces_its_bounds(rep):
     # the speed and EMF metrics come from the float64 host reference, not the quantised telemetry
     q = {q.key: q for q in CLAIMS["G3"].quantities}
     assert q["G3.sf"].source == q["G3.thd"].source == "reference:SMO_TANH"
-    from bench.recording import load_recording
+    from hil_bench.record.recording import load_recording
     rec = load_recording(rep.outcomes["G3"].recording)
     w_ref = rec.topic("/reference/SMO_TANH")["omega_hat_rad_s"]
     w_tel = rec.topic("/controller/telemetry")["omega_hat_rad_s"]
@@ -77,7 +77,7 @@ def test_y5_as_the_paper_set_it_up(rep):
 def test_a_broken_attempt_is_kept_beside_the_retry(tmp_path):
     """The report runs a run the bench broke once more; the recorder refuses to overwrite, and
     the first attempt's files are kept as <run>.attempt1.*, other runs' files untouched."""
-    from bench.report import _keep_attempt
+    from hil_bench.papers.report import _keep_attempt
     names = ("Y1.conventional.mcap", "Y1.conventional.serial.bin", "Y1.conventional.keq5.mcap",
              "Y1.conventional.keq5.serial.bin")
     for n in names:

@@ -6,8 +6,8 @@ import re
 
 import pytest
 
-from bench.cli import main as cli_main
-from bench.conformance import run_conformance
+from hil_bench.cli import main as cli_main
+from hil_bench.conformance import run_conformance
 
 DOC_SECTIONS = {"2.4", "6.1", "6.2", "6.3", "6.4", "6.5", "6.6", "6.7", "6.8"}
 
@@ -23,7 +23,7 @@ def test_the_stub_passes_every_item(capsys):
     assert "the 8 cycles after the repeated SENSE answer exactly as in a session without the repeat" in flat
     assert "cycles 151..158 identical" in flat
     assert "a SENSE with a bad CRC is dropped" in out
-    from protocol.params import PARAMS
+    from hil_bench.protocol.params import PARAMS
     assert f"CONFIG of every parameter of the table ({len(PARAMS)}): each acknowledged" in flat
 
 
@@ -57,7 +57,7 @@ def _rerunning_controller():
     """The stub behind a proxy that makes it a controller breaking 6.5 in the way bytes cannot show: a
     repeated SENSE is passed on under a new seq (the stub runs its ISR again) while the host gets the
     first answer's frames again, byte for byte, as from a cache."""
-    from protocol.messages import MESSAGES as M
+    from hil_bench.protocol.messages import MESSAGES as M
     from tests.pty_proxy import PtyProxy, decode, encode
 
     st = {"offset": 0, "last_sense": None, "bumped": None, "replay": None, "cache_seq": None, "cache": []}

@@ -1,7 +1,7 @@
 """The C cycle engine reproduces the Python lockstep loop it replaced (issue 8, item 3), and keeps
 reproducing its own G2 run bit for bit (a regression test).
 
-The proof of item 3. The golden of the Python loop (``bench/runner.py: Runner._loop`` at commit
+The proof of item 3. The golden of the Python loop (``bench/loop/runner.py: Runner._loop`` at commit
 f6614b9, the last with it) was recorded on a frozen copy of ``gong_g2_500rpm``
 (tests/golden/g2_equivalence.toml) by tests/golden/make_g2_golden.py, as
 tests/golden/g2_python_loop.npz (in git at a9084b6): the SHA-256 of every recorded float column
@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.recording import load_recording
-from bench.runner import run_scenario
-from bench.scenario import load_scenario
+from hil_bench.loop.runner import run_scenario
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import load_scenario
 
 GOLDEN = Path(__file__).parent / "golden"
 BY_DEFINITION = {"/plant/sense:theta_enc_rad"}

@@ -28,10 +28,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from firmware_stub.est_smo import DelayComp, smo_tanh_for
-from plant_rt import openloop
-from plant_rt.plant import Plant
-from plant_rt.profile import PARAM_FIELDS, load_profile
+from hil_bench.firmware_stub.est_smo import DelayComp, smo_tanh_for
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.plant_rt.profile import PARAM_FIELDS, load_profile
+from hil_bench.plant_rt.verify import openloop
 from tests.est_data import RPM, wrap_pi
 from tests.models import delay_comp as model
 

@@ -9,9 +9,15 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from firmware_stub.est_dft import Gsdft, Sdft
-from tests.models.gsdft import (from_paper_output, gsdft_phasors, normalisation, paper_gain,
-                                paper_gsdft_tf, window_weights)
+from hil_bench.firmware_stub.est_dft import Gsdft, Sdft
+from tests.models.gsdft import (
+    from_paper_output,
+    gsdft_phasors,
+    normalisation,
+    paper_gain,
+    paper_gsdft_tf,
+    window_weights,
+)
 from tests.models.sdft import tracking_time_samples
 
 RNG = np.random.default_rng(7)
@@ -133,7 +139,7 @@ def test_y5_tracking_time_sdft_vs_gsdft(capsys):
     stays within 2 %, in cycles of 250 Hz (4.8 samples each). Both are FIRs of M and M/3 taps:
     exactly settled once the window holds only new samples, M - 1 = 23 and M/3 - 1 = 7 samples
     after the step's first sample, i.e. 4.79 and 1.46 cycles (the 2 % criterion changes nothing).
-    Yuan: about 5 and about 2 cycles (bench/studies.py, claim Y5)."""
+    Yuan: about 5 and about 2 cycles (bench/papers/studies.py, claim Y5)."""
     m, k = 24, 5
     t, x = y5_signal()
     per_cycle = 1200.0 / 250.0

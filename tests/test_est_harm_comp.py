@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from firmware_stub.est_dft import HarmComp
+from hil_bench.firmware_stub.est_dft import HarmComp
 from tests.models import harm_comp as model
 
 R_OHM, LS_H, TS_S, POLES = 0.6383, 2e-3, 1e-4, 4

@@ -18,7 +18,7 @@ import math
 import numpy as np
 import pytest
 
-from firmware_stub.est_hfi import Hfi, hfi_for
+from hil_bench.firmware_stub.est_hfi import Hfi, hfi_for
 from tests.models.hfi import HfiModel, StandstillMotor, expected_bias_rad
 
 R, LD, LQ, PSI, P, TS = 0.78, 2.5e-3, 8.5e-3, 0.303, 3, 1e-4
@@ -36,8 +36,8 @@ def wrap_half(x):
 
 @pytest.fixture(scope="module")
 def plant_mod():
-    plant = pytest.importorskip("plant_rt.plant")
-    openloop = pytest.importorskip("plant_rt.openloop")
+    plant = pytest.importorskip("hil_bench.plant_rt.plant")
+    openloop = pytest.importorskip("hil_bench.plant_rt.verify.openloop")
     return plant, openloop
 
 

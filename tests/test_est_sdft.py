@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from firmware_stub._fw_c import lib
-from firmware_stub.est_dft import Sdft
+from hil_bench.firmware_stub._fw_c import lib
+from hil_bench.firmware_stub.est_dft import Sdft
 from tests.models.sdft import from_paper_output, paper_sdft_tf, sdft_phasors
 
 RNG = np.random.default_rng(20240611)

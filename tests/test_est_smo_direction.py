@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from firmware_stub._binding import ffi, lib
-from firmware_stub.est_smo import SmoSigmoid, SmoSign, SmoTanh, LAG_EFFECTIVE
+from hil_bench.firmware_stub._binding import ffi, lib
+from hil_bench.firmware_stub.est_smo import LAG_EFFECTIVE, SmoSigmoid, SmoSign, SmoTanh
 from tests.est_data import trajectory, wrap_pi
 from tests.models.smo_sigmoid import EmfAngle, SmoSigmoidModel
 from tests.models.smo_sign import SmoSignModel
@@ -207,10 +207,10 @@ def test_sign_smo_closes_the_loop_through_a_reversal(tmp_path):
     """beyond_reversal (+500 -> -500 rpm at 1.5 s, gong2020) with the sign SMO and the library's
     adaptive gain closing the loop: the drive reaches -500 rpm and holds it on the rotor angle
     (before the gain rule above it hung at zero speed with its estimate at about 400 rpm)."""
-    from bench import channels as ch
-    from bench.recording import load_recording
-    from bench.runner import run_scenario
-    from bench.scenario import derive_scenario
+    from hil_bench.loop.runner import run_scenario
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recording import load_recording
+    from hil_bench.scenario import derive_scenario
     scn = derive_scenario("beyond_reversal", "beyond_reversal@sign_test",
                           (("controller.estimator", "SMO_SIGN"),))
     out = tmp_path / "rev.mcap"

@@ -20,11 +20,18 @@ import math
 import numpy as np
 import pytest
 
-from firmware_stub.est_smo import (LAG_EFFECTIVE, LAG_EQ15, LAG_NONE, SmoSigmoid,
-                                   sigmoid_gain_for, sigmoid_max_slope_per_a, sigmoid_min_gain_v,
-                                   smo_sigmoid_for)
-from firmware_stub._binding import ffi, lib
-from plant_rt.profile import load_profile
+from hil_bench.firmware_stub._binding import ffi, lib
+from hil_bench.firmware_stub.est_smo import (
+    LAG_EFFECTIVE,
+    LAG_EQ15,
+    LAG_NONE,
+    SmoSigmoid,
+    sigmoid_gain_for,
+    sigmoid_max_slope_per_a,
+    sigmoid_min_gain_v,
+    smo_sigmoid_for,
+)
+from hil_bench.plant_rt.profile import load_profile
 from tests.est_data import RPM, trajectory, wrap_pi
 from tests.models.smo_sigmoid import SmoSigmoidModel, min_gain_v, sigmoid, zoh_first_order
 

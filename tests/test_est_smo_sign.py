@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from firmware_stub.estimators import SmoSign
+from hil_bench.firmware_stub.estimators import SmoSign
 from tests.est_data import trajectory, wrap_pi
 from tests.models.smo_sign import SmoSignModel
 

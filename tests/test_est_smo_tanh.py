@@ -14,11 +14,19 @@ import math
 import numpy as np
 import pytest
 
-from firmware_stub.est_smo import (SmoTanh, smo_tanh_for, tanh_boundary_layer_a,
-                                   tanh_deadbeat_gain_v_per_a, tanh_gain_for, tanh_gain_rule_v,
-                                   tanh_min_f, tanh_stability_bound_v, tanh_xi_deadbeat_a)
-from firmware_stub._binding import lib
-from plant_rt.profile import load_profile
+from hil_bench.firmware_stub._binding import lib
+from hil_bench.firmware_stub.est_smo import (
+    SmoTanh,
+    smo_tanh_for,
+    tanh_boundary_layer_a,
+    tanh_deadbeat_gain_v_per_a,
+    tanh_gain_for,
+    tanh_gain_rule_v,
+    tanh_min_f,
+    tanh_stability_bound_v,
+    tanh_xi_deadbeat_a,
+)
+from hil_bench.plant_rt.profile import load_profile
 from tests.est_data import trajectory, wrap_pi
 from tests.models import smo_tanh as model
 from tests.models.smo_tanh import SmoTanhModel

@@ -1,12 +1,12 @@
 """Plant faults seen by the controller's protection, in one process: the C plant
 (plant_rt) and the firmware's control ISR (firmware_stub/src/controller.c, through
-firmware_stub._fw_c) close the loop without a link (what a cycle engine will do over one).
+hil_bench.firmware_stub._fw_c) close the loop without a link (what a cycle engine will do over one).
 
 The controller runs the Gong motor with the encoder angle (closed loop at once) at 100 rad/s
 (the rotor starts there) with a 2 N m load (i_q ~ 4 A); each fault is switched on at t = 0.2 s
 and the test shows it acting on the plant, measures the detection time (fault -> FAULT state)
 and checks the code, the detail and that the duties go off and stay off. Every plant fault kind
-of plant_rt.plant.FAULT_KINDS is here. Two are not trips, by measurement: a load-torque spike
+of hil_bench.plant_rt.plant.FAULT_KINDS is here. Two are not trips, by measurement: a load-torque spike
 the loop rides through (it is not a fault of the drive), and a resistive phase-to-phase short,
 which no sample this drive takes can show (bit for bit the healthy samples; the physics in
 docs/faults.md); the bench sees it in the plant's fault status.
@@ -17,10 +17,10 @@ import math
 
 import pytest
 
-from plant_rt.plant import Plant
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.plant_rt.profile import load_profile
 
-fw = pytest.importorskip("firmware_stub._fw_c")
+fw = pytest.importorskip("hil_bench.firmware_stub._fw_c")
 ffi, lib = fw.ffi, fw.lib
 
 FAULT_AT_S = 0.2
@@ -349,6 +349,6 @@ COVERAGE = {
 
 
 def test_every_plant_fault_kind_has_a_detection_test():
-    from plant_rt.plant import FAULT_KINDS
+    from hil_bench.plant_rt.plant import FAULT_KINDS
 
     assert set(COVERAGE) == set(FAULT_KINDS), set(FAULT_KINDS) ^ set(COVERAGE)

@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench import channels as ch
-from bench.check import check_recording
-from bench.faults import outcomes
-from bench.integrity import check_integrity
-from bench.recording import load_recording
-from bench.runner import RunAborted, run_scenario
-from bench.scenario import ScenarioError, parse_scenario, check_against_profile
+from hil_bench.loop.runner import RunAborted, run_scenario
+from hil_bench.papers.check import check_recording
+from hil_bench.record import channels as ch
+from hil_bench.record.fault_outcomes import outcomes
+from hil_bench.record.integrity import check_integrity
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import ScenarioError, check_against_profile, parse_scenario
 
 BASE = """
 [scenario]

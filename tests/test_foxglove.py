@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench import channels as ch
-from bench.recording import load_recording
-from bench.runner import run_scenario
-from bench.scenario import load_scenario
+from hil_bench.loop.runner import run_scenario
+from hil_bench.record import channels as ch
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 CHECKER = REPO / "tools" / "foxglove_check"
@@ -144,7 +144,7 @@ def test_the_layout_names_only_topics_and_fields_of_the_demo_recording(recording
 def test_the_faults_channel_parses_with_foxgloves_rules(checker, tmp_path):
     """A run with [[faults]] adds /faults (strings and a double per row): Foxglove's rules take
     it like every other channel."""
-    from bench.scenario import derive_scenario
+    from hil_bench.scenario import derive_scenario
 
     scn = derive_scenario("gong_g2_500rpm", "fg_faults", [
         ("scenario.duration_s", 0.3), ("metrics.window_s", [0.1, 0.3]),

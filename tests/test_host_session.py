@@ -10,13 +10,26 @@ from pathlib import Path
 
 import pytest
 
-from bench.cli import main as cli_main
-from bench.host_session import (ControllerFault, HostSession, ProtocolViolation, describe_fault_ctrl,
-                                fault_from_payload)
-from bench.links.base import Link, LinkError
-from bench.recording import load_recording
-from protocol.framing import Deframer, encode_frame
-from protocol.messages import MESSAGES, Command, ConfigStatus, HelloStatus, Mode, Param, State
+from hil_bench.cli import main as cli_main
+from hil_bench.loop.host_session import (
+    ControllerFault,
+    HostSession,
+    ProtocolViolation,
+    describe_fault_ctrl,
+    fault_from_payload,
+)
+from hil_bench.loop.links.base import Link, LinkError
+from hil_bench.protocol.framing import Deframer, encode_frame
+from hil_bench.protocol.messages import (
+    MESSAGES,
+    Command,
+    ConfigStatus,
+    HelloStatus,
+    Mode,
+    Param,
+    State,
+)
+from hil_bench.record.recording import load_recording
 
 HELLO, HELLO_ACK = MESSAGES["HELLO"], MESSAGES["HELLO_ACK"]
 CONFIG, CONFIG_ACK = MESSAGES["CONFIG"], MESSAGES["CONFIG_ACK"]

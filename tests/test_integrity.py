@@ -2,6 +2,9 @@
 verdict, on real recordings that are killed, cut and corrupted here."""
 from __future__ import annotations
 
+import ast
+import importlib
+import inspect
 import os
 import shutil
 import signal
@@ -13,14 +16,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench import channels as ch
-from bench.check import check_recording
-from bench.cli import main as cli_main
-from bench.integrity import LINK_COUNTERS, check_integrity
-from bench.recorder import partial_path
-from bench.recording import Recording, load_recording
-from bench.runner import Runner, run_scenario
-from bench.scenario import load_scenario, parse_scenario
+from hil_bench.cli import main as cli_main
+from hil_bench.loop.runner import Runner, run_scenario
+from hil_bench.papers.check import check_recording
+from hil_bench.record import channels as ch
+from hil_bench.record.integrity import LINK_COUNTERS, check_integrity
+from hil_bench.record.recorder import partial_path
+from hil_bench.record.recording import Recording, load_recording
+from hil_bench.scenario import load_scenario, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -79,7 +82,7 @@ def test_eight_corrupted_bytes_at_95_percent_are_damage(g2, tmp_path):
 
 def test_a_bench_killed_mid_run_leaves_a_recording_that_never_passes(tmp_path):
     out = tmp_path / "killed.mcap"
-    proc = subprocess.Popen([sys.executable, "-m", "bench", "run", "gong_g2_500rpm", "--no-progress",
+    proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", "gong_g2_500rpm", "--no-progress",
                              "--out", str(out)], cwd=REPO, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 30
@@ -197,7 +200,7 @@ def test_a_lying_drive_given_the_true_angle_gets_no_verdict(tmp_path, capsys):
 
 def test_the_honest_stub_given_the_true_angle_gets_no_verdict_either(tmp_path, capsys):
     """The same rule for a controller that does not cheat: whether it did cannot be verified."""
-    from bench.scenario import derive_scenario
+    from hil_bench.scenario import derive_scenario
 
     scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm",
                           [("controller.send_encoder_angle", True)])
@@ -323,8 +326,8 @@ def test_a_long_window_is_checked_without_keeping_unused_fields(tmp_path):
     """Memory per second of window is the columns in CHECK_FIELDS, nothing else: a G2 run with its
     window over the whole run (1.5 s, 10 kHz) keeps exactly those fields, float64, one row per cycle
     per topic, and no /timing, /link/frames (no dual sampling) or /replay/* at all."""
-    from bench.check import CHECK_FIELDS, read_for_check
-    from bench.scenario import derive_scenario
+    from hil_bench.papers.check import CHECK_FIELDS, read_for_check
+    from hil_bench.scenario import derive_scenario
 
     scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm", [("metrics.window_s", [0.0, 1.5])])
     out = tmp_path / "long_window.mcap"
@@ -354,9 +357,8 @@ def test_check_fields_cover_every_field_the_metrics_name():
     """A metric that reads a field bench check does not keep would see it missing (the metric is
     then 'not measured'): every string in the modules that compute the check that names a field of
     a per-cycle topic is kept for that topic, or listed here with the reason it is not needed."""
-    import ast
 
-    from bench.check import CHECK_FIELDS
+    from hil_bench.papers.check import CHECK_FIELDS
 
     not_needed = {  # (topic key, field): why a literal of that name does not read this topic
         (ch.PLANT_STATE, "e_alpha_v"): "EMF metrics read the estimate (telemetry/reference)",
@@ -374,7 +376,8 @@ def test_check_fields_cover_every_field_the_metrics_name():
     }
     literals = set()
     for module in ("claims", "metrics", "estimator_trace", "check"):
-        tree = ast.parse((REPO / "bench" / f"{module}.py").read_text())
+        source = inspect.getsourcefile(importlib.import_module(f"hil_bench.papers.{module}"))
+        tree = ast.parse(Path(source).read_text())
         literals |= {n.value for n in ast.walk(tree) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
     kinds = {ch.PLANT_STATE: "PLANT_STATE", ch.PLANT_SENSE: "SENSE", ch.CONTROLLER_TELEMETRY: "TELEMETRY",
              "/reference/*": "REFERENCE", ch.LINK_FRAMES: "FRAMES"}

@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from bench import channels as ch
-from bench.check import check_recording
-from bench.links import LinkError, open_link
-from bench.recorder import partial_path
-from bench.recording import load_recording
-from bench.runner import Runner, RunAborted, run_scenario
-from bench.scenario import load_scenario, parse_scenario
+from hil_bench.loop.links import LinkError, open_link
+from hil_bench.loop.runner import RunAborted, Runner, run_scenario
+from hil_bench.papers.check import check_recording
+from hil_bench.record import channels as ch
+from hil_bench.record.recorder import partial_path
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import load_scenario, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 ALL_TOPICS = {ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.LINK_FRAMES,
@@ -58,7 +58,7 @@ def test_closed_loop_starts_and_holds_500rpm(g2_run):
 
 def test_recording_opens_with_crc_validation_and_every_channel_decodes(g2_run):
     """Every message decodes with google.protobuf from the file's own schema, and re-encodes to
-    the same bytes with bench.channels.encode_row: the C engine's encoder and the Python one
+    the same bytes with hil_bench.record.channels.encode_row: the C engine's encoder and the Python one
     agree byte for byte on every channel of a real run."""
     seen: dict[str, int] = {}
     with open(g2_run.recording, "rb") as f:
@@ -204,7 +204,7 @@ def test_ctrl_c_finalises_the_recording(tmp_path):
     # SIGINT at its default in the child whatever this process inherited: a test run started in
     # the background by a shell (`.ci/run &`) ignores SIGINT, the bench would inherit that and
     # Python would not install its KeyboardInterrupt handler (the Ctrl-C would go nowhere)
-    proc = subprocess.Popen([sys.executable, "-m", "bench", "run", str(scn), "--out", str(out),
+    proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -236,7 +236,7 @@ def test_truncated_recording_keeps_what_was_written(g2_run, tmp_path):
 
 
 def test_not_a_recording_is_a_clear_error(tmp_path):
-    from bench.recording import RecordingError
+    from hil_bench.record.recording import RecordingError
 
     bogus = tmp_path / "bogus.mcap"
     bogus.write_bytes(b"this is not an mcap file at all")
@@ -264,7 +264,7 @@ def test_reference_estimator_runs_beside_the_controller_on_the_same_samples(g2_r
     angle sits on the controller's telemetry. They are not bit-identical: the controller feeds its
     observer the float32 SVPWM voltage, the host the voltage rebuilt from the wire's 16-bit duties
     and 10 mV bus reading, so the bound is statistical: RMS < 0.01 rad after the hand-over."""
-    from bench.metrics import wrap_pi
+    from hil_bench.papers.metrics import wrap_pi
 
     rec = load_recording(g2_run.recording)
     telem = rec.topic(ch.CONTROLLER_TELEMETRY)
@@ -292,7 +292,7 @@ def test_recording_survives_the_bench_being_killed(tmp_path):
     out = tmp_path / "killed.mcap"
     scn = tmp_path / "long.toml"
     scn.write_text(SHORT.format(duration=30.0))
-    proc = subprocess.Popen([sys.executable, "-m", "bench", "run", str(scn), "--out", str(out),
+    proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 20
@@ -310,12 +310,11 @@ def test_recording_survives_the_bench_being_killed(tmp_path):
 
 
 def test_replay_reproduces_the_recorded_reference_estimator(g2_run):
-    """bench.replay rebuilds the reference estimators' inputs from the recorded topics (sensed
+    """hil_bench.replay rebuilds the reference estimators' inputs from the recorded topics (sensed
     currents, duties, bus voltage, t_d): the same C on the same inputs gives the same outputs."""
-    from firmware_stub.estimators import REFERENCE_ESTIMATORS
-    from plant_rt.profile import load_profile
-
-    from bench.estimator_trace import replay
+    from hil_bench.firmware_stub.estimators import REFERENCE_ESTIMATORS
+    from hil_bench.papers.estimator_trace import replay
+    from hil_bench.plant_rt.profile import load_profile
 
     rec = load_recording(g2_run.recording)
     est = REFERENCE_ESTIMATORS["SMO_TANH"](load_profile("gong2020"), 1e-4)

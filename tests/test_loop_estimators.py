@@ -4,10 +4,10 @@ gains left to the library's rules (firmware_stub/est_smo.py), which the bench se
 import numpy as np
 import pytest
 
-from bench import channels as ch
-from bench.recording import load_recording
-from bench.runner import run_scenario
-from bench.scenario import derive_scenario
+from hil_bench.loop.runner import run_scenario
+from hil_bench.record import channels as ch
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import derive_scenario
 
 PARAMS = dict(IQ_MAX_A=6.0, ALIGN_I_A=3.0, ALIGN_TIME_S=0.2, IF_I_A=3.0, IF_ACCEL_RAD_S2=60.0,
               HANDOVER_SPEED_RAD_S=20.0)

@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from bench import channels as ch
-from bench.metrics import wrap_pi
-from bench.recording import load_recording
-from bench.runner import run_scenario
-from bench.scenario import derive_scenario, load_scenario
+from hil_bench.loop.runner import run_scenario
+from hil_bench.papers.metrics import wrap_pi
+from hil_bench.record import channels as ch
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import derive_scenario, load_scenario
 
 
 def _window(rec, t0, t1):

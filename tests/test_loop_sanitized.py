@@ -1,6 +1,6 @@
 """The closed loop with AddressSanitizer + UndefinedBehaviorSanitizer on BOTH sides: the cycle
 engine, the plant, the recorder's ring and the host's reference estimators (the cffi module
-plant_rt._plant_c built by ``tools/build_native.py --sanitize`` into build-asan/python/) and the
+hil_bench.plant_rt._plant_c built by ``tools/build_native.py --sanitize`` into build-asan/python/) and the
 firmware stub (build-asan/bin/hil_stub). ``make sanitize`` (part of ``make test``) builds both.
 
 The bench runs in a subprocess: the interpreter is not instrumented, so ASan's runtime has to be
@@ -39,13 +39,13 @@ SCENARIO = (REPO / "bench" / "scenarios" / "gong_g2_500rpm.toml").read_text() \
 RUN_BENCH = """
 import runpy, sys
 assert "libasan" in open("/proc/self/maps").read(), "ASan's runtime is not loaded"
-import plant_rt._plant_c as engine
-import firmware_stub._fw_c as fw
+import hil_bench.plant_rt._plant_c as engine
+import hil_bench.firmware_stub._fw_c as fw
 for m in (engine, fw):
     assert "build-asan" in m.__file__, "not the sanitized build: " + m.__file__
 print("engine module:", engine.__file__, flush=True)
 sys.argv = ["bench"] + sys.argv[1:]
-runpy.run_module("bench", run_name="__main__", alter_sys=True)
+runpy.run_module("hil_bench", run_name="__main__", alter_sys=True)
 """
 
 
@@ -71,8 +71,8 @@ def test_closed_loop_with_the_sanitized_engine_and_stub(tmp_path):
     if asan is None:
         pytest.skip("gcc has no libasan.so (gcc -print-file-name=libasan.so): an ASan-built "
                     "engine cannot be loaded into Python here")
-    missing = [str(p.relative_to(REPO)) for p in (ASAN_STUB, SANITIZED_PYTHON / "plant_rt",
-                                                  SANITIZED_PYTHON / "firmware_stub")
+    missing = [str(p.relative_to(REPO)) for p in (ASAN_STUB, SANITIZED_PYTHON / "hil_bench" / "plant_rt",
+                                                  SANITIZED_PYTHON / "hil_bench" / "firmware_stub")
                if not p.exists()]
     assert not missing, f"sanitized build missing ({', '.join(missing)}): run `make sanitize`"
     scn = tmp_path / "g2_sanitized.toml"

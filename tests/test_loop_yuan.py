@@ -6,11 +6,11 @@ compensation law adds about R*I_h, tens of millivolts against a dead-time harmon
 about a volt at this speed — a finding the Y4 claim reports."""
 import pytest
 
-from bench import channels as ch
-from bench import metrics
-from bench.recording import load_recording
-from bench.runner import run_scenario
-from bench.scenario import load_scenario
+from hil_bench.loop.runner import run_scenario
+from hil_bench.papers import metrics
+from hil_bench.record import channels as ch
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import load_scenario
 
 
 def spectrum(path, window_s=(0.9, 4.0)):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from bench import metrics
+from hil_bench.papers import metrics
 
 FS = 10_000.0
 

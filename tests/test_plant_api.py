@@ -1,5 +1,5 @@
 """Python API of the plant: construction and overrides, snapshot layout and copies, timing
-contract, conventions, reset/initial/load, the missing-module error (per-call overhead: plant_rt/bench_step.py, a benchmark)."""
+contract, conventions, reset/initial/load, the missing-module error (per-call overhead: bench/perf/plant_step.py, a benchmark)."""
 from __future__ import annotations
 
 import dataclasses
@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from plant_rt.plant import (
+from hil_bench.plant_rt.plant import (
     SNAPSHOT_DTYPE,
     SNAPSHOT_FIELDS,
     SNAPSHOT_SIZE,
@@ -21,7 +21,7 @@ from plant_rt.plant import (
     snapshot_array,
     snapshot_buffer,
 )
-from plant_rt.profile import ProfileError, load_profile
+from hil_bench.plant_rt.profile import ProfileError, load_profile
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -190,11 +190,11 @@ def test_missing_compiled_module_says_make_build():
         "import sys, importlib.abc\n"
         "class Block(importlib.abc.MetaPathFinder):\n"
         "    def find_spec(self, name, path, target=None):\n"
-        "        if name == 'plant_rt._plant_c':\n"
+        "        if name == 'hil_bench.plant_rt._plant_c':\n"
         "            raise ImportError('blocked for the test')\n"
         "sys.meta_path.insert(0, Block())\n"
         "try:\n"
-        "    import plant_rt.plant\n"
+        "    import hil_bench.plant_rt.plant\n"
         "except ImportError as e:\n"
         "    print(e)\n"
         "    sys.exit(3)\n"

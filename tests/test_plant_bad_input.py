@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from plant_rt.plant import Plant
-from plant_rt.profile import (
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.plant_rt.profile import (
     PARAM_FIELDS,
     PROFILE_DIR,
     ProfileError,
@@ -147,7 +147,7 @@ def test_python_and_c_validation_agree_on_new_fields(field, value):
 
 
 def test_every_new_field_is_in_the_c_struct():
-    from plant_rt.plant import ffi
+    from hil_bench.plant_rt.plant import ffi
 
     c_fields = {name for name, _ in ffi.typeof("plant_params_t").fields}
     for group in ("inverter", "magnetics", "sensors", "mechanics"):

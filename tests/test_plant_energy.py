@@ -16,8 +16,8 @@ import math
 
 import pytest
 
-from plant_rt.plant import Plant
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.plant_rt.profile import load_profile
 
 TOL_REL = 1e-7
 

@@ -2,7 +2,7 @@
 checks.
 
 Electrical faults (open phase, stuck leg, phase-to-phase short) are compared with
-plant_rt.reference.simulate_faults: the circuit written out in phase variables (an open wire
+hil_bench.plant_rt.verify.reference.simulate_faults: the circuit written out in phase variables (an open wire
 makes the machine ONE loop through the two other phases, with the loop's flux linkage as the
 state; the short is the terminal network solved with smooth diodes of the LEG currents), not
 the C code's dq constrained dynamics and enumerated leg modes. As in test_plant_inverter_off,
@@ -23,9 +23,9 @@ import math
 import numpy as np
 import pytest
 
-from plant_rt import openloop, reference
-from plant_rt.plant import FAULT_KINDS, Plant
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import FAULT_KINDS, Plant
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import openloop, reference
 
 DIODE_I0_A = 1e-5
 CURRENT_TOL_A = 20 * DIODE_I0_A

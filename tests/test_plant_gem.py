@@ -2,7 +2,7 @@
 parameters and dq voltages -> currents and speed agree within 1 % (of each signal's peak over
 the run). Measured: i_d 1.2e-3, i_q 1.6e-4, speed 2e-5, torque 1.6e-4 (gong2020 and hou2021):
 what remains is the within-period shape of u_dq (GEM holds u_dq, the plant holds u_alpha_beta;
-plant_rt/gem_compare.py)."""
+plant_rt/verify/gem_compare.py)."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,8 +10,8 @@ import pytest
 
 pytest.importorskip("gym_electric_motor")
 
-from plant_rt.gem_compare import run_gem, run_plant, voltage_program  # noqa: E402
-from plant_rt.profile import load_profile  # noqa: E402
+from hil_bench.plant_rt.profile import load_profile  # noqa: E402
+from hil_bench.plant_rt.verify.gem_compare import run_gem, run_plant, voltage_program  # noqa: E402
 
 TOL = 0.01
 N = 3000

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from plant_rt import openloop
-from plant_rt.plant import SNAPSHOT_FIELDS, Plant
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import SNAPSHOT_FIELDS, Plant
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import openloop
 
 BASE = list(SNAPSHOT_FIELDS[:27])
 ENERGY = ("electrical_in_j", "copper_loss_j", "viscous_loss_j", "load_work_j", "magnetic_j", "kinetic_j")

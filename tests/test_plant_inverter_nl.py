@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from bench.metrics import harmonic_spectrum
-from plant_rt import calibrate_deadtime as cal
-from plant_rt import openloop, reference
-from plant_rt.plant import Plant, ffi, lib
-from plant_rt.profile import load_profile
+from hil_bench.papers import calibrate_deadtime as cal
+from hil_bench.papers.metrics import harmonic_spectrum
+from hil_bench.plant_rt.plant import Plant, ffi, lib
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import openloop, reference
 
 VDC, TS, TDT = 310.0, 1e-4, 2e-6
 

@@ -5,7 +5,7 @@ to exactly zero and stay there; the rotor coasts down exponentially. Above V_dc:
 bridge rectifies, a braking current flows and energy goes into the DC bus.
 
 The C plant uses ideal diodes with located switching events; the reference
-(plant_rt/reference.py) uses a smooth, stiff diode characteristic whose leakage scale is
+(plant_rt/verify/reference.py) uses a smooth, stiff diode characteristic whose leakage scale is
 i0 = DIODE_I0_A. The C-vs-reference differences are proportional to i0 (measured from
 i0 = 1e-4 down to 1e-6 A: the C model is the reference's i0 -> 0 limit). Largest measured
 differences per unit i0 over the cases below: current 5.4 A/A (braking, gong2020, 100 V bus),
@@ -19,10 +19,10 @@ import math
 import numpy as np
 import pytest
 
-from plant_rt import openloop, reference
-from plant_rt.error_study import compare
-from plant_rt.plant import Plant
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import openloop, reference
+from hil_bench.plant_rt.verify.error_study import compare
 
 DIODE_I0_A = 1e-5                   # reference diode leakage scale [A]
 CURRENT_TOL_A = 20 * DIODE_I0_A     # measured <= 5.4 i0

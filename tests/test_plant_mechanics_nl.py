@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from plant_rt import reference
-from plant_rt.plant import Plant, ffi, lib
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import Plant, ffi, lib
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import reference
 
 GONG = load_profile("gong2020")
 J = GONG.j_kgm2

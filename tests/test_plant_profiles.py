@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from plant_rt.profile import (
+from hil_bench.plant_rt.profile import (
     BASE_FIELDS,
     PARAM_FIELDS,
     PROFILE_DIR,

@@ -1,6 +1,6 @@
-"""The C plant against the independent solve_ivp reference (plant_rt/reference.py).
+"""The C plant against the independent solve_ivp reference (plant_rt/verify/reference.py).
 
-Tolerances come from the measured RK4 error bound (plant_rt/error_study.py, see
+Tolerances come from the measured RK4 error bound (plant_rt/verify/error_study.py, see
 plant_rt/README.md): at the default substeps = 4, the worst case over the three profiles at
 2x rated speed (t_delay = 0, the longest steps) was
     current 1.13e-6 x rated current, speed 1.0e-6 rad/s, electrical angle 1.1e-8 rad.
@@ -17,10 +17,10 @@ import math
 import numpy as np
 import pytest
 
-from plant_rt import openloop, reference
-from plant_rt.error_study import build_scenario, compare, plant_errors
-from plant_rt.plant import Plant, snapshot_array, snapshot_buffer
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import Plant, snapshot_array, snapshot_buffer
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import openloop, reference
+from hil_bench.plant_rt.verify.error_study import build_scenario, compare, plant_errors
 
 CURRENT_TOL_REL = 1e-5    # x rated current (10x the measured 1.13e-6 worst case)
 SPEED_TOL_RAD_S = 1e-5    # 10x the measured 1.0e-6 rad/s

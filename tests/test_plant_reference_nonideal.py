@@ -1,5 +1,5 @@
 """The C plant with each deterministic non-ideality against the independent solve_ivp reference
-(plant_rt/reference.py: saturation by inverting the flux curve from a flux-linkage state, the
+(plant_rt/verify/reference.py: saturation by inverting the flux curve from a flux-linkage state, the
 leg average from conduction intervals, friction, load profiles, dyno, actuation instants).
 
 Tolerances (stated in plant_rt/README.md "Verification"):
@@ -25,10 +25,10 @@ import math
 import numpy as np
 import pytest
 
-from plant_rt import openloop, reference
-from plant_rt.error_study import compare
-from plant_rt.plant import Plant
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import openloop, reference
+from hil_bench.plant_rt.verify.error_study import compare
 
 CURRENT_TOL_REL = 1e-5
 SPEED_TOL_RAD_S = 1e-5

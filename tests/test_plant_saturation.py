@@ -1,7 +1,7 @@
 """d-axis saturation: the small-signal inductances stay the profile values, the flux curve is
 what the docs say, and the HF current differs between N and S by the stated amounts (what Hou
 et al.'s polarity identification relies on; numbers in plant_rt/profiles/hou2021.toml and
-plant_rt/README.md, from python -m plant_rt.saturation_study)."""
+plant_rt/README.md, from python -m hil_bench.plant_rt.verify.saturation_study)."""
 from __future__ import annotations
 
 import math
@@ -9,10 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from plant_rt import reference, saturation_study as ss
-from plant_rt.openloop import duties_from_alphabeta
-from plant_rt.plant import Plant, ffi, lib
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import Plant, ffi, lib
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import reference
+from hil_bench.plant_rt.verify import saturation_study as ss
+from hil_bench.plant_rt.verify.openloop import duties_from_alphabeta
 
 HOU = load_profile("hou2021")
 # stated in the profile / README (6 V, 1250 Hz, standstill)

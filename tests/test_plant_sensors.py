@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from plant_rt import openloop
-from plant_rt.plant import SAMPLE_DTYPE, SAMPLE_FIELDS, Plant, ffi, lib
-from plant_rt.profile import load_profile
+from hil_bench.plant_rt.plant import SAMPLE_DTYPE, SAMPLE_FIELDS, Plant, ffi, lib
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.plant_rt.verify import openloop
 
 M64 = (1 << 64) - 1
 GONG = load_profile("gong2020")

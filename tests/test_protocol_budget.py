@@ -1,12 +1,19 @@
-"""protocol.budget: serial and CAN bandwidth per control cycle (numbers checked by hand)."""
+"""hil_bench.protocol.budget: serial and CAN bandwidth per control cycle (numbers checked by hand)."""
 from __future__ import annotations
 
 import pytest
 
-from protocol import budget
-from protocol.budget import (
-    DUAL_SAMPLING, TELEM_EMF, can_frame_bits, can_max_rate_hz, cycle_messages, fd_payload_size,
-    serial_bytes_per_cycle, serial_frame_bytes, serial_max_rate_hz,
+from hil_bench.protocol import budget
+from hil_bench.protocol.budget import (
+    DUAL_SAMPLING,
+    TELEM_EMF,
+    can_frame_bits,
+    can_max_rate_hz,
+    cycle_messages,
+    fd_payload_size,
+    serial_bytes_per_cycle,
+    serial_frame_bytes,
+    serial_max_rate_hz,
 )
 
 

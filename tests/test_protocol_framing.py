@@ -1,12 +1,19 @@
-"""protocol.framing: CRC, COBS, frame encoding and the deframer (incl. a seeded fuzz test)."""
+"""hil_bench.protocol.framing: CRC, COBS, frame encoding and the deframer (incl. a seeded fuzz test)."""
 from __future__ import annotations
 
 import random
 
 import pytest
 
-from protocol import framing
-from protocol.framing import Deframer, FramingError, cobs_decode, cobs_encode, crc16, encode_frame
+from hil_bench.protocol import framing
+from hil_bench.protocol.framing import (
+    Deframer,
+    FramingError,
+    cobs_decode,
+    cobs_encode,
+    crc16,
+    encode_frame,
+)
 
 
 def crc16_bitwise(data: bytes) -> int:

@@ -1,6 +1,6 @@
 """Property-based tests (hypothesis) of the Python codecs, protocol/framing.py and
 protocol/messages.py, and a differential test of the C deframer (protocol/c/hil_framing.c,
-reached through firmware_stub._fw_c) against the Python one on the same random streams.
+reached through hil_bench.firmware_stub._fw_c) against the Python one on the same random streams.
 
 The streams mix valid frames of random ids and lengths, frames with flipped bits, random
 octets, runs of delimiters and over-long chunks, and are fed whole or cut at random points.
@@ -17,12 +17,12 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from protocol import framing
-from protocol.errors import ProtocolError, SignalRangeError
-from protocol.messages import BY_ID, MESSAGES, decode
+from hil_bench.protocol import framing
+from hil_bench.protocol.errors import ProtocolError, SignalRangeError
+from hil_bench.protocol.messages import BY_ID, MESSAGES, decode
 
 try:
-    from firmware_stub._fw_c import ffi, lib
+    from hil_bench.firmware_stub._fw_c import ffi, lib
 except ImportError:  # pragma: no cover - the native build is part of `make test`
     ffi = lib = None
 
@@ -123,7 +123,7 @@ def c_deframe(stream: bytes) -> tuple[list[tuple[int, bytes]], dict[str, int]]:
     return got, {name: getattr(d, name) for name in framing.Deframer.COUNTERS}
 
 
-@pytest.mark.skipif(lib is None, reason="firmware_stub._fw_c not built (make build)")
+@pytest.mark.skipif(lib is None, reason="hil_bench.firmware_stub._fw_c not built (make build)")
 @SETTINGS
 @given(streams)
 def test_c_and_python_deframers_agree(stream):
@@ -134,7 +134,7 @@ def test_c_and_python_deframers_agree(stream):
     assert counters == py.counters()
 
 
-@pytest.mark.skipif(lib is None, reason="firmware_stub._fw_c not built (make build)")
+@pytest.mark.skipif(lib is None, reason="hil_bench.firmware_stub._fw_c not built (make build)")
 @SETTINGS
 @given(frames())
 def test_c_and_python_encoders_agree(frame):

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from protocol import dbc, gen_c
+from hil_bench.protocol import dbc, gen_c
 
 ROOT = Path(__file__).resolve().parents[1]
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion", "-Wdouble-promotion",

@@ -1,4 +1,4 @@
-"""protocol.messages: API, range/NaN rules, rounding, and the fast path against cantools and the generic path."""
+"""hil_bench.protocol.messages: API, range/NaN rules, rounding, and the fast path against cantools and the generic path."""
 from __future__ import annotations
 
 import math
@@ -9,11 +9,29 @@ import cantools
 import numpy as np
 import pytest
 
-from protocol import dbc
-from protocol.messages import (
-    BY_ID, DUTY_RAW_OFF, MESSAGES, PROTO_VERSION, BitLayout, Command, ConfigStatus, Estimator, Fault,
-    HelloFlag, HelloStatus, LengthError, Message, Mode, Param, ProtocolError, SenseAuxFlag, SignalRangeError,
-    State, UnknownMessageError, decode,
+from hil_bench.protocol import dbc
+from hil_bench.protocol.messages import (
+    BY_ID,
+    DUTY_RAW_OFF,
+    MESSAGES,
+    PROTO_VERSION,
+    BitLayout,
+    Command,
+    ConfigStatus,
+    Estimator,
+    Fault,
+    HelloFlag,
+    HelloStatus,
+    LengthError,
+    Message,
+    Mode,
+    Param,
+    ProtocolError,
+    SenseAuxFlag,
+    SignalRangeError,
+    State,
+    UnknownMessageError,
+    decode,
 )
 
 DB = cantools.database.load_file(str(dbc.DBC_PATH))

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from protocol import dbc, params
-from protocol.messages import HelloStatus, Param
+from hil_bench.protocol import dbc, params
+from hil_bench.protocol.messages import HelloStatus, Param
 
 DOC = (Path(__file__).resolve().parents[1] / "docs" / "protocol.md").read_text()
 
@@ -76,8 +76,8 @@ window_s = [0.0, 0.05]
 def _corrupting_proxy(corrupt_duty: int):
     """The stub behind a proxy that sends the n-th DUTY frame from the controller on with its CRC
     flipped (valid COBS, bad CRC: what line noise on a UART does)."""
-    from protocol.framing import cobs_decode, cobs_encode
-    from protocol.messages import MESSAGES
+    from hil_bench.protocol.framing import cobs_decode, cobs_encode
+    from hil_bench.protocol.messages import MESSAGES
     from tests.pty_proxy import PtyProxy, decode
 
     seen = {"duties": 0, "corrupted": 0}
@@ -102,9 +102,9 @@ def test_one_recovered_bad_crc_duty_gives_the_counters_the_spec_lists(tmp_path, 
     bytes_discarded 14 (its COBS chunk: 2 + 1 + 8 + 2 octets, +1), retries 1, and duplicates 1 per
     telemetry frame the cache sends again (TELEM, and TELEM_EMF when asked for): nothing else. A
     scenario allowance written from that passes; one short of it does not."""
-    from bench.check import check_recording
-    from bench.runner import run_scenario
-    from bench.scenario import parse_scenario
+    from hil_bench.loop.runner import run_scenario
+    from hil_bench.papers.check import check_recording
+    from hil_bench.scenario import parse_scenario
 
     section = " ".join(DOC.split("### 6.9")[1].split("## 7.")[0].split())
     assert ("`crc_errors` = 1, `bytes_discarded` = 14, `retries` = 1 and `duplicates` = 2 (1 without "
@@ -128,7 +128,7 @@ def test_one_recovered_bad_crc_duty_gives_the_counters_the_spec_lists(tmp_path, 
     short = RETRY_SCENARIO.format(link=allow.replace(f"duplicates = {dup}", f"duplicates = {dup - 1}"))
     if not emf:
         short = short.replace('speed_ref_rpm = 300', 'speed_ref_rpm = 300\ntelemetry_emf = false')
-    from bench.integrity import check_integrity
+    from hil_bench.record.integrity import check_integrity
 
     assert not check_integrity(report.recording, parse_scenario(short, tmp_path / "s.toml").link.allow,
                                "SMO_SIGN").ok
@@ -146,7 +146,7 @@ def test_the_encoder_flag_is_per_cycle_in_the_dbc_and_the_spec():
 
 
 def test_the_spec_says_claims_are_invalid_when_the_true_angle_was_sent():
-    from bench.integrity import ENCODER_SENT_TEXT
+    from hil_bench.record.integrity import ENCODER_SENT_TEXT
 
     section = " ".join(DOC.split("### 6.8")[1].split("### 6.9")[0].split())
     assert ENCODER_SENT_TEXT in section

@@ -10,8 +10,8 @@ from pathlib import Path
 import cantools
 import pytest
 
-from protocol import dbc, framing
-from protocol.messages import DUTY_RAW_OFF, MESSAGES
+from hil_bench.protocol import dbc, framing
+from hil_bench.protocol.messages import DUTY_RAW_OFF, MESSAGES
 
 VECTORS = Path(__file__).resolve().parents[1] / "protocol" / "vectors"
 INDEX = json.loads((VECTORS / "index.json").read_text())["cases"]

@@ -2,7 +2,7 @@
 
 These tests assert what the loop does (speed reached and held, misses counted, the watchdog, the
 recorder never blocking the engine), never how fast: the machines are shared and noisy. Timing
-figures come from the benchmark (python -m bench.perf.loop, docs/performance.md). Where a test
+figures come from the benchmark (python -m hil_bench.perf.loop, docs/performance.md). Where a test
 must survive the noise of a loaded CI machine it says how (a tolerant miss limit).
 """
 from __future__ import annotations
@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench import channels as ch
-from bench.recorder import partial_path
-from bench.recording import load_recording
-from bench.runner import RunAborted, Runner, run_scenario
-from bench.scenario import parse_scenario
+from hil_bench.loop.runner import RunAborted, Runner, run_scenario
+from hil_bench.record import channels as ch
+from hil_bench.record.recorder import partial_path
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -69,7 +69,7 @@ def rt_scenario(update="on_arrival", duration=1.5, rate_hz=10000, misses=1000, e
 #: for milliseconds at a time (bench/perf/wakeup_latency: a lone SCHED_FIFO thread woken up to
 #: 10 ms late) and a sensorless loop that loses 10 % of its duty updates degrades, as it would on
 #: a drive. Such a run is repeated once, then skipped with its figures printed; the benchmark
-#: (python -m bench.perf.loop) measures the machine. What the bench does with misses and lost
+#: (python -m hil_bench.perf.loop) measures the machine. What the bench does with misses and lost
 #: periods (counted, duties held, the watchdog) is asserted unconditionally below.
 LOST_PERIODS_LIMIT = 0.01
 
@@ -166,7 +166,7 @@ def run_real_time(scn, out: Path, *, need_clean_from_s: float | None = None,
         why = (f"host stalls left {clean * result.ts_s:.3f} s undisturbed after "
                f"t = {need_clean_from_s} s: " + ", ".join(f"{a:.4f}-{b:.4f} s" for a, b in stalls[:8])
                + f" ({why})")
-    pytest.skip(f"this machine could not keep real time: {why}, twice; see bench.perf.loop"
+    pytest.skip(f"this machine could not keep real time: {why}, twice; see hil_bench.perf.loop"
                 + (f"; the run ended: {result.error}" if result.error else ""))
 
 
@@ -362,7 +362,7 @@ def test_a_stopped_recorder_never_blocks_the_engine(tmp_path, mode):
         lost = (result.timing["missed"] + result.timing["overruns"]) / max(result.cycles_done, 1)
         if lost > LOST_PERIODS_LIMIT:
             pytest.skip(f"this machine could not keep real time: {lost:.1%} of the periods lost "
-                        f"and the loop ended ({result.error}); see bench.perf.loop")
+                        f"and the loop ended ({result.error}); see hil_bench.perf.loop")
     assert result.ok, result.error
     assert stopped["went_on_to"] >= stopped["at"] + 3000 or result.cycles_done == 10000
     assert result.link_stats["rows_dropped"] > 0
@@ -412,7 +412,7 @@ def test_real_time_setup_it_cannot_get_is_said_once_and_the_run_goes_on(tmp_path
                                 plant="", w0=0.0))
     out = tmp_path / "noprio.mcap"
     proc = subprocess.run([SETPRIV, "--bounding-set", "-sys_nice,-ipc_lock", "--", sys.executable,
-                           "-m", "bench", "run", str(scn), "--out", str(out), "--no-progress"],
+                           "-m", "hil_bench", "run", str(scn), "--out", str(out), "--no-progress"],
                           cwd=REPO, capture_output=True, text=True, timeout=120,
                           env={**os.environ, "COLUMNS": "250"})
     said = proc.stdout + proc.stderr
@@ -431,7 +431,7 @@ def test_a_suspended_bench_ends_the_run_instead_of_pretending(tmp_path):
     scn.write_text(G2_RT.format(duration=3.0, update="on_arrival", misses=1000, extra="",
                                 plant="", w0=2.0))
     out = tmp_path / "suspended.mcap"
-    proc = subprocess.Popen([sys.executable, "-m", "bench", "run", str(scn), "--out", str(out),
+    proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     part = partial_path(out)
@@ -451,7 +451,7 @@ def test_a_suspended_bench_ends_the_run_instead_of_pretending(tmp_path):
 def test_real_time_cpu_layout(monkeypatch):
     """Engine (and recorder) on the last allowed CPU, the stub on the first; what the scenario
     sets is kept; one CPU pins nothing (docs/realtime.md, "Where everything runs")."""
-    from bench import runner as runner_mod
+    from hil_bench.loop import runner as runner_mod
 
     monkeypatch.setattr(runner_mod.os, "sched_getaffinity", lambda pid: {0, 1, 2, 3})
     assert runner_mod.realtime_cpus(None, None) == (3, 0)
@@ -495,9 +495,9 @@ def test_a_link_stall_in_real_time_trips_the_free_running_controller(tmp_path):
         # it ended before the stall: a host stall tripped the free-running stub's own timeout
     else:
         pytest.skip(f"this machine could not keep real time before the stall, twice "
-                    f"({result.error}); see bench.perf.loop")
+                    f"({result.error}); see hil_bench.perf.loop")
     assert "LINK_TIMEOUT" in result.error, result.error
-    from bench.faults import outcomes
+    from hil_bench.record.fault_outcomes import outcomes
 
     (o,) = outcomes(rec)
     assert o.kind == "stall" and o.t_on_s == pytest.approx(0.8)
@@ -512,9 +512,9 @@ def test_a_link_stall_in_real_time_trips_the_free_running_controller(tmp_path):
 
 
 def test_soak_miss_classifier_on_synthetic_timing():
-    """bench.perf.loop's real-time soak explains every miss: in a host stall, after a late start,
+    """hil_bench.perf.loop's real-time soak explains every miss: in a host stall, after a late start,
     answered after its deadline, or unexplained (no answer ever)."""
-    from bench.perf.loop import classify_misses
+    from hil_bench.perf.loop import classify_misses
 
     n = 90
     missed = np.zeros(n, dtype=np.uint32)

@@ -9,10 +9,10 @@ import os
 import numpy as np
 import pytest
 
-from bench import channels as ch
-from bench.recorder import ProcessRecorder
-from bench.recording import load_recording
-from plant_rt._plant_c import lib
+from hil_bench.plant_rt._plant_c import lib
+from hil_bench.record import channels as ch
+from hil_bench.record.recorder import ProcessRecorder
+from hil_bench.record.recording import load_recording
 
 
 def record(tmp_path, fast: bool, monkeypatch) -> tuple[bytes, bytes]:
@@ -59,10 +59,10 @@ def test_fast_and_slow_paths_write_the_same_bytes(tmp_path, monkeypatch):
 def test_the_fast_path_is_the_one_taken(tmp_path, monkeypatch):
     """With the mcap version installed the recorder takes the fast path (it falls back to the
     slow one only when mcap keeps its state differently)."""
+    import io
+
     from mcap.writer import Writer
 
-    from bench.recorder import FastPath
-
-    import io
+    from hil_bench.record.recorder import FastPath
 
     assert FastPath.install(Writer(io.BytesIO()), 256 * 1024) is not None

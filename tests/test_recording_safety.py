@@ -15,11 +15,11 @@ from pathlib import Path
 
 import pytest
 
-from bench import channels as ch
-from bench.recorder import RecorderError, partial_path
-from bench.recording import load_recording
-from bench.runner import Runner, default_recording_path, run_scenario
-from bench.scenario import parse_scenario
+from hil_bench.loop.runner import Runner, default_recording_path, run_scenario
+from hil_bench.record import channels as ch
+from hil_bench.record.recorder import RecorderError, partial_path
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 SHORT = """
@@ -50,7 +50,7 @@ def test_an_existing_recording_is_never_overwritten(tmp_path):
     assert out.read_bytes() == b"precious" * 1000
     # the issue's case: a bad link spec on top of an existing file still leaves it intact
     (tmp_path / "s.toml").write_text(SHORT.format(duration=0.1, name="s"))
-    proc = subprocess.run([sys.executable, "-m", "bench", "run", str(tmp_path / "s.toml"),
+    proc = subprocess.run([sys.executable, "-m", "hil_bench", "run", str(tmp_path / "s.toml"),
                            "--out", str(out), "--link", "serial:/dev/nonexistnt"],
                           cwd=REPO, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2 and "refusing to overwrite" in proc.stderr
@@ -78,7 +78,7 @@ def test_the_side_files_of_a_recording_are_never_overwritten_either(tmp_path, su
 
 def test_a_failed_link_leaves_no_recording(tmp_path):
     out = tmp_path / "nolink.mcap"
-    from bench.links import LinkError
+    from hil_bench.loop.links import LinkError
 
     with pytest.raises(LinkError, match="cannot open serial port"):
         run_scenario(scenario(), link_spec="serial:/dev/nonexistnt", out_path=out, progress=False,
@@ -95,7 +95,7 @@ def test_a_scenario_name_cannot_place_a_file_outside_the_recordings_folder():
     """Refused when the scenario is loaded; and the path builder makes any name safe anyway."""
     import dataclasses
 
-    from bench.scenario import ScenarioError
+    from hil_bench.scenario import ScenarioError
 
     with pytest.raises(ScenarioError, match="scenario.name: '../../escaped' must be"):
         scenario(name="../../escaped")
@@ -185,7 +185,7 @@ def test_a_recorder_killed_during_set_up_is_a_clear_error(tmp_path, monkeypatch)
 def test_a_killed_recorder_leaves_its_header_channels_and_metadata_on_disk(tmp_path):
     """Right after the set-up, before any chunk: the partial file already reads as a recording of
     this bench (header, schemas, channels outside the chunks, run metadata, the scenario)."""
-    from bench.recorder import ProcessRecorder
+    from hil_bench.record.recorder import ProcessRecorder
 
     out = tmp_path / "prefix.mcap"
     rec = ProcessRecorder(out)
@@ -252,7 +252,7 @@ def _write_mcap(spill: bool) -> bytes:
 
     from mcap.writer import CompressionType, Writer
 
-    from bench.recorder import spill_chunk_indexes
+    from hil_bench.record.recorder import spill_chunk_indexes
 
     buf = io.BytesIO()
     w = Writer(buf, chunk_size=2048, compression=CompressionType.ZSTD)

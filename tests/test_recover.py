@@ -8,11 +8,11 @@ import pytest
 from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 
-from bench.cli import main as cli_main
-from bench.recording import load_recording
-from bench.recover import RecoverError, recover
-from bench.runner import run_scenario
-from bench.scenario import load_scenario
+from hil_bench.cli import main as cli_main
+from hil_bench.loop.runner import run_scenario
+from hil_bench.record.recording import load_recording
+from hil_bench.record.recover import RecoverError, recover
+from hil_bench.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")

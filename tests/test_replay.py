@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.recording import load_recording
-from bench.replay import CaptureError, ReplayOptions, read_capture, run_replay
-from bench.replay.serial_capture import MAGIC, RECORD, read_records
-from plant_rt.profile import load_profile
-from protocol.messages import Param
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.protocol.messages import Param
+from hil_bench.record.recording import load_recording
+from hil_bench.record.serial_capture import MAGIC, RECORD, read_records
+from hil_bench.replay import CaptureError, ReplayOptions, read_capture, run_replay
 
 EX = Path(__file__).resolve().parents[1] / "examples" / "captures"
 REF = {"SMO_SIGN": {"k_v": 25.0, "wc_rad_s": 300.0}}   # the example scenario's [reference]
@@ -54,7 +54,7 @@ def test_mcap_offline_is_bit_identical(tmp_path):
     a, b = _ref(EX / "example.mcap"), _ref(res.out)
     assert len(a["t_s"]) == len(b["t_s"]) > N_CYCLES - 5
     assert _same(a, b, a.keys())
-    from bench.check import check_recording
+    from hil_bench.papers.check import check_recording
 
     rep = check_recording(res.out)
     assert rep.summary["ref_SMO_SIGN_pee_rms_rad"] == pytest.approx(
@@ -159,8 +159,8 @@ def test_controller_with_a_changed_gain_diverges(tmp_path, name):
 def test_controller_compares_telemetry_and_emf(tmp_path):
     """A run with TELEM_EMF replayed into the same build: state, estimator and the EMF fields
     are compared in every cycle and equal; with another gain the EMF differs too."""
-    from bench.runner import run_scenario
-    from bench.scenario import load_scenario
+    from hil_bench.loop.runner import run_scenario
+    from hil_bench.scenario import load_scenario
 
     scn = (EX / "replay_example.toml").read_text().replace("telemetry_emf = false",
                                                            "telemetry_emf = true")
@@ -369,7 +369,7 @@ def test_gaps_duplicates_out_of_order_counted(tmp_path):
 
 
 def test_cli_replay(tmp_path, capsys):
-    from bench.cli import main
+    from hil_bench.cli import main
 
     rc = main(["replay", str(EX / "example.serial.bin"), "--profile", "gong2020",
                "--estimators", "SMO_SIGN", "--est-config", "SMO_SIGN.k_v=25",
@@ -386,7 +386,7 @@ def test_readme_replay_commands(tmp_path, monkeypatch, capsys):
     first divergence) is what the controller replay reports."""
     import shlex
 
-    from bench.cli import main
+    from hil_bench.cli import main
 
     text = (EX.parents[1] / "README.md").read_text()
     sec = text[text.index("## Replaying captures"):]

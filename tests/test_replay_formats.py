@@ -11,11 +11,11 @@ import pytest
 
 can = pytest.importorskip("can")
 
-from bench.check import check_recording  # noqa: E402
-from bench.recording import load_recording  # noqa: E402
-from bench.replay import CaptureError, ReplayOptions, read_capture, run_replay  # noqa: E402
-from bench.replay.canlog import read_log  # noqa: E402
-from plant_rt.profile import load_profile  # noqa: E402
+from hil_bench.papers.check import check_recording  # noqa: E402
+from hil_bench.plant_rt.profile import load_profile  # noqa: E402
+from hil_bench.record.recording import load_recording  # noqa: E402
+from hil_bench.replay import CaptureError, ReplayOptions, read_capture, run_replay  # noqa: E402
+from hil_bench.replay.canlog import read_log  # noqa: E402
 
 EX = Path(__file__).resolve().parents[1] / "examples" / "captures"
 REF = {"SMO_SIGN": {"k_v": 25.0, "wc_rad_s": 300.0}}

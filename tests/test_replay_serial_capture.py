@@ -4,11 +4,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from bench.recording import load_recording
-from bench.replay.serial_capture import RX, TX, read_records
-from bench.runner import run_scenario
-from bench.scenario import load_scenario
-from protocol.framing import Deframer
+from hil_bench.loop.runner import run_scenario
+from hil_bench.protocol.framing import Deframer
+from hil_bench.record.recording import load_recording
+from hil_bench.record.serial_capture import RX, TX, read_records
+from hil_bench.scenario import load_scenario
 
 EX = Path(__file__).resolve().parents[1] / "examples" / "captures"
 
@@ -33,7 +33,7 @@ def test_every_octet_of_a_serial_run_is_captured(tmp_path):
     assert t == sorted(t)
 
 
-# -- converters (python -m bench.replay.serial_capture socat|raw|hex|logic) ----------------------
+# -- converters (python -m hil_bench.record.serial_capture socat|raw|hex|logic) ----------------------
 
 def _directions(path):
     recs = list(read_records(path, []))
@@ -52,7 +52,7 @@ def _same_cycles(a, b) -> None:
 
 
 def _convert(argv) -> None:
-    from bench.replay.serial_capture import main
+    from hil_bench.replay.serial_convert import main
 
     assert main([str(x) for x in argv]) == 0
 
@@ -60,7 +60,7 @@ def _convert(argv) -> None:
 def test_raw_and_hex_converters_interleave_by_seq(tmp_path):
     """Two one-way dumps without time stamps (binary, xxd -p and od -An -tx1 style hex): the
     frames are interleaved by seq, so the capture replays as the bench's own capture does."""
-    from bench.replay import read_capture
+    from hil_bench.replay import read_capture
 
     _recs, (tx, rx) = _directions(EX / "example.serial.bin")
     (tmp_path / "tx.bin").write_bytes(tx)
@@ -79,7 +79,7 @@ def test_raw_and_hex_converters_interleave_by_seq(tmp_path):
 
 
 def test_hex_dump_that_is_not_hex(tmp_path):
-    from bench.replay.serial_capture import main
+    from hil_bench.replay.serial_convert import main
 
     (tmp_path / "tx.hex").write_text("00 01 02\n00 0g\n")
     assert main(["hex", str(tmp_path / "o.bin"), "--tx", str(tmp_path / "tx.hex")]) == 2
@@ -89,7 +89,7 @@ def test_socat_converter(tmp_path):
     """A socat -x -v log (both directions, time stamps, the text column beside the hex)."""
     from datetime import datetime
 
-    from bench.replay import read_capture
+    from hil_bench.replay import read_capture
 
     recs, _ = _directions(EX / "example.serial.bin")
     t_base = 1_750_000_000_000_000_000
@@ -111,7 +111,7 @@ def test_socat_converter(tmp_path):
 
 def test_logic_analyser_converter(tmp_path):
     """Saleae Logic 2 async-serial exports, one per line (start_time [s], data), merged by time."""
-    from bench.replay import read_capture
+    from hil_bench.replay import read_capture
 
     recs, _ = _directions(EX / "example.serial.bin")
     files = {TX: ["name,type,start_time,duration,data"], RX: ["name,type,start_time,duration,data"]}

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import pytest
 
-from bench.check import check_recording
-from bench.cli import main as cli_main
-from bench.conformance import run_conformance
-from bench.scenario import parse_scenario
+from hil_bench.cli import main as cli_main
+from hil_bench.conformance import run_conformance
+from hil_bench.papers.check import check_recording
+from hil_bench.scenario import parse_scenario
 
 DRIVE = Path(__file__).resolve().with_name("third_party_drive.py")
 

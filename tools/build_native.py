@@ -7,8 +7,10 @@ package directory. Run from the repository root: ``python tools/build_native.py`
 
 ``--sanitize`` builds the same modules with AddressSanitizer + UndefinedBehaviorSanitizer
 (``<package>/_build_cffi.py``'s ``make_builder(sanitize=True)``) into a separate import root,
-``build-asan/python/``: per package a directory of symlinks to the package's files with the
-sanitized extension in place of the normal one, so the normal build is untouched. A process uses
+``build-asan/python/hil_bench/``: the installed layout (``hil_bench`` = bench/, with
+``plant_rt``, ``firmware_stub`` and ``protocol`` inside it) as directories of symlinks to the
+repository's files, with the sanitized extensions in place of the normal ones, so the normal
+build is untouched. A process uses
 it with (``make sanitize`` builds it; tests/test_loop_sanitized.py runs the closed loop on it)::
 
     LD_PRELOAD=$(gcc -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 \\
@@ -21,9 +23,8 @@ it with (``make sanitize`` builds it; tests/test_loop_sanitized.py runs the clos
 from __future__ import annotations
 
 import argparse
-import importlib
+import importlib.util
 import shutil
-import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,8 +33,11 @@ SANITIZED_ROOT = ROOT / "build-asan" / "python"
 
 
 def _builder(package: str, sanitize: bool):
-    sys.path.insert(0, str(ROOT))
-    module = importlib.import_module(f"{package}._build_cffi")
+    # by path: the builder needs only cffi, not the package (which needs the built module)
+    spec = importlib.util.spec_from_file_location(f"_build_cffi_{package}",
+                                                  ROOT / package / "_build_cffi.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
     return module.make_builder(sanitize=True) if sanitize else module.ffibuilder
 
 
@@ -53,22 +57,36 @@ def build(package: str) -> Path:
     return _install(built, ROOT / package / built.name)
 
 
-def build_sanitized(package: str) -> Path:
-    """build-asan/python/<package>/: symlinks to the package's entries, the sanitized module."""
-    tmpdir = ROOT / "build-asan" / "cffi" / package
-    tmpdir.mkdir(parents=True, exist_ok=True)
-    built = Path(_builder(package, True).compile(tmpdir=str(tmpdir), verbose=False))
-    ext_prefix = built.name.split(".", 1)[0] + "."          # e.g. "_plant_c."
-    farm = SANITIZED_ROOT / package
+def _farm(source: Path, farm: Path, skip) -> None:
+    """``farm``: a directory of symlinks to ``source``'s entries (stale links removed) but those
+    ``skip`` names."""
     farm.mkdir(parents=True, exist_ok=True)
     for old in farm.iterdir():                               # stale links and modules
         if old.is_symlink() or old.suffix in (".so", ".tmp"):
             old.unlink()
-    for entry in sorted((ROOT / package).iterdir()):
-        if entry.name == "__pycache__" or entry.suffix == ".tmp" or (
-                entry.name.startswith(ext_prefix) and entry.suffix == ".so"):
+    for entry in sorted(source.iterdir()):
+        if entry.name == "__pycache__" or entry.suffix == ".tmp" or skip(entry):
             continue
         (farm / entry.name).symlink_to(entry)
+
+
+def build_sanitized(package: str) -> Path:
+    """build-asan/python/hil_bench/<package>/: symlinks to the package's entries, the sanitized
+    module; hil_bench itself (bench/) and protocol/ as symlinks."""
+    tmpdir = ROOT / "build-asan" / "cffi" / package
+    tmpdir.mkdir(parents=True, exist_ok=True)
+    built = Path(_builder(package, True).compile(tmpdir=str(tmpdir), verbose=False))
+    ext_prefix = built.name.split(".", 1)[0] + "."          # e.g. "_plant_c."
+    top = SANITIZED_ROOT / "hil_bench"
+    _farm(ROOT / "bench", top, lambda e: e.name in ("plant_rt", "firmware_stub", "protocol"))
+    for sub in ("plant_rt", "firmware_stub", "protocol"):
+        if sub != package and not (top / sub).exists():
+            (top / sub).symlink_to(ROOT / sub)
+    if (top / package).is_symlink():
+        (top / package).unlink()
+    farm = top / package
+    _farm(ROOT / package, farm,
+          lambda e: e.name.startswith(ext_prefix) and e.suffix == ".so")
     return _install(built, farm / built.name)
 
 

@@ -64,9 +64,9 @@ def run(cmd: list[str]) -> None:
 
 
 def daq_export(recording: Path, csv_path: Path) -> None:
-    from bench.recording import load_recording
-    from plant_rt.plant import Plant
-    from plant_rt.profile import PARAM_FIELDS, load_profile
+    from hil_bench.plant_rt.plant import Plant
+    from hil_bench.plant_rt.profile import PARAM_FIELDS, load_profile
+    from hil_bench.record.recording import load_recording
 
     rec = load_recording(recording)
     params = json.loads(rec.run["plant_params"])
@@ -109,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     out = a.out
     out.mkdir(parents=True, exist_ok=True)
-    bench = [sys.executable, "-m", "bench"]
+    bench = [sys.executable, "-m", "hil_bench"]
     run(bench + ["run", str(SCENARIO), "--out", str(out / "example.mcap"), "--force",
                  "--no-progress"])
     with tempfile.TemporaryDirectory() as tmp:

@@ -1,6 +1,6 @@
 """Benchmark of `bench check`: resident memory and time against the length of the run.
 
-    python -m bench.perf.check [--seconds 60] [--short 15]
+    python -m hil_bench.perf.check [--seconds 60] [--short 15]
 
 Records gong_g2_500rpm stretched to ``--seconds`` and to ``--short`` of simulated time (10 kHz,
 lockstep, one reference estimator: the recordings a long paper run makes), then runs
@@ -18,8 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench.runner import run_scenario
-from bench.scenario import SCENARIO_DIR, parse_scenario
+from hil_bench.loop.runner import run_scenario
+from hil_bench.scenario import SCENARIO_DIR, parse_scenario
 
 
 def long_g2(seconds: float):
@@ -30,7 +30,7 @@ def long_g2(seconds: float):
 
 
 CHILD = ("import resource, sys\n"
-         "from bench.cli import main\n"
+         "from hil_bench.cli import main\n"
          "rc = main(['check', sys.argv[1]])\n"
          "print('PEAK_RSS_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\n"
          "sys.exit(rc)\n")

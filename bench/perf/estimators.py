@@ -1,6 +1,6 @@
 """Benchmark: instructions per call of every estimator step in firmware_stub/src, by callgrind.
 
-    python -m bench.perf.estimators [--n 20000] [--json]
+    python -m hil_bench.perf.estimators [--n 20000] [--json]
 
 Builds bench/perf/est_callgrind.c with the firmware sources and the firmware's flags
 (-std=c99 -O2 -g -DNDEBUG, i.e. CMake RelWithDebInfo, plus HIL_STRICT_FLAGS) into build/perf/,

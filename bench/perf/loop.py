@@ -1,9 +1,9 @@
 """Benchmark of the cycle engine: lockstep against the pty's own round trip, real time, recorder.
 
-    python -m bench.perf.loop [--quick] [--no-can] [--engine-cpu N] [--stub-cpu N]
-    python -m bench.perf.loop --soak 10          # 10-minute lockstep run: memory of every process
-    python -m bench.perf.loop --soak-realtime 10 # 10 minutes real time (5 kHz): memory, every miss explained
-    python -m bench.perf.loop --quick --tuned    # adds 10 kHz real time with the tuned set-up
+    python -m hil_bench.perf.loop [--quick] [--no-can] [--engine-cpu N] [--stub-cpu N]
+    python -m hil_bench.perf.loop --soak 10          # 10-minute lockstep run: memory of every process
+    python -m hil_bench.perf.loop --soak-realtime 10 # 10 minutes real time (5 kHz): memory, every miss explained
+    python -m hil_bench.perf.loop --quick --tuned    # adds 10 kHz real time with the tuned set-up
 
 Everything is measured in one run on one machine, and compared as ratios:
 
@@ -44,8 +44,8 @@ import threading
 import time
 from pathlib import Path
 
-from protocol import budget
-from protocol.messages import HelloFlag
+from hil_bench.protocol import budget
+from hil_bench.protocol.messages import HelloFlag
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -90,7 +90,7 @@ CAN_LINKS = ("stub-slcan", "stub-socketcand")
 def scenario(duration_s: float, mode: str = "lockstep", rate_hz: float = 10000.0,
              realtime: str = "", telemetry_emf: bool = True, estimator: str = "SMO_SIGN",
              params: str = "", speed_rpm: float = 500.0):
-    from bench.scenario import parse_scenario
+    from hil_bench.scenario import parse_scenario
 
     plant = "" if rate_hz == 10000.0 else f"ts_s = {1.0 / rate_hz!r}"
     text = G2.format(duration=duration_s, mode=mode, plant=plant, realtime=realtime)
@@ -119,7 +119,7 @@ def pty_ceiling(iterations: int) -> dict:
 def run(scn, *, link: str = "stub", record: bool = True, cpu: int | None = None,
         stub_args: tuple[str, ...] = (), watch=None,
         recorder_cpus: tuple[int, ...] | None = None, stop_ok: bool = False) -> dict:
-    from bench.runner import Runner
+    from hil_bench.loop.runner import Runner
 
     with tempfile.TemporaryDirectory() as tmp:
         r = Runner(scn, link_spec=link, out_path=Path(tmp) / "perf.mcap", progress=False,
@@ -144,8 +144,8 @@ def run(scn, *, link: str = "stub", record: bool = True, cpu: int | None = None,
 def recorder_rate(messages: int) -> dict:
     """Messages per second the recorder process writes: G2 rows pushed into the ring as fast as
     Python can, while the recorder drains them; time until the file is finalised."""
-    from bench import channels as ch
-    from bench.recorder import ProcessRecorder
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recorder import ProcessRecorder
 
     rows = {
         "PLANT_STATE": ch.encode_row("PLANT_STATE", [0.1234] * len(ch.PLANT_STATE_VALUES)),
@@ -159,7 +159,7 @@ def recorder_rate(messages: int) -> dict:
                                            "181#0700A312F1FF0300 182#0700E8030A000A00 "
                                            "180#07000040004000C0")),
     }
-    from plant_rt._plant_c import lib
+    from hil_bench.plant_rt._plant_c import lib
 
     with tempfile.TemporaryDirectory() as tmp:
         rec = ProcessRecorder(Path(tmp) / "rate.mcap", ring_capacity=256 << 20)
@@ -344,9 +344,9 @@ def soak_realtime(minutes: float, rate_hz: float, keep: Path | None = None) -> i
     and the 30 A trip; with the encoder, a current-sum SENSOR_FAULT at 2.9 s with a 100 A trip --
     the ADC clipped -- and OVERCURRENT at 7.8 s at 150 rpm with the defaults). SOAK_RPM and
     SOAK_PARAMS override the speed and these parameters."""
-    from bench import channels as ch
-    from bench.recording import load_recording
-    from bench.runner import Runner
+    from hil_bench.loop.runner import Runner
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recording import load_recording
 
     samples: list[tuple[float, dict]] = []
     stop = threading.Event()

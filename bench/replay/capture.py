@@ -2,7 +2,7 @@
 
 A *capture* is one logged run of a drive: a bench recording (MCAP), a CAN log, a raw serial byte
 capture or a scope/DAQ CSV export (``bench/replay/readers.py``). Whatever the input, it becomes a
-:class:`Capture`: one row per control cycle (``plant_rt.engine.REPLAY_CYCLE_DTYPE``: the currents
+:class:`Capture`: one row per control cycle (``hil_bench.plant_rt.engine.REPLAY_CYCLE_DTYPE``: the currents
 and bus voltage the controller was sent, the duties it answered, its telemetry, the encoder or
 true angle where the capture has one), the uplink frames of each cycle (for replay into a
 controller), the recorded controller answers, and every anomaly of the capture counted per kind.
@@ -43,8 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from plant_rt.engine import REPLAY_CYCLE_DTYPE, REPLAY_FRAME_DTYPE
-from protocol.messages import BY_ID, DUTY_RAW_OFF, MESSAGES, Command, Param, SenseAuxFlag
+from hil_bench.plant_rt.engine import REPLAY_CYCLE_DTYPE, REPLAY_FRAME_DTYPE
+from hil_bench.protocol.messages import BY_ID, DUTY_RAW_OFF, MESSAGES, Command, Param, SenseAuxFlag
 
 ANOMALY_KINDS = ("gaps", "cycles_missing", "drops", "duplicates", "out_of_order", "unknown_ids",
                  "wrong_length", "not_protocol", "damaged")
@@ -131,7 +131,7 @@ class Capture:
     problems: list[str] = field(default_factory=list)   # damage: file, position, what; replayed anyway
     theta_source: str | None = None         # what the angle of the rows is, if any
     state: dict[str, np.ndarray] | None = None   # MCAP: the recorded /plant/state per row
-    recording: object | None = None          # MCAP: the bench.recording.Recording
+    recording: object | None = None          # MCAP: the hil_bench.record.recording.Recording
     voltage_is_duty: bool = True            # False: the rows' duties stand for measured voltages
     sessions: int = 1
     notes: list[str] = field(default_factory=list)

@@ -60,7 +60,7 @@ def _parse_kv(items: list[str], what: str) -> list[tuple[str, str]]:
 
 
 def build_options(args: argparse.Namespace):
-    from protocol.messages import Param
+    from hil_bench.protocol.messages import Param
 
     from .modes import ReplayOptions
 
@@ -88,18 +88,19 @@ def build_options(args: argparse.Namespace):
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from bench.recorder import RecorderError
+    from hil_bench.record.recorder import RecorderError
 
     from .capture import CaptureError
-    from .modes import ReplayError, run_replay
+    from .modes import ReplayError
     from .readers import read_capture
+    from .run import run_replay
 
     out, err = Console(), Console(stderr=True)
     try:
         opts = build_options(args)
         profile = None
         if args.profile:
-            from plant_rt.profile import load_profile
+            from hil_bench.plant_rt.profile import load_profile
 
             profile = load_profile(args.profile)
         cap = read_capture(args.capture, ts_s=args.ts_us * 1e-6 if args.ts_us else None,

@@ -6,17 +6,29 @@ import math
 
 import numpy as np
 
-from bench import channels as ch
-from bench.host_session import HostSession
-from bench.links import LinkError, open_link
-from bench.links.engine_fd import engine_link_for
-from plant_rt import engine as eng
-from protocol.messages import MESSAGES, Command, Estimator, HelloFlag, Mode, Param
+from hil_bench.loop.host_session import HostSession
+from hil_bench.loop.links import LinkError, open_link
+from hil_bench.loop.links.engine_fd import engine_link_for
+from hil_bench.plant_rt import engine as eng
+from hil_bench.protocol.messages import MESSAGES, Command, Estimator, HelloFlag, Mode, Param
+from hil_bench.record import channels as ch
 
 from .capture import Capture
-from .modes import (NO_CHANNEL, RPM_PER_RAD_S, ReplayError, ReplayOptions, ReplayResult, _Out,
-                    _watch, _write_capture_events, _write_metadata, _write_rows, derived_state,
-                    engine_summary, finish)
+from .modes import (
+    NO_CHANNEL,
+    RPM_PER_RAD_S,
+    ReplayError,
+    ReplayOptions,
+    ReplayResult,
+    _Out,
+    _watch,
+    _write_capture_events,
+    _write_metadata,
+    _write_rows,
+    derived_state,
+    engine_summary,
+    finish,
+)
 
 _CMD = MESSAGES["CMD"]
 #: fields compared (name, recorded column, live column of /replay/controller, kind): the DUTY
@@ -121,7 +133,7 @@ def compare_controller(path, tol: float = 0.0) -> dict:
     capture recorded it), how many differ and by how much. A cycle where the capture has the
     value and the controller did not answer it differs. The wire values are compared exactly
     (tol 0): the same build answers the same octets."""
-    from bench.recording import load_recording
+    from hil_bench.record.recording import load_recording
 
     rec = load_recording(path, topics=[ch.REPLAY_CONTROLLER])
     cols = rec.topics.get(ch.REPLAY_CONTROLLER)

@@ -18,19 +18,18 @@ from __future__ import annotations
 import json
 import math
 import re
-import time
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
-from bench import channels as ch
-from bench.recorder import ProcessRecorder, RecorderError, check_target
-from plant_rt import engine as eng
-from protocol.messages import MESSAGES, Command, Estimator, Param
+from hil_bench.plant_rt import engine as eng
+from hil_bench.protocol.messages import MESSAGES, Command, Estimator, Param
+from hil_bench.record import channels as ch
+from hil_bench.record.recorder import ProcessRecorder, RecorderError
 
-from .capture import Capture, CaptureError, TELEM_FIELDS
+from .capture import TELEM_FIELDS, Capture, CaptureError
 
 MODES = ("offline", "controller", "plant")
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
@@ -85,7 +84,7 @@ class ReplayResult:
 
 def resolve_profile(cap: Capture, name: str | None):
     """--profile, else the profile attached to a bench recording."""
-    from plant_rt.profile import ProfileError, load_profile, parse_profile
+    from hil_bench.plant_rt.profile import ProfileError, load_profile, parse_profile
 
     try:
         if name:
@@ -114,7 +113,7 @@ def resolve_profile(cap: Capture, name: str | None):
 def plant_overrides(cap: Capture, profile) -> dict:
     """The plant parameters of the capture: a recording's own; else the profile's with the
     capture's period and (if captured) the delay the controller was told."""
-    from plant_rt.profile import PARAM_FIELDS
+    from hil_bench.plant_rt.profile import PARAM_FIELDS
 
     if cap.plant_params:
         return {k: v for k, v in cap.plant_params.items() if k in PARAM_FIELDS}
@@ -225,7 +224,7 @@ def reference_list(cap: Capture, opts: ReplayOptions,
 
 
 def make_estimators(entries: dict[str, dict[str, float]], profile, ts_s: float):
-    from firmware_stub.estimators import REFERENCE_ESTIMATORS
+    from hil_bench.firmware_stub.estimators import REFERENCE_ESTIMATORS
 
     out = []
     for entry, config in entries.items():
@@ -385,15 +384,15 @@ class _Out:
 
 def _write_metadata(o: _Out, cap: Capture, mode: str, profile, plant, refs_cfg, window,
                     opts: ReplayOptions) -> None:
-    from bench.runner import git_revision
+    from hil_bench.loop.runner import git_revision
 
     run = dict(cap.recording.run) if cap.recording is not None else {}
     if plant is None and not cap.plant_params:
         # offline / controller on a frame or CSV capture: the plant the run's figures refer to
         # is the profile's with the capture's period (and delay, bus voltage where captured),
         # written as a live run writes it (bench check reads pole pairs and Ts from it)
-        from plant_rt.plant import Plant
-        from plant_rt.profile import ProfileError
+        from hil_bench.plant_rt.plant import Plant
+        from hil_bench.plant_rt.profile import ProfileError
 
         try:
             plant = Plant(profile, **plant_overrides(cap, profile))
@@ -514,27 +513,6 @@ def _watch(e: eng.Engine, o: _Out, n: int, progress: bool) -> bool:
             e.join()
             raise RecorderError(o.rec.death_message())
     return interrupted
-
-
-def run_replay(cap: Capture, opts: ReplayOptions) -> ReplayResult:
-    if opts.mode not in MODES:
-        raise ReplayError(f"--mode {opts.mode!r}: one of {', '.join(MODES)}")
-    out = Path(opts.out) if opts.out else default_out(cap, opts.mode)
-    check_target(out, opts.force)
-    profile = resolve_profile(cap, opts.profile)
-    window = _window(cap, opts)
-    pace_s = _pace(cap, opts.rate)
-    res = ReplayResult(cap, opts.mode, out, window_s=window)
-    if opts.mode == "offline":
-        from .offline import run_offline as fn
-    elif opts.mode == "controller":
-        from .controller import run_controller as fn
-    else:
-        from .plant import run_plant as fn
-    t0 = time.monotonic()
-    fn(cap, opts, profile, out, window, pace_s, res)
-    res.wall_s = time.monotonic() - t0
-    return res
 
 
 def engine_summary(e: eng.Engine, res: ReplayResult, pace_s: float) -> None:

@@ -5,14 +5,29 @@ import math
 
 import numpy as np
 
-from bench import channels as ch
-from bench import metrics
-from plant_rt import engine as eng
+from hil_bench.papers import metrics
+from hil_bench.plant_rt import engine as eng
+from hil_bench.record import channels as ch
 
 from .capture import Capture
-from .modes import (NO_CHANNEL, RPM_PER_RAD_S, ReplayError, ReplayOptions, ReplayResult, _Out,
-                    _watch, _write_capture_events, _write_metadata, _write_rows, derived_state,
-                    engine_summary, finish, make_estimators, reference_list, t_delay_of)
+from .modes import (
+    NO_CHANNEL,
+    RPM_PER_RAD_S,
+    ReplayError,
+    ReplayOptions,
+    ReplayResult,
+    _Out,
+    _watch,
+    _write_capture_events,
+    _write_metadata,
+    _write_rows,
+    derived_state,
+    engine_summary,
+    finish,
+    make_estimators,
+    reference_list,
+    t_delay_of,
+)
 
 
 def run_offline(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
@@ -53,7 +68,7 @@ def run_offline(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
 def offline_metrics(path, cap: Capture, window, pole_pairs: int) -> dict[str, dict[str, float]]:
     """Per estimate (each reference, and the recorded controller): position-estimation error
     against the capture's angle, and the estimated speed, over the window."""
-    from bench.recording import load_recording
+    from hil_bench.record.recording import load_recording
 
     rec = load_recording(path, topics=["/reference/*", ch.CONTROLLER_TELEMETRY, ch.PLANT_STATE])
     st = rec.topics.get(ch.PLANT_STATE, {})

@@ -6,19 +6,32 @@ import math
 
 import numpy as np
 
-from bench import channels as ch
-from plant_rt import engine as eng
-from plant_rt.plant import Plant
+from hil_bench.plant_rt import engine as eng
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.record import channels as ch
 
 from .capture import Capture
-from .modes import (RPM_PER_RAD_S, ReplayError, ReplayOptions, ReplayResult, _Out, _watch,
-                    _write_capture_events, _write_metadata, derived_state, engine_summary,
-                    finish, make_estimators, plant_overrides, reference_list)
+from .modes import (
+    RPM_PER_RAD_S,
+    ReplayError,
+    ReplayOptions,
+    ReplayResult,
+    _Out,
+    _watch,
+    _write_capture_events,
+    _write_metadata,
+    derived_state,
+    engine_summary,
+    finish,
+    make_estimators,
+    plant_overrides,
+    reference_list,
+)
 
 
 def run_plant(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
               res: ReplayResult) -> None:
-    from plant_rt.profile import ProfileError
+    from hil_bench.plant_rt.profile import ProfileError
 
     if not cap.has_duty:
         raise ReplayError(f"{cap.path}: the capture has no duties: nothing to drive the plant")
@@ -82,7 +95,7 @@ def run_plant(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
 
 def compare_plant(path) -> dict:
     """RMS error of the plant's sampled currents against the recorded, per phase, over the run."""
-    from bench.recording import load_recording
+    from hil_bench.record.recording import load_recording
 
     rec = load_recording(path, topics=[ch.REPLAY_PLANT])
     cols = rec.topics.get(ch.REPLAY_PLANT)

@@ -1,6 +1,6 @@
 """Capture readers: a bench recording (MCAP), a CAN log (every format python-can reads), a raw
 serial byte capture (``.serial.bin``), a scope/DAQ CSV export with a mapping file. Each returns a
-:class:`~bench.replay.capture.Capture` (docs/replay.md "Inputs").
+:class:`~hil_bench.replay.capture.Capture` (docs/replay.md "Inputs").
 
 Damage never stops a replay that has something intact: a truncated or corrupt capture adds a
 line to ``Capture.problems`` naming the file and the position, and what could be read is
@@ -16,13 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from protocol.framing import Deframer
-from protocol.messages import Param
+from hil_bench.plant_rt.engine import REPLAY_CYCLE_DTYPE
+from hil_bench.protocol.framing import Deframer
+from hil_bench.protocol.messages import Param
+from hil_bench.record import serial_capture as sc
 
-from . import serial_capture as sc
-from .capture import (Anomalies, Capture, CaptureError, CycleAssembler, duty_raw_of,
-                      empty_telem)
-from plant_rt.engine import REPLAY_CYCLE_DTYPE
+from .capture import Anomalies, Capture, CaptureError, CycleAssembler, duty_raw_of, empty_telem
 
 #: what python-can's LogReader reads (a trailing .gz is read compressed)
 CAN_SUFFIXES = (".log", ".asc", ".blf", ".trc", ".csv", ".mf4")
@@ -191,8 +190,8 @@ def read_serial(path: Path, ts_s: float | None = None) -> Capture:
 # -- MCAP ---------------------------------------------------------------------------------------
 
 def read_mcap(path: Path) -> Capture:
-    from bench import channels as ch
-    from bench.recording import RecordingError, load_recording
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recording import RecordingError, load_recording
 
     try:
         rec = load_recording(path)
@@ -292,7 +291,7 @@ def read_mcap(path: Path) -> Capture:
 
 def _frames_of_mcap(cap: Capture, rec) -> None:
     """The recorded frames (/link/frames) assembled into cycles, matched to the rows by seq."""
-    from bench import channels as ch
+    from hil_bench.record import channels as ch
 
     fr = rec.topics.get(ch.LINK_FRAMES)
     if not fr or not len(fr.get("t_s", [])):

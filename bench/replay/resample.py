@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plant_rt.engine import REPLAY_CYCLE_DTYPE
+from hil_bench.plant_rt.engine import REPLAY_CYCLE_DTYPE
 
 from .capture import Anomalies, Capture, CaptureError, duty_raw_of, empty_telem
 

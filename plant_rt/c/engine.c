@@ -31,7 +31,7 @@ static void set_message(engine_t *e, const char *fmt, ...)
     va_end(ap);
 }
 
-/** Python's float modulo (the result has the sign of y), as bench/runner.py used it. */
+/** Python's float modulo (the result has the sign of y), as bench/loop/runner.py used it. */
 static double py_mod(double x, double y)
 {
     double m = fmod(x, y);

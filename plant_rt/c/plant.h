@@ -20,7 +20,7 @@
  * libm call per RK4 step, rotated by each stage's small offset; exact to rounding.) With the
  * inverter non-linearity on, the right-hand side has kinks at the current zero crossings and
  * RK4 loses order there: measured 3.9e-6 of rated current at substeps 4 (plant_rt/README.md).
- * Error bound (measured, plant_rt/error_study.py: C plant vs solve_ivp rtol 1e-10, rotor at
+ * Error bound (measured, plant_rt/verify/error_study.py: C plant vs solve_ivp rtol 1e-10, rotor at
  * 2x rated speed, zero-current start into a rated-current operating point, 50 ms; worst of
  * gong2020 / hou2021 / yuan2020 and of t_delay = profile / 0 -- t_delay = 0 gives the longest
  * steps, h = Ts/substeps):

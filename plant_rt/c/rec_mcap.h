@@ -2,11 +2,11 @@
  * @file rec_mcap.h
  * @brief The recorder's fast path: a batch of ring records (rec_ring_read's output) turned
  * into MCAP Message records in one call, so the recorder process spends no Python per message
- * (bench/recorder.py; the bytes are exactly what mcap's own Writer writes for each message).
+ * (bench/record/recorder.py; the bytes are exactly what mcap's own Writer writes for each message).
  *
  * MCAP Message record (mcap.dev/spec): opcode 0x05, u64 length, u16 channel id, u32 sequence,
  * u64 log time, u64 publish time, data; all little-endian. The serial byte capture's records
- * (bench/replay/serial_capture.py: u64 t_ns, u8 direction, u32 length, octets) are written to a
+ * (bench/record/serial_capture.py: u64 t_ns, u8 direction, u32 length, octets) are written to a
  * second buffer for the recorder to append to the capture file.
  *
  * Host-only C99. No heap.

@@ -3,7 +3,7 @@
  * @brief Single-producer single-consumer ring of recorded messages in shared memory.
  *
  * The cycle engine (producer) writes one record per message it records; the recorder process
- * (consumer, bench/recorder.py) drains them into MCAP. The memory is a MAP_SHARED mapping the
+ * (consumer, bench/record/recorder.py) drains them into MCAP. The memory is a MAP_SHARED mapping the
  * bench creates before it forks the recorder, so the two processes see the same ring. The
  * producer never blocks inside the ring: rec_ring_begin() returns NULL when the record does not
  * fit, and the caller decides (the engine drops and counts in real time; in lockstep it waits a

@@ -6,7 +6,7 @@
  * Each channel is an X-macro list of (type, field) pairs. From it come the C row struct the
  * cycle engine fills, the protobuf encoder that turns a row into the message bytes written to
  * MCAP, and a layout string (rec_schema_layout) from which Python builds the protobuf schema
- * (bench/channels.py) and the fast fixed-layout decoder (bench/recording.py). Field n of the
+ * (bench/record/channels.py) and the fast fixed-layout decoder (bench/record/recording.py). Field n of the
  * list (counting from 1) is protobuf field number n; nothing else assigns numbers, so the two
  * sides cannot drift.
  *
@@ -18,7 +18,7 @@
  *                 plots it as a number (exact below 2^53)
  *   STR  string   wire type 2 (varint length + UTF-8 octets)
  * A channel of fixed-width fields only has one byte layout for every message, which is what
- * lets a reader decode a whole chunk of them with one numpy call (bench/recording.py).
+ * lets a reader decode a whole chunk of them with one numpy call (bench/record/recording.py).
  *
  * Host-only C99 (the engine runs on the Linux host); no heap.
  */

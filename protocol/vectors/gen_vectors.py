@@ -27,11 +27,8 @@ import struct
 import sys
 from pathlib import Path
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-
-from protocol import dbc, framing  # noqa: E402
-from protocol.messages import DUTY_RAW_OFF, MESSAGES, Message  # noqa: E402
+from hil_bench.protocol import dbc, framing
+from hil_bench.protocol.messages import DUTY_RAW_OFF, MESSAGES, Message
 
 OUT_DIR = Path(__file__).resolve().parent
 COUNTERS = framing.Deframer.COUNTERS

@@ -387,7 +387,7 @@ static void test_realtime_closed_loop(void)
     const double lost = (double)(r.n.missed_duty + r.n.rt_overruns) / (double)(r.cycles ? r.cycles : 1);
     if (r.end != ENGINE_END_DONE && (lost > 0.01 || strstr(r.message, "clock jumped") != NULL)) {
         /* as tests/test_realtime.py: a run the machine could not keep in real time says nothing
-         * about the loop (the benchmark measures the machine: python -m bench.perf.loop) */
+         * about the loop (the benchmark measures the machine: python -m hil_bench.perf.loop) */
         printf("test_realtime_closed_loop: skipped: this machine could not keep real time "
                "(%.1f %% of %ld periods lost: %llu missed, %llu overruns): %s\n", 100.0 * lost,
                r.cycles, (unsigned long long)r.n.missed_duty,

@@ -15,7 +15,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from protocol.messages import MESSAGES, PROTO_VERSION, Command, Estimator, Param  # noqa: E402
+from hil_bench.protocol.messages import MESSAGES, PROTO_VERSION, Command, Estimator, Param  # noqa: E402
 
 VECTORS = ROOT / "protocol" / "vectors"
 CORPUS = Path(__file__).resolve().parent / "corpus"

@@ -1,6 +1,6 @@
 """Record the golden of tests/test_engine_equivalence.py (tests/golden/g2_engine_regression.npz).
 
-History: first recorded at commit f6614b9 by the Python lockstep loop (``bench/runner.py:
+History: first recorded at commit f6614b9 by the Python lockstep loop (``bench/loop/runner.py:
 LockstepRunner._loop``, the last commit with it); the C engine reproduced it bit for bit through
 commit 343d327. The merge of the paper-claims work (8605a34) changed the firmware (the SMOs'
 direction handling, the controller's delay handling), so the stub's answers changed; the golden
@@ -26,9 +26,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from bench.recording import load_recording  # noqa: E402
-from bench.runner import run_scenario  # noqa: E402
-from bench.scenario import load_scenario  # noqa: E402
+from hil_bench.loop.runner import run_scenario  # noqa: E402
+from hil_bench.record.recording import load_recording  # noqa: E402
+from hil_bench.scenario import load_scenario  # noqa: E402
 
 TOPICS = ("/plant/state", "/plant/sense", "/controller/telemetry", "/reference/SMO_SIGN")
 FULL = {"/plant/state": ("theta_e_rad", "omega_m_rad_s", "i_a_a", "i_b_a", "i_d_a", "i_q_a"),

@@ -1,0 +1,220 @@
+"""Links to the controller under test, chosen by a spec string (``--link``).
+
+==============================================================  ================================================
+spec                                                            meaning
+==============================================================  ================================================
+``stub`` (default)                                              start the C firmware stub on a new pty
+``serial:<port-or-url>[@baud]``                                 a real drive on a UART, or any pyserial URL
+                                                                (``socket://host:port``); default 3 000 000 baud
+``can:<interface>:<channel>[@bitrate][,fd][,data_bitrate=N]``   a drive on any python-can interface (socketcan,
+``[,key=value...]``                                             pcan, kvaser, vector, slcan, socketcand, virtual,
+                                                                ...); default 1 Mbit/s; ``key=value`` go to
+                                                                ``can.Bus`` (e.g. ``host=``, ``port=`` for
+                                                                socketcand, ``tty_baudrate=`` for slcan)
+``stub-slcan[@bitrate][,fd][,data_bitrate=N]``                  the stub as a USB-CAN adapter speaking SLCAN on a
+                                                                pty, opened with python-can's slcan interface
+``stub-socketcand[@bitrate]``                                   the stub as a socketcand server on loopback TCP,
+                                                                opened with python-can's socketcand interface
+``stub-socketcan[:<iface>][@bitrate][,fd][,data_bitrate=N]``    the stub on a SocketCAN interface (default vcan0;
+                                                                needs kernel CAN), python-can's socketcan
+==============================================================  ================================================
+
+Bit rates are integers or take a k/M suffix (``500k``, ``1M``). On interfaces whose bit rate is set
+outside the bench (socketcan: ``ip link``; socketcand: the server) the given rate only feeds the link
+budget, so give the bus's real rate.
+
+Backends are imported only when chosen (python-can's ``BACKENDS`` pattern).
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from .base import Link, LinkError
+
+DEFAULT_SERIAL_BAUD = 3_000_000
+DEFAULT_CAN_BITRATE = 1_000_000
+DEFAULT_STUB_SOCKETCAN_IFACE = "vcan0"
+STUB_CAN_MODES = {"stub-slcan": "slcan", "stub-socketcand": "socketcand", "stub-socketcan": "socketcan"}
+
+_KIND = re.compile(r"([a-z][a-z0-9-]*)(.*)\Z", re.S)
+_RATE = re.compile(r"(\d+(?:\.\d+)?)([kKmM]?)\Z")
+
+
+@dataclass
+class OpenedLink:
+    link: Link
+    stub: object | None  # StubProcess when the bench started the stub itself
+
+    def close(self) -> int | None:
+        if self.stub is not None:
+            return self.stub.stop()
+        self.link.close()
+        return None
+
+
+def parse_serial_spec(rest: str) -> tuple[str, int]:
+    url, sep, baud = rest.rpartition("@")
+    if not sep:
+        return rest, DEFAULT_SERIAL_BAUD
+    try:
+        return url, int(baud)
+    except ValueError:
+        raise LinkError(f"bad baud rate {baud!r} in link spec 'serial:{rest}'") from None
+
+
+def parse_rate(text: str, what: str, spec: str) -> int:
+    """``1000000``, ``1M``, ``500k``, ``83.3k`` -> bit/s."""
+    m = _RATE.match(text.strip())
+    if not m:
+        raise LinkError(f"bad {what} {text!r} in link spec {spec!r}: use a number of bit/s, e.g. "
+                        f"1000000, 1M or 500k")
+    value = float(m.group(1)) * {"": 1, "k": 1e3, "m": 1e6}[m.group(2).lower()]
+    if value <= 0:
+        raise LinkError(f"bad {what} {text!r} in link spec {spec!r}: must be > 0")
+    return int(round(value))
+
+
+def _option_value(text: str) -> object:
+    low = text.lower()
+    if low in ("true", "yes", "on"):
+        return True
+    if low in ("false", "no", "off"):
+        return False
+    for conv in (int, float):
+        try:
+            return conv(text)
+        except ValueError:
+            pass
+    return text
+
+
+def _parse_can_tail(head: str, options: list[str], spec: str, interface: str):
+    """``channel[@bitrate]`` and the comma options -> CanSpec (python-can imported here)."""
+    from .can_link import CanSpec
+
+    channel, at, rate = head.rpartition("@")
+    if not at:
+        channel, rate = head, ""
+    bitrate = parse_rate(rate, "bit rate", spec) if rate else DEFAULT_CAN_BITRATE
+    fd = False
+    data_bitrate = None
+    extra: dict[str, object] = {}
+    for opt in options:
+        key, eq, value = (s.strip() for s in opt.partition("="))
+        if not key:
+            raise LinkError(f"empty option in link spec {spec!r}")
+        if key == "fd":
+            fd = True if not eq else bool(_option_value(value))
+        elif key == "data_bitrate":
+            if not eq or not value:
+                raise LinkError(f"link spec {spec!r}: data_bitrate needs a value, e.g. data_bitrate=5M")
+            data_bitrate = parse_rate(value, "data bit rate", spec)
+        elif not eq:
+            raise LinkError(f"link spec {spec!r}: option {key!r} needs a value (key=value); the "
+                            f"flags are 'fd'")
+        else:
+            extra[key] = _option_value(value)
+    if data_bitrate is not None and not fd:
+        raise LinkError(f"link spec {spec!r}: data_bitrate needs CAN FD: add ',fd'")
+    if data_bitrate is not None and data_bitrate < bitrate:
+        raise LinkError(f"link spec {spec!r}: the data bit rate ({data_bitrate}) is below the "
+                        f"nominal bit rate ({bitrate})")
+    return CanSpec(interface=interface, channel=channel, bitrate=bitrate, fd=fd,
+                   data_bitrate=data_bitrate, bitrate_given=bool(rate), options=extra)
+
+
+def parse_can_spec(spec: str):
+    """``can:<interface>:<channel>[@bitrate][,fd][,data_bitrate=N][,key=value...]`` -> CanSpec."""
+    body = spec[len("can:"):] if spec.startswith("can:") else spec
+    interface, colon, rest = body.partition(":")
+    head, *options = rest.split(",")
+    channel = head.rpartition("@")[0] if "@" in head else head
+    if not interface.strip() or not colon or not channel.strip():
+        raise LinkError(f"link spec {spec!r}: use can:<interface>:<channel>[@bitrate][,fd]"
+                        f"[,data_bitrate=N], e.g. can:socketcan:can0@500000, can:pcan:PCAN_USBBUS1@1M, "
+                        f"can:slcan:/dev/ttyACM0@1M, can:socketcand:can0,host=10.0.0.5,port=29536")
+    return _parse_can_tail(head, options, spec, interface.strip())
+
+
+def parse_stub_can_spec(kind: str, tail: str, spec: str):
+    """``stub-slcan...``, ``stub-socketcand...``, ``stub-socketcan[:iface]...`` -> CanSpec (the
+    channel is filled in by the stub launcher, except the SocketCAN interface)."""
+    mode = STUB_CAN_MODES[kind]
+    head, *options = tail.split(",")
+    if mode == "socketcan":
+        iface = head[1:] if head.startswith(":") else head
+        if not iface or iface.startswith("@"):
+            iface = DEFAULT_STUB_SOCKETCAN_IFACE + iface
+        head = iface
+    elif head and not head.startswith("@"):
+        raise LinkError(f"link spec {spec!r}: use {kind}[@bitrate][,fd][,data_bitrate=N]")
+    else:
+        head = "stub" + head
+    can_spec = _parse_can_tail(head, options, spec, mode)
+    can_spec.bitrate_given = True   # the stub's bus runs at whatever rate the spec says
+    if mode == "socketcand" and can_spec.fd:
+        raise LinkError(f"link spec {spec!r}: python-can's socketcand interface carries classic CAN "
+                        f"only: drop ',fd'")
+    return can_spec
+
+
+def spec_max_cycle_rate_hz(spec: str, flags: int) -> tuple[float, str] | None:
+    """(highest control rate, the link's name) a link spec carries with the HELLO ``flags``'
+    frames, from the spec alone (serial baud rate, CAN bit rates: protocol/budget.py), so that a
+    scenario the link cannot carry is refused before the port is opened; None when only the
+    opened link can tell (the stub's links)."""
+    from hil_bench.protocol import budget
+
+    m = _KIND.match(spec)
+    kind, tail = (m.group(1), m.group(2)) if m else ("", spec)
+    rest = tail[1:] if tail.startswith(":") else tail
+    if kind == "serial" and rest:
+        url, baud = parse_serial_spec(rest)
+        return budget.serial_max_rate_hz(baud, flags), f"serial {url} at {baud} baud"
+    if kind == "can":
+        cs = parse_can_spec(spec)
+        return (budget.can_max_rate_hz(cs.bitrate, flags, fd=cs.fd,
+                                       data_bitrate=cs.data_bitrate if cs.fd else None),
+                f"CAN {cs.interface}:{cs.channel} at {cs.bitrate} bit/s")
+    return None
+
+
+def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
+              capture_path: Path | None = None) -> OpenedLink:
+    """Open the link a spec names. ``capture_path``: where a backend that has a standard capture
+    format writes the raw traffic beside the recording (CAN: a candump .log); others ignore it."""
+    m = _KIND.match(spec)
+    kind, tail = (m.group(1), m.group(2)) if m else ("", spec)
+    if kind == "stub" and not tail.startswith(("-", "@", ",")):
+        from .stub import StubProcess
+
+        stub = StubProcess(stub_args)
+        return OpenedLink(stub.link, stub)
+    if kind in STUB_CAN_MODES:
+        from .stub import StubProcess
+
+        can_spec = parse_stub_can_spec(kind, tail, spec)
+        stub = StubProcess(stub_args, mode=STUB_CAN_MODES[kind], can_spec=can_spec,
+                           capture_path=capture_path)
+        return OpenedLink(stub.link, stub)
+    rest = tail[1:] if tail.startswith(":") else tail
+    if kind == "serial":
+        from .serial_link import PySerialTransport, SerialLink
+
+        if not rest:
+            raise LinkError("link spec 'serial:' needs a port, e.g. serial:/dev/ttyUSB0@3000000")
+        url, baud = parse_serial_spec(rest)
+        return OpenedLink(SerialLink(PySerialTransport(url, baud), baud=baud), None)
+    if kind == "can":
+        from .can_link import open_can_link
+
+        return OpenedLink(open_can_link(parse_can_spec(spec), capture_path), None)
+    raise LinkError(f"unknown link spec {spec!r}: use 'stub', 'serial:<port>[@baud]', "
+                    f"'can:<interface>:<channel>[@bitrate][,fd]', 'stub-slcan', 'stub-socketcand' or "
+                    f"'stub-socketcan[:<iface>]'")
+
+
+__all__ = ["Link", "LinkError", "OpenedLink", "open_link", "parse_can_spec", "parse_stub_can_spec",
+           "spec_max_cycle_rate_hz"]

@@ -1,0 +1,359 @@
+"""CAN backend: the HIL messages as CAN frames through any python-can interface.
+
+One message = one data frame: 11-bit identifier = message id, data = the payload (docs/protocol.md,
+section 1), classic CAN or, with ``fd``, CAN FD (bit rate switch when a data bit rate is given).
+python-can does every interface (socketcan, pcan, kvaser, vector, slcan, socketcand, virtual, ...);
+this module only maps frames, counts what does not belong, keeps a candump log and turns interface
+failures into :class:`LinkError` with a message naming the interface and what happened.
+
+Received frames:
+
+* ids in the DBC with the DBC length: passed on;
+* 11-bit ids not in the DBC: counted (``can_unknown_ids``) and passed on, so the runner records them
+  the way it records them on the serial link (``unknown_ids``); 29-bit ids and remote frames are
+  counted and dropped (no message of the DBC has them);
+* a known id with another length (wrong DLC): counted (``length_errors``), dropped, reported once per
+  id on the ``hil_bench.loop.links.can`` logger (a payload of the wrong size is never decoded);
+* error frames (SocketCAN error classes, socketcand ``< error >``): counted (``error_frames``);
+  controller state changes (error warning/passive) are counted (``bus_state_changes``); a bus-off
+  ends the run with :class:`LinkError`;
+* a line the interface cannot parse (python-can's slcan raises ValueError on a malformed line):
+  counted (``rx_malformed``) and skipped.
+
+An adapter that vanishes (USB unplugged, socketcand server gone, stub killed) raises LinkError on the
+next read or write.
+"""
+from __future__ import annotations
+
+import logging
+import re
+import select
+import socket
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import can
+
+from hil_bench.protocol import budget
+from hil_bench.protocol.messages import BY_ID
+
+from .base import Link, LinkError
+
+log = logging.getLogger("hil_bench.loop.links.can")
+
+DEFAULT_BITRATE = 1_000_000
+SEND_TIMEOUT_S = 0.2
+HANDSHAKE_TIMEOUT_S = 5.0        #: socketcand greeting / open / rawmode answers
+SOCKETCAND_DEFAULT_PORT = 29536  #: socketcand's default TCP port
+
+# linux/can/error.h: error classes in the id of an error frame, controller status in data[1]
+CAN_ERR_CRTL = 0x004
+CAN_ERR_BUSOFF = 0x040
+CAN_ERR_RESTARTED = 0x100
+CAN_ERR_CRTL_STATE = 0x04 | 0x08 | 0x10 | 0x20 | 0x40   # rx/tx warning, rx/tx passive, active again
+
+#: python-can interfaces whose bit rate is set outside the process (ip link, the socketcand server)
+#: or that have none: the spec's bit rate only feeds the budget.
+_NO_BITRATE_ARG = {"socketcan", "socketcand", "virtual", "udp_multicast"}
+
+COUNTERS = ("can_unknown_ids", "length_errors", "error_frames", "bus_state_changes", "send_failures",
+            "remote_frames", "rx_malformed")
+
+
+@dataclass
+class CanSpec:
+    """What ``--link can:...`` names: a python-can interface and channel, the bus bit rates, options."""
+
+    interface: str
+    channel: str
+    bitrate: int = DEFAULT_BITRATE
+    fd: bool = False
+    data_bitrate: int | None = None
+    bitrate_given: bool = True
+    options: dict[str, object] = field(default_factory=dict)   #: extra keyword arguments of can.Bus
+
+    @property
+    def bus_name(self) -> str:
+        name = budget.can_link_name(self.bitrate, self.fd, self.data_bitrate)
+        if self.bitrate_given or self.interface not in _NO_BITRATE_ARG:
+            return name
+        return f"{name} (assumed: give the bus's @bitrate)"
+
+
+def _bus_kwargs(spec: CanSpec) -> dict[str, object]:
+    kwargs = dict(spec.options)
+    iface = spec.interface
+    if iface not in _NO_BITRATE_ARG and not (iface == "slcan" and spec.fd):
+        kwargs.setdefault("bitrate", spec.bitrate)
+    if iface == "socketcand":
+        kwargs.setdefault("host", "127.0.0.1")
+        kwargs.setdefault("port", SOCKETCAND_DEFAULT_PORT)
+        kwargs.setdefault("tcp_tune", True)   # TCP_NODELAY: without it Nagle + delayed ACK cost ~40 ms
+    if spec.fd:
+        if iface == "socketcand":
+            raise LinkError("python-can's socketcand interface carries classic CAN only: drop ',fd' "
+                            "from the link spec")
+        if iface != "slcan":
+            kwargs["fd"] = True
+            if spec.data_bitrate is not None:
+                kwargs.setdefault("data_bitrate", spec.data_bitrate)
+    return kwargs
+
+
+def open_can_bus(spec: CanSpec, handshake_timeout_s: float = HANDSHAKE_TIMEOUT_S) -> can.BusABC:
+    """A python-can Bus for the spec, or LinkError saying which interface/channel failed and why."""
+    kwargs = _bus_kwargs(spec)
+    where = f"CAN interface {spec.interface!r} channel {spec.channel!r}"
+    old_timeout = socket.getdefaulttimeout()
+    try:
+        if spec.interface == "socketcand":
+            # python-can reads the greeting with a blocking recv: bound it, so a server that accepts
+            # but never answers cannot hang the bench
+            socket.setdefaulttimeout(handshake_timeout_s)
+        bus = can.Bus(interface=spec.interface, channel=spec.channel, **kwargs)
+        if spec.interface == "slcan" and spec.fd:
+            bus.set_bitrate(spec.bitrate, spec.data_bitrate)   # S<n> + Y<n> (CANable 2.0 style)
+    except can.CanInterfaceNotImplementedError as exc:
+        known = ", ".join(sorted(can.interfaces.VALID_INTERFACES))
+        raise LinkError(f"{where} is not available here: {exc} (python-can interfaces: {known})") from None
+    except Exception as exc:  # noqa: BLE001 - interfaces fail in many ways (kvaser without canlib: NameError)
+        raise LinkError(f"cannot open {where}: {type(exc).__name__}: {exc}") from None
+    finally:
+        socket.setdefaulttimeout(old_timeout)
+    sock = _socketcand_socket(bus)
+    if sock is not None:
+        sock.settimeout(None)
+    return bus
+
+
+def _socketcand_socket(bus: can.BusABC) -> socket.socket | None:
+    """The TCP socket inside python-can's socketcand bus (to notice a server that went away: python-can
+    itself reads an end of stream as silence)."""
+    return getattr(bus, "_SocketCanDaemonBus__socket", None)
+
+
+class CanLink(Link):
+    """HIL frames over a python-can Bus."""
+
+    def __init__(self, bus: can.BusABC, spec: CanSpec, capture_path: Path | None = None,
+                 description: str | None = None):
+        super().__init__()
+        self.bus = bus
+        self.spec = spec
+        self.fd = spec.fd
+        self.brs = spec.fd and spec.data_bitrate is not None
+        self.description = description or f"{spec.interface} {spec.channel}, {spec.bus_name}"
+        self.counters.extra.update({k: 0 for k in COUNTERS})
+        self._warned: set[tuple[str, int]] = set()
+        #: called when the interface fails, to say why if it can (StubProcess: "the stub died: ...")
+        self.failure_context: Callable[[], str | None] | None = None
+        self._closed = False
+        self._sock = _socketcand_socket(bus)
+        # slcan: python-can's recv(0) still waits for the serial port's read timeout, so further
+        # frames are read only while the descriptor has data
+        self._poll_fd: int | None = None
+        if spec.interface == "slcan":
+            try:
+                self._poll_fd = bus.fileno()
+            except (NotImplementedError, can.CanError):
+                self._poll_fd = None
+        # candump channel column: the bus name where it is one (can0, vcan0, hil0, PCAN_USBBUS1),
+        # else slcan0-style (a device path or URL is no channel name)
+        plain = spec.channel and re.fullmatch(r"[A-Za-z0-9_.-]+", spec.channel)
+        self.log_channel = spec.channel if plain else f"{spec.interface}0"
+        self.capture_path = capture_path
+        self.logger = None
+        self._log_lock = threading.Lock()
+        #: pass frames of a known id with the wrong length on instead of dropping them (the
+        #: engine's bridge: one place judges frames, the engine)
+        self.deliver_wrong_length = False
+        self._last_log_s = 0.0
+        if capture_path is not None:
+            try:
+                self.logger = can.Logger(str(capture_path), channel=self.log_channel)
+            except (OSError, ValueError) as exc:
+                raise LinkError(f"cannot write the CAN log {capture_path}: {exc}") from None
+
+    def _failure(self, text: str) -> LinkError:
+        context = self.failure_context() if self.failure_context is not None else None
+        return LinkError(f"{self.description}: {text}" + (f"; {context}" if context else ""))
+
+    # -- sending ------------------------------------------------------------------------------------
+    def _write_frames(self, frames):
+        now = time.time()
+        for fid, payload in frames:
+            msg = can.Message(timestamp=now, arbitration_id=fid, data=payload, is_extended_id=False,
+                              is_fd=self.fd, bitrate_switch=self.brs, is_rx=False,
+                              channel=self.log_channel)
+            if self.logger is not None:
+                # logged before it is sent: its answer (read by another thread of the engine's
+                # bridge) can then never be logged before it; a failed send ends the run
+                self._log(msg)
+            try:
+                self.bus.send(msg, timeout=SEND_TIMEOUT_S)
+            except (can.CanError, OSError) as exc:
+                self.counters.extra["send_failures"] += 1
+                raise self._failure(f"sending {fid:03X}#{payload.hex().upper()} failed "
+                                    f"({type(exc).__name__}: {exc}); the adapter or the bus is "
+                                    f"gone") from None
+            self.counters.bytes_tx += len(payload)
+
+    # -- receiving ----------------------------------------------------------------------------------
+    def _recv(self, timeout_s: float) -> can.Message | None:
+        try:
+            return self.bus.recv(timeout_s)
+        except can.CanError as exc:
+            raise self._failure(f"the CAN adapter stopped working ({type(exc).__name__}: {exc}); "
+                                f"unplugged, crashed or closed?") from None
+        except (ValueError, IndexError, UnicodeDecodeError) as exc:
+            self.counters.extra["rx_malformed"] += 1
+            self._warn_once("malformed", 0, f"{self.description}: the interface received a line it "
+                                            f"cannot parse ({type(exc).__name__}: {exc}); skipped")
+            return None
+        except OSError as exc:
+            raise self._failure(f"reading failed ({exc}); the adapter is gone") from None
+
+    def _recv_more(self) -> can.Message | None:
+        if self._poll_fd is None:
+            return self._recv(0.0)
+        try:
+            while select.select([self._poll_fd], [], [], 0)[0]:
+                msg = self._recv(0.0)
+                if msg is not None:
+                    return msg
+        except (OSError, ValueError) as exc:
+            raise self._failure(f"the adapter's port failed ({exc})") from None
+        return None
+
+    def _read_frames(self, timeout_s):
+        out: list[tuple[int, bytes]] = []
+        msg = self._recv(timeout_s)
+        if msg is None:
+            self._check_peer()
+            return out
+        while msg is not None:
+            self._take(msg, out)
+            msg = self._recv_more()
+        return out
+
+    def _check_peer(self) -> None:
+        """python-can's socketcand interface reads a closed connection as silence: look ourselves."""
+        if self._sock is None:
+            return
+        try:
+            readable = select.select([self._sock], [], [], 0)[0]
+            closed = readable and self._sock.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT) == b""
+        except (BlockingIOError, InterruptedError):
+            return
+        except (OSError, ValueError) as exc:
+            raise self._failure(f"the socketcand connection failed ({exc})") from None
+        if closed:
+            raise self._failure("the socketcand server closed the connection")
+
+    def _log(self, msg: can.Message) -> None:
+        """One line of the candump log. The engine's bridge sends and receives from two threads:
+        the lines are written in the order the bench handled the frames (a sent frame just before
+        it goes out), and a stamp is never earlier than the line before (an rx stamp the
+        interface took just before a tx line was written is moved up to it)."""
+        with self._log_lock:
+            if msg.timestamp < self._last_log_s:
+                msg.timestamp = self._last_log_s
+            self._last_log_s = msg.timestamp
+            self.logger.on_message_received(msg)
+
+    def _take(self, msg: can.Message, out: list[tuple[int, bytes]]) -> None:
+        if self.logger is not None:
+            msg.channel = self.log_channel
+            self._log(msg)
+        extra = self.counters.extra
+        if msg.is_error_frame:
+            self._on_error_frame(msg)
+            return
+        if msg.is_remote_frame:
+            extra["remote_frames"] += 1
+            return
+        fid = msg.arbitration_id
+        data = bytes(msg.data)
+        self.counters.bytes_rx += len(data)
+        known = None if msg.is_extended_id else BY_ID.get(fid)
+        if known is None:
+            extra["can_unknown_ids"] += 1
+            if not msg.is_extended_id:
+                out.append((fid, data))
+            return
+        if len(data) != known.length:
+            if self.deliver_wrong_length:   # the cycle engine judges and counts it (bridge)
+                out.append((fid, data))
+                return
+            extra["length_errors"] += 1
+            self._warn_once("dlc", fid, f"{self.description}: dropped {known.name} (0x{fid:03X}) with "
+                                        f"{len(data)} octets, the DBC says {known.length} (counted in "
+                                        f"length_errors; further ones only counted)")
+            return
+        out.append((fid, data))
+
+    def _on_error_frame(self, msg: can.Message) -> None:
+        extra = self.counters.extra
+        extra["error_frames"] += 1
+        cls = msg.arbitration_id & 0x1FFFFFFF
+        if cls & CAN_ERR_BUSOFF:
+            raise LinkError(f"{self.description}: bus-off (error frame class 0x{cls:03X}): a CAN "
+                            f"controller on the bus stopped transmitting; check the bit rate, "
+                            f"termination and wiring, then restart the interface")
+        if cls & (CAN_ERR_CRTL | CAN_ERR_RESTARTED):
+            state = msg.data[1] if len(msg.data) > 1 else 0
+            if cls & CAN_ERR_RESTARTED or state & CAN_ERR_CRTL_STATE:
+                extra["bus_state_changes"] += 1
+        self._warn_once("error", cls, f"{self.description}: error frame class 0x{cls:03X} "
+                                      f"(counted in error_frames)")
+
+    def _warn_once(self, kind: str, key: int, text: str) -> None:
+        if (kind, key) not in self._warned:
+            self._warned.add((kind, key))
+            log.warning(text)
+
+    # -- budget, closing ------------------------------------------------------------------------------
+    def max_cycle_rate_hz(self, flags):
+        return budget.can_max_rate_hz(self.spec.bitrate, flags, fd=self.fd,
+                                      data_bitrate=self.spec.data_bitrate if self.fd else None)
+
+    def _close(self):
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self.bus.shutdown()
+        except Exception:  # noqa: BLE001 - a vanished adapter cannot be closed cleanly; never mask the cause
+            pass
+        if self.logger is not None:
+            try:
+                self.logger.stop()
+            except OSError:
+                pass
+
+
+def open_can_link(spec: CanSpec, capture_path: Path | None = None) -> CanLink:
+    """``--link can:...``: a drive (or anything speaking the protocol) on a python-can interface."""
+    if spec.interface == "socketcand":
+        _probe_socketcand(spec)
+    bus = open_can_bus(spec)
+    try:
+        return CanLink(bus, spec, capture_path)
+    except LinkError:
+        bus.shutdown()
+        raise
+
+
+def _probe_socketcand(spec: CanSpec) -> None:
+    """Fail fast and clearly when no server listens (python-can retries for 10 s, logging each try)."""
+    host = str(spec.options.get("host", "127.0.0.1"))
+    port = int(spec.options.get("port", SOCKETCAND_DEFAULT_PORT))   # type: ignore[arg-type]
+    try:
+        with socket.create_connection((host, port), timeout=2.0):
+            pass
+    except OSError as exc:
+        raise LinkError(f"no socketcand server at {host}:{port} ({exc}); give host=... and port=... in "
+                        f"the link spec") from None

@@ -1,0 +1,788 @@
+"""Run a scenario: set the run up in Python, run every cycle in the C cycle engine, record it.
+
+Once per run, here: validate, open the link (start the stub), start the recorder, write the
+metadata, handshake and CONFIG (``host_session.py``), schedule the scenario's events, start the
+engine (``plant_rt/engine.py``) and watch it; at the end STOP, the final statistics, the
+result. Once per cycle, in C (``plant_rt/c/engine.h``): events, sensor model and SENSE, link
+I/O, DUTY validation, plant step, reference estimators, recorded rows. Lockstep and real time
+run on the same engine.
+
+Every exit path (normal end, controller fault, dead or silent stub, Ctrl-C, a failed recorder)
+finalises the MCAP recording and returns a RunResult that says what happened.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import re
+import subprocess
+import sys
+import time
+import traceback
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+from hil_bench.plant_rt import engine as eng
+from hil_bench.plant_rt.plant import Plant
+from hil_bench.plant_rt.profile import load_profile
+from hil_bench.protocol.messages import Command, Estimator, Fault, HelloFlag, Mode, Param
+from hil_bench.record import channels as ch
+from hil_bench.record.recorder import ProcessRecorder, RecorderError, check_target
+from hil_bench.scenario import RPM_PER_RAD_S, Scenario
+
+from .host_session import HostSession
+from .links import STUB_CAN_MODES, LinkError, OpenedLink, open_link
+from .links.engine_fd import engine_link_for
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+RECORDINGS_DIR = Path("recordings")
+MAX_CONSECUTIVE_BAD_DUTIES = 10
+STATS_EVERY_CYCLES = 1000
+WATCH_PERIOD_S = 0.1
+
+
+class RunAborted(RuntimeError):
+    """The run could not continue; the message says why and where."""
+
+
+@dataclass
+class RunResult:
+    scenario: str
+    recording: Path
+    cycles_done: int
+    cycles_planned: int
+    error: str | None = None
+    interrupted: bool = False
+    wall_s: float = 0.0
+    engine_s: float = 0.0          # wall time of the engine alone (first to last cycle)
+    mode: str = "lockstep"
+    end: str = ""
+    link_stats: dict = field(default_factory=dict)
+    timing: dict = field(default_factory=dict)
+    realtime_notes: str = ""
+    ts_s: float = 0.0              # the control period [s]
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None and not self.interrupted
+
+
+def motor_params(profile) -> dict[Param, float]:
+    """What the controller is told about the motor (from the profile; a scenario may override)."""
+    return {
+        Param.RS_OHM: profile.rs_ohm, Param.LD_H: profile.ld_h, Param.LQ_H: profile.lq_h,
+        Param.PSI_F_WB: profile.psi_f_wb, Param.POLE_PAIRS: float(profile.pole_pairs),
+        Param.J_KGM2: profile.j_kgm2, Param.B_NMS: profile.b_nms,
+        Param.V_DC_NOM_V: profile.v_dc_v,
+    }
+
+
+#: estimator C config field <-> CONFIG parameter (the SMO family)
+SMO_CONFIG_PARAMS = {
+    "k_v": Param.SMO_K_V, "wc_rad_s": Param.SMO_WC_RAD_S, "a_per_a": Param.SMO_SIGMOID_A_PER_A,
+    "lag_comp": Param.SMO_LAG_COMP, "m_per_a": Param.SMO_M_PER_A, "pll_kp": Param.PLL_KP,
+    "pll_ki": Param.PLL_KI, "speed_lpf_rad_s": Param.SPEED_LPF_RAD_S,
+}
+
+
+def estimator_defaults(estimator: Estimator, profile, ts_s: float,
+                       given: dict[Param, float]) -> dict[Param, float]:
+    """The controller's estimator settings the scenario leaves open, filled by the same rules the
+    host reference estimators use (firmware_stub/est_smo.py factories), so both sides run the
+    same observer. Settings the scenario gives go into the rules (e.g. m decides k)."""
+    if estimator not in (Estimator.SMO_SIGMOID, Estimator.SMO_TANH):
+        return {}
+    from hil_bench.firmware_stub.est_smo import smo_sigmoid_for, smo_tanh_for
+
+    factory = smo_sigmoid_for if estimator is Estimator.SMO_SIGMOID else smo_tanh_for
+    chosen = {f: given[p] for f, p in SMO_CONFIG_PARAMS.items() if p in given}
+    config = factory(profile, ts_s, **chosen).config
+    return {p: float(config[f]) for f, p in SMO_CONFIG_PARAMS.items()
+            if f in config and p not in given}
+
+
+def git_revision() -> str:
+    try:
+        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True,
+                             text=True, timeout=5).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               cwd=REPO_ROOT, capture_output=True, text=True,
+                               timeout=5).stdout.strip()
+        return (rev or "unknown") + ("-dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+_UNSAFE_RUN = re.compile(r"[^A-Za-z0-9_+@-]+")
+
+
+def default_recording_path(scenario: Scenario) -> Path:
+    """recordings/<name>-<stamp>.mcap; the name cannot leave the recordings folder."""
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    name = _UNSAFE_RUN.sub("_", scenario.name).strip("_") or "run"
+    return RECORDINGS_DIR / f"{name}-{stamp}.mcap"
+
+
+def event_cycles(scenario: Scenario, ts_s: float) -> list[tuple[int, object]]:
+    """Each scenario event with the cycle it applies at: the first k with t_ev <= (k + 1/2) Ts."""
+    out = []
+    k = 0
+    for ev in scenario.events:   # sorted by time
+        k = max(k, int(math.ceil((ev.t_s - 0.5 * ts_s) / ts_s)) - 1, 0)
+        while not ev.t_s <= k * ts_s + 0.5 * ts_s:
+            k += 1
+        out.append((k, ev))
+    return out
+
+
+def _is_stub_link(link_spec: str) -> bool:
+    """The firmware stub is the controller (``stub`` on a pty, ``stub-<can mode>``)."""
+    return link_spec == "stub" or link_spec.startswith("stub-")
+
+
+def realtime_cpus(engine_cpu: int | None, stub_cpu: int | None) -> tuple[int | None, int | None]:
+    """The CPU layout of a real-time run (docs/realtime.md): the engine (and the recorder, below
+    it) on the last CPU this process may use, the stub on the first; the kernel's workers that
+    carry the link's bytes take whatever the sleeping stub leaves of its CPU. What the scenario
+    or the command line set is kept. On one CPU nothing is pinned."""
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) < 2:
+        return engine_cpu, stub_cpu
+    if engine_cpu is None:
+        engine_cpu = allowed[-1] if stub_cpu != allowed[-1] else allowed[0]
+    if stub_cpu is None:
+        others = [c for c in allowed if c != engine_cpu]
+        stub_cpu = others[0] if others else None
+    return engine_cpu, stub_cpu
+
+
+class Runner:
+    """One run of a scenario against the controller on a link (lockstep or real time)."""
+
+    def __init__(self, scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,
+                 progress: bool = True, stub_args: tuple[str, ...] = (),
+                 allow_slow_link: bool = False, force: bool = False,
+                 realtime: bool | None = None, record: bool = True, cpu: int | None = None,
+                 ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None):
+        """``recorder_cpus``: overrides where the recorder runs (hil_bench.perf.loop compares)."""
+        self.scn = scenario
+        self._recorder_cpus_override = recorder_cpus
+        self.mode = "realtime" if (realtime if realtime is not None else
+                                   scenario.mode == "realtime") else "lockstep"
+        self.allow_slow_link = allow_slow_link
+        self.link_spec = link_spec
+        self.out_path = Path(out_path) if out_path else default_recording_path(scenario)
+        self.force = force
+        self.progress = progress
+        self.stub_args = tuple(stub_args)
+        self.record = record
+        self.ring_bytes = ring_bytes
+        self.cpu = cpu if cpu is not None else scenario.realtime.cpu
+        stub_cpu = scenario.realtime.stub_cpu
+        if self.mode == "realtime":
+            allowed = sorted(os.sched_getaffinity(0))
+            for what, asked in (("engine", self.cpu), ("stub", stub_cpu)):
+                if asked is not None and asked not in allowed:
+                    origin = ("--cpu" if what == "engine" and cpu is not None else
+                              f"{scenario.display_path}: realtime.{'cpu' if what == 'engine' else 'stub_cpu'}")
+                    raise RunAborted(f"{origin} = {asked}: this process may run on CPUs "
+                                     f"{', '.join(map(str, allowed))} only; a real-time run "
+                                     f"pinned elsewhere would not be what was asked for")
+            self.cpu, stub_cpu = realtime_cpus(self.cpu, stub_cpu)
+        if self.mode == "realtime" and _is_stub_link(link_spec):
+            rt = scenario.realtime
+            isr = rt.stub_isr + (f":{rt.stub_phase_us:g}" if rt.stub_phase_us is not None else "")
+            self.stub_args += ("--isr", isr, "--rt-priority", str(rt.stub_priority))
+            if rt.busy_wait:
+                self.stub_args += ("--busy-poll",)
+            if stub_cpu is not None:
+                self.stub_args += ("--cpu", str(stub_cpu))
+        self._check_faults_fit_the_link(scenario, link_spec)
+        if scenario.faults and _is_stub_link(link_spec):
+            # the stub reports its receive errors while cycles flow (HEARTBEAT_CTRL, protocol
+            # 6.7 "may"): faults on the frames it receives then leave a trace on the bench
+            self.stub_args += ("--heartbeat-always",)
+        self.profile = load_profile(scenario.profile)
+        self.plant = Plant(self.profile, **scenario.plant_overrides)
+        self.ts_s = float(self.plant.params.ts_s)
+        n = round(scenario.duration_s / self.ts_s)
+        if not 1 <= n <= 2**40:
+            raise RunAborted(f"{scenario.display_path}: scenario.duration_s = "
+                             f"{scenario.duration_s:g} s is {n} periods of {self.ts_s * 1e6:g} us; "
+                             f"need at least one")
+        self.n_cycles = int(n)
+        self.references = self._make_references()
+        self._setup_frames: list[tuple[str, int, bytes]] = []
+
+    @staticmethod
+    def _check_faults_fit_the_link(scn: Scenario, link_spec: str) -> None:
+        """Faults this link cannot carry are refused before any process or device is touched."""
+        is_stub = _is_stub_link(link_spec)
+        is_can = link_spec.startswith(("can:", *STUB_CAN_MODES))
+        for fs in scn.faults:
+            where = f"{scn.display_path}: faults[{fs.index}] ({fs.kind})"
+            if fs.kind == "controller_reset" and not is_stub:
+                raise RunAborted(f"{where}: a controller_reset needs the firmware stub as the "
+                                 f"controller (--link stub...): the bench restarts it with SIGUSR1; "
+                                 f"a real drive has no such line")
+            if fs.kind == "bitflip" and is_can and fs.direction & 1:
+                raise RunAborted(f"{where}: on CAN a corrupted frame is destroyed by the bus's CRC "
+                                 f"and retransmitted by the sender's controller: a bit flip towards "
+                                 f"the controller cannot be emulated above the socket (inject it "
+                                 f"from the controller: the bench counts the error frame)")
+            if fs.kind == "garbage" and is_can and fs.burst > 32:
+                raise RunAborted(f"{where}: a CAN garbage burst is at most 32 frames")
+
+    def _make_references(self) -> list[tuple[str, Estimator, object]]:
+        """The reference estimators the scenario names, configured by the library's rules."""
+        if not self.scn.reference_estimators:
+            return []
+        from hil_bench.firmware_stub.estimators import REFERENCE_ESTIMATORS
+
+        out = []
+        for entry in self.scn.reference_estimators:
+            name = entry.partition(":")[0]
+            factory = REFERENCE_ESTIMATORS.get(name)
+            if factory is None:
+                raise RunAborted(f"{self.scn.display_path}: reference.estimators: unknown "
+                                 f"estimator {name!r}; available: "
+                                 f"{', '.join(REFERENCE_ESTIMATORS)} (optionally NAME:label)")
+            try:
+                est = factory(self.profile, self.ts_s, **self.scn.reference_config.get(entry, {}))
+            except (ValueError, TypeError) as exc:
+                raise RunAborted(f"{self.scn.display_path}: reference.{entry}: {exc}") from None
+            out.append((entry, Estimator[name], est))
+        return out
+
+    # -- what the controller is told ----------------------------------------------------------
+    def controller_params(self) -> dict[Param, float]:
+        params = motor_params(self.profile)
+        # The delay from sampling to the new duties acting, which the controller compensates
+        # (angle advance, the voltage its observer is fed). Lockstep: the computation delay the
+        # plant emulates. Real time with a shadow-loaded PWM (next_period): one whole period.
+        # Real time on arrival: the link's real round trip, unknown before the run; the profile's
+        # delay stands for it (a scenario can set CTRL_DELAY_S in [controller.params]).
+        if self.mode == "realtime" and self.scn.realtime.duty_update == "next_period":
+            params[Param.CTRL_DELAY_S] = self.ts_s
+        else:
+            params[Param.CTRL_DELAY_S] = float(self.plant.params.t_delay_s)
+        params.update(estimator_defaults(self.scn.estimator, self.profile, self.ts_s,
+                                         self.scn.controller_params))
+        pp = self.plant.params
+        if bool(pp.adc_model) and float(pp.adc_full_scale_a) > 0.0:
+            # a drive's over-current trip sits below its ADC's full scale: a clipped reading is
+            # not a measurement (and the current-sum check would call it a sensor fault). 2 %
+            # below: 40 LSB of a 12-bit ADC, far above its noise (docs/claims.md, finding 1).
+            trip = 0.98 * float(pp.adc_full_scale_a)
+            params[Param.I_MAX_TRIP_A] = min(params.get(Param.I_MAX_TRIP_A, trip), trip)
+        params.update(self.scn.controller_params)
+        return params
+
+    def hello_flags(self) -> int:
+        return self.scn.hello_flags(bool(self.plant.params.dual_sampling))
+
+    # -- the run --------------------------------------------------------------------------
+    def _stub_rt_notes(self) -> str:
+        """What the stub (the controller in CI) could not get of its real-time set-up: its
+        'cannot pin' / 'SCHED_FIFO not permitted' lines, said with the engine's."""
+        stub = getattr(getattr(self, "opened", None), "stub", None)
+        if self.mode != "realtime" or stub is None:
+            return ""
+        lines = [ln.removeprefix("hil_stub: ") for ln in list(stub.stderr_tail)
+                 if "cannot pin" in ln or "not permitted" in ln]
+        return "; ".join(f"controller stub: {ln}" for ln in lines)
+
+    def _throttling_note(self) -> str:
+        """A real-time run that spins through the whole period under the kernel's RT throttling
+        loses 50 ms of every second to it (docs/realtime.md)."""
+        if self.mode != "realtime":
+            return ""
+        rt = self.scn.realtime
+        ts_s = self.ts_s
+        if rt.priority <= 0 or not (rt.busy_wait or rt.spin_us * 1e-6 >= 0.9 * ts_s):
+            return ""
+        try:
+            runtime = int(Path("/proc/sys/kernel/sched_rt_runtime_us").read_text())
+            period = int(Path("/proc/sys/kernel/sched_rt_period_us").read_text())
+        except (OSError, ValueError):
+            return ""
+        if runtime < 0 or runtime >= period:
+            return ""
+        return (f"RT throttling on (sched_rt_runtime_us {runtime} of {period}): the engine "
+                f"never sleeps with busy_wait or spin_us near the period, so the kernel stops it "
+                f"for {(period - runtime) / 1000:.0f} ms every {period / 1e6:g} s "
+                f"(docs/realtime.md)")
+
+    def run(self) -> RunResult:
+        scn = self.scn
+        check_target(self.out_path, self.force)      # before any process or device is touched
+        self._check_budget_of_spec()
+        result = RunResult(scn.name, self.out_path, 0, self.n_cycles, mode=self.mode,
+                           ts_s=self.ts_s)
+        t0 = time.monotonic()
+        opened = self.opened = open_link(self.link_spec, self.stub_args,
+                                         capture_path=self.out_path.with_suffix(".log"))
+        try:
+            self._check_budget(opened)
+            rec = ProcessRecorder(self.out_path, force=self.force, cpus=self._recorder_cpus(),
+                                  **({"ring_capacity": self.ring_bytes} if self.ring_bytes else {}))
+        except BaseException:
+            opened.close()
+            raise
+        engine = None
+        engine_link = None
+        try:
+            try:
+                self._open_channels(rec)
+                self._start_serial_capture(rec, opened)
+                self._write_metadata(rec, opened)
+            except BaseException:   # e.g. the recorder died: no run, but the link (stub) is closed
+                opened.close()
+                raise
+            try:
+                self._start_controller(opened)
+                engine_link = engine_link_for(opened.link)
+                engine = self._make_engine(rec, opened, engine_link)
+                self._watch(engine, rec, opened, engine_link, result)
+            except KeyboardInterrupt:
+                result.interrupted = True
+                result.error = f"interrupted by the user at cycle {result.cycles_done}"
+            except (LinkError, RunAborted, RecorderError) as exc:
+                result.error = str(exc)
+            except Exception as exc:  # noqa: BLE001 - a bug must still leave a readable recording
+                traceback.print_exc()
+                result.error = (f"internal error at cycle {result.cycles_done}: "
+                                f"{type(exc).__name__}: {exc}")
+            finally:
+                self._finish(rec, opened, engine, engine_link, result, t0)
+        finally:
+            try:
+                rec.close()
+            except RecorderError as exc:
+                result.error = result.error or str(exc)
+            result.recording = rec.final_path or self.out_path
+            if result.cycles_done == 0 and result.error and rec.final_path:
+                result.error += (f" (no cycle ran; the recording of the attempt, with its "
+                                 f"handshake frames, is {rec.final_path})")
+        return result
+
+    def _stub_cpu(self) -> int | None:
+        args = self.stub_args
+        return int(args[args.index("--cpu") + 1]) if "--cpu" in args else None
+
+    def _recorder_cpus(self) -> tuple[int, ...]:
+        """In real time the recorder shares the engine's CPU, below it: the SCHED_FIFO engine
+        preempts it at once, while on a CPU of its own the recorder's MCAP and zstd bursts
+        would hold off the kernel's workers that carry the link's bytes (docs/realtime.md)."""
+        if self._recorder_cpus_override is not None:
+            return tuple(self._recorder_cpus_override)
+        if self.mode != "realtime" or self.cpu is None:
+            return ()
+        return (int(self.cpu),)
+
+    def _open_channels(self, rec: ProcessRecorder) -> None:
+        self.rec = rec
+        self.ch_state = rec.channel(ch.PLANT_STATE)
+        self.ch_sense = rec.channel(ch.PLANT_SENSE)
+        self.ch_telem = rec.channel(ch.CONTROLLER_TELEMETRY)
+        self.ch_frames = rec.channel(ch.LINK_FRAMES)
+        self.ch_stats = rec.channel(ch.LINK_STATS)
+        self.ch_events = rec.channel(ch.EVENTS)
+        self.ch_timing = rec.channel(ch.TIMING)
+        self.ch_refs = [rec.channel(ch.REFERENCE_PREFIX + name, "REFERENCE")
+                        for name, _, _ in self.references]
+        self.ch_faults = (rec.channel(ch.FAULTS) if self.scn.faults or self.scn.post_trip_s > 0
+                          else None)
+
+    def _start_serial_capture(self, rec: ProcessRecorder, opened: OpenedLink) -> None:
+        """A serial link: every octet both ways into <recording>.serial.bin (docs/replay.md):
+        the handshake's from the Python link, the run's from the engine (capture_serial)."""
+        from .links.serial_link import SerialLink
+
+        self.ch_serial_raw = None
+        if not isinstance(opened.link, SerialLink):
+            return
+        self.serial_capture_path = self.out_path.with_suffix(".serial.bin")
+        index = self.ch_serial_raw = rec.raw_capture(self.serial_capture_path)
+        opened.link.tap = lambda direction, data: rec.write_raw(
+            index, time.monotonic_ns(), bytes((direction,)) + bytes(data))
+
+    def _event(self, t_s: float, kind: str, text: str, value: float = 0.0) -> None:
+        self.ch_events.write_values(t_s, (t_s, kind, text, value))
+
+    def _check_budget_of_spec(self) -> None:
+        """The link spec alone tells the budget (serial baud, CAN bit rates): refuse before the
+        port is opened. The stub's links are checked once open (_check_budget)."""
+        from .links import LinkError, spec_max_cycle_rate_hz
+
+        try:
+            known = spec_max_cycle_rate_hz(self.link_spec, self.hello_flags())
+        except (LinkError, ValueError):
+            return   # a malformed spec: open_link names what is wrong with it
+        if known is not None:
+            self._refuse_over_budget(known[1], known[0])
+
+    def _check_budget(self, opened: OpenedLink) -> None:
+        self._refuse_over_budget(opened.link.description,
+                                 opened.link.max_cycle_rate_hz(self.hello_flags()))
+
+    def _refuse_over_budget(self, description: str, max_hz: float) -> None:
+        rate_hz = 1.0 / self.ts_s
+        if rate_hz <= max_hz:
+            return
+        if self.mode == "lockstep" and self.allow_slow_link:
+            self._slow_link_note = (f"{description} fits at most {max_hz:.0f} Hz; "
+                                    f"lockstep at {rate_hz:.0f} Hz runs slower than real time")
+            return
+        extra = (" (or, in lockstep, --allow-slow-link to run slower than real time)"
+                 if self.mode == "lockstep" else " (a real-time run cannot be slowed down)")
+        raise RunAborted(
+            f"{description} cannot carry this scenario: {rate_hz:.0f} Hz control "
+            f"rate needed (Ts = {self.ts_s * 1e6:g} us) but the link fits at most "
+            f"{max_hz:.0f} Hz with these frames; use a faster link or a longer period{extra}")
+
+    def _write_metadata(self, rec: ProcessRecorder, opened: OpenedLink) -> None:
+        import cffi
+        import mcap
+        import numpy as np
+
+        scn, prof = self.scn, self.profile
+        stub = opened.stub
+        rec.metadata("run", {
+            "scenario": scn.name,
+            "scenario_path": scn.display_path,
+            "profile": prof.name,
+            "profile_path": str(prof.path),
+            "mode": self.mode,
+            "duty_update": scn.realtime.duty_update if self.mode == "realtime" else "",
+            "realtime_cpus": (json.dumps({"engine": self.cpu, "recorder": self._recorder_cpus(),
+                                          "stub": self._stub_cpu()})
+                              if self.mode == "realtime" else ""),
+            "link": opened.link.description,
+            "controller": f"hil_stub {stub.executable}" if stub is not None else self.link_spec,
+            "git_revision": git_revision(),
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "mcap": getattr(mcap, "__version__", "?"),
+            "cffi": cffi.__version__,
+            "host": platform.node(),
+            "start_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "ts_s": repr(self.ts_s),
+            "cycles_planned": str(self.n_cycles),
+            "plant_params": json.dumps(self.plant.params.as_dict()),
+            "controller_params": json.dumps({p.name: v for p, v in
+                                             self.controller_params().items()}),
+            "estimator": scn.estimator.name,
+            "encoder_angle_sent": str(scn.encoder_angle_sent).lower(),
+            "reference_estimators": json.dumps({n: scn.reference_config.get(n, {})
+                                                for n in scn.reference_estimators}),
+            "metrics_window_s": json.dumps(list(scn.metrics_window_s)),
+            "claims": json.dumps(list(scn.claims)),
+            "link_allow": json.dumps(scn.link.allow),
+        })
+        rec.attachment(f"scenario/{scn.path.name}", "application/toml", scn.text.encode())
+        rec.attachment(f"profile/{Path(prof.path).name}", "application/toml",
+                       Path(prof.path).read_bytes())
+        note = getattr(self, "_slow_link_note", None)
+        if note:
+            self._event(0.0, "link_budget", note, 1.0 / self.ts_s)
+
+    def _log_setup_frame(self, direction: str, fid: int, payload: bytes) -> None:
+        self._setup_frames.append((direction, fid, payload))
+
+    def _start_controller(self, opened: OpenedLink) -> None:
+        stub = opened.stub
+        self.session = HostSession(
+            opened.link, on_frame=self._log_setup_frame,
+            alive=(stub.alive if stub is not None else None),
+            death_message=(stub.death_message if stub is not None else None))
+        mode = Mode.REALTIME if self.mode == "realtime" else Mode.LOCKSTEP
+        try:
+            ack = self.session.handshake(period_s=self.ts_s, estimator=int(self.scn.estimator),
+                                         flags=self.hello_flags(), mode=mode)
+            self._event(0.0, "handshake",
+                        f"controller fw 0x{int(ack['fw_version']):04X}, estimators mask "
+                        f"0x{int(ack['estimators']):04X}", float(ack["fw_version"]))
+            self.session.configure(self.controller_params())
+            self.session.command(Command.SET_SPEED_REF, self.scn.speed_ref_rad_s)
+            self.session.command(Command.RUN)
+        finally:
+            tx = " ".join(f"{fid:03X}#{p.hex().upper()}" for d, fid, p in self._setup_frames
+                          if d == "tx")
+            rx = " ".join(f"{fid:03X}#{p.hex().upper()}" for d, fid, p in self._setup_frames
+                          if d == "rx")
+            self.ch_frames.write_values(0.0, (0.0, -1, tx, rx))
+        self.session.on_frame = lambda d, i, p: None
+
+    def _make_engine(self, rec: ProcessRecorder, opened: OpenedLink, link) -> eng.Engine:
+        scn = self.scn
+        rt = scn.realtime
+        self.plant.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
+        self.plant.set_load_torque(scn.initial_load_torque_nm)
+        options = dict(
+            t_delay_s=float(self.plant.params.t_delay_s),
+            pole_pairs=int(self.profile.pole_pairs),
+            rpm_per_rad_s=RPM_PER_RAD_S,
+            dual_sampling=int(bool(self.plant.params.dual_sampling)),
+            send_encoder=int(scn.encoder_angle_sent),
+            telem_emf=int(scn.telemetry_emf),
+            estimator_expected=int(scn.estimator),
+            cmd_seq_start=self.session.next_cmd_seq(),   # the engine numbers the run's CMDs on
+            retry_timeout_s=scn.link.retry_timeout_s,
+            max_retries=scn.link.max_retries,
+            max_consecutive_bad_duties=MAX_CONSECUTIVE_BAD_DUTIES,
+            max_consecutive_misses=rt.max_consecutive_misses,
+            duty_update=rt.duty_update,
+            guard_s=rt.guard_us * 1e-6,
+            spin_s=rt.spin_us * 1e-6,
+            busy_wait=int(rt.busy_wait),
+            rt_priority=rt.priority,
+            rt_mlock=int(rt.mlock),
+            rt_cpu=-1 if self.cpu is None else int(self.cpu),
+            stats_every_cycles=STATS_EVERY_CYCLES,
+            can_brs=int(bool(getattr(getattr(opened.link, "spec", None), "data_bitrate", None))),
+        )
+        if getattr(self, "ch_serial_raw", None) is not None and self.record:
+            options.update(capture_serial=1, ch_serial_raw=self.ch_serial_raw)
+        rs = scn.recording
+        options.update(post_trip_cycles=int(round(scn.post_trip_s / self.ts_s)),
+                       record_every=rs.decimate,
+                       pre_trigger_cycles=int(math.ceil(rs.pre_trigger_s / self.ts_s)),
+                       post_trigger_cycles=int(math.ceil(rs.post_trigger_s / self.ts_s)))
+        if self.ch_faults is not None:
+            options.update(ch_faults=self.ch_faults.index)
+        channels = {"ch_state": self.ch_state.index, "ch_sense": self.ch_sense.index,
+                    "ch_telem": self.ch_telem.index, "ch_frames": self.ch_frames.index,
+                    "ch_events": self.ch_events.index, "ch_timing": self.ch_timing.index,
+                    "ch_stats": self.ch_stats.index}
+        e = eng.Engine(self.plant, ts_s=self.ts_s, n_cycles=self.n_cycles, link_fd=link.fd,
+                       link_kind=link.kind,
+                       mode=eng.REALTIME if self.mode == "realtime" else eng.LOCKSTEP,
+                       ring=rec.ring_mem if self.record else None, channels=channels, **options)
+        for (_, kind, est), chan in zip(self.references, self.ch_refs):
+            e.add_reference(int(kind), est, chan.index)
+        self._schedule_events(e)
+        # what the Python link received but did not use: the engine continues from there
+        py_link = opened.link
+        stats = py_link.stats()
+        deframer = getattr(py_link, "deframer", None)
+        e.preload_link_counters(
+            deframer=deframer.counters() if deframer is not None else None,
+            link={k: stats.get(k, 0) for k in ("frames_tx", "frames_rx", "bytes_tx", "bytes_rx")})
+        pending = list(getattr(py_link, "_pending", []))
+        py_link._pending = []
+        partial = bytes(getattr(deframer, "_pending", b"")) if deframer is not None else b""
+        e.hand_over(partial, pending)
+        return e
+
+    def _schedule_events(self, e: eng.Engine) -> None:
+        from .fault_events import schedule
+
+        stub = getattr(getattr(self, "opened", None), "stub", None)
+        try:
+            fault_events = schedule(e, self.scn.faults, self.ts_s,
+                                    controller_pid=stub.proc.pid if stub is not None else None)
+        except ValueError as exc:
+            raise RunAborted(f"{self.scn.display_path}: {exc}") from None
+        # the engine takes events in cycle order: the scenario's and the faults' merged
+        adders = [(k, 0, i, lambda ev=ev, k=k: self._add_scenario_event(e, k, ev))
+                  for i, (k, ev) in enumerate(event_cycles(self.scn, self.ts_s))]
+        adders += [(k, 1, i, lambda kw=kw, k=k: e.add_fault_event(k, **kw))
+                   for i, (k, kw) in enumerate(fault_events)]
+        for *_, add in sorted(adders, key=lambda a: a[:3]):
+            try:
+                add()
+            except ValueError as exc:
+                raise RunAborted(f"{self.scn.display_path}: {exc}") from None
+
+    def _add_scenario_event(self, e: eng.Engine, k: int, ev) -> None:
+        subs = []
+        if ev.speed_ref_rad_s is not None:
+            subs.append((eng.EV_CMD, int(Command.SET_SPEED_REF), ev.speed_ref_rad_s))
+        if ev.iq_ref_a is not None:
+            subs.append((eng.EV_CMD, int(Command.SET_IQ_REF), ev.iq_ref_a))
+        if ev.id_ref_a is not None:
+            subs.append((eng.EV_CMD, int(Command.SET_ID_REF), ev.id_ref_a))
+        if ev.control_mode is not None:
+            subs.append((eng.EV_CMD, int(Command.SET_CONTROL_MODE),
+                         1.0 if ev.control_mode == "current" else 0.0))
+        if ev.load_torque_nm is not None:
+            subs.append((eng.EV_LOAD, 0, ev.load_torque_nm))
+        if not subs:
+            subs.append((eng.EV_NOTE, 0, 0.0))
+        value = (ev.speed_ref_rad_s if ev.speed_ref_rad_s is not None
+                 else (ev.load_torque_nm or 0.0))
+        for i, (kind, command, v) in enumerate(subs):
+            last = i == len(subs) - 1
+            e.add_event(k, kind, command=command, value=v,
+                        text=ev.describe() if last else None, record_value=value)
+
+    def _watch(self, e: eng.Engine, rec: ProcessRecorder, opened: OpenedLink, link,
+               result: RunResult) -> None:
+        """Start the engine and watch it: progress, Ctrl-C, a recorder that dies."""
+        progress = _Progress(self.n_cycles, self.scn.name) if self.progress else None
+        self.engine = e
+        t_start = time.perf_counter()
+        e.start()
+        try:
+            while e.running():
+                try:
+                    e.join(WATCH_PERIOD_S)
+                except KeyboardInterrupt:
+                    e.request_stop()
+                    e.join()
+                    result.interrupted = True
+                    break
+                result.cycles_done = e.cycles_done
+                if progress is not None:
+                    progress.update(result.cycles_done, e.speed_rpm)
+                if not rec.alive():
+                    e.request_stop()
+                    e.join()
+                    raise RecorderError(rec.death_message())
+        finally:
+            if progress is not None:
+                progress.close(e.cycles_done)
+        result.engine_s = time.perf_counter() - t_start
+        r = e.result()
+        result.cycles_done = r.cycles_done
+        result.end = r.end_name
+        result.realtime_notes = "; ".join(n for n in (r.rt_notes, self._throttling_note(),
+                                                      self._stub_rt_notes()) if n)
+        if result.interrupted:
+            result.error = f"interrupted by the user at cycle {r.cycles_done}"
+        elif r.end == eng.END_CONTROLLER_FAULT:
+            try:
+                name = Fault(r.fault_code).name
+            except ValueError:
+                name = f"unknown code {r.fault_code}"
+            result.error = (f"{r.message}: controller reported fault {name} at seq {r.fault_seq} "
+                            f"(detail {r.fault_detail})")
+        elif r.end != eng.END_DONE:
+            result.error = r.message
+            if r.end == 2:   # the link: say what is behind it
+                if link.error:
+                    result.error = f"{r.message.split(': ', 1)[0]}: {link.error}"
+                elif opened.stub is not None:
+                    why = _stub_failure(opened.stub)
+                    if why:
+                        result.error = f"{r.message.split(': ', 1)[0]}: {why}"
+            elif r.end == 3 and opened.stub is not None and not opened.stub.alive():
+                result.error = f"{r.message} -- {opened.stub.death_message()}"
+
+    def _finish(self, rec: ProcessRecorder, opened: OpenedLink, e: eng.Engine | None, link,
+                result: RunResult, t0: float) -> None:
+        """After the run: final statistics, the error, STOP, the link closed, run_result."""
+        t_end = result.cycles_done * self.ts_s
+        stopped = False
+        if e is not None and hasattr(self, "session"):
+            # STOP through the engine's link, counted with the run's frames
+            stopped = e.send(*self.session.command_frame(Command.STOP, 0.0, seq=e.cmd_seq))
+            if link is not None:
+                link.settle()
+        extra = link.extra_counters() if link is not None else {}
+        if e is not None:
+            e.write_stats(t_end, extra)
+            result.link_stats = e.counters()
+            for k, v in extra.items():
+                key = "can_unknown_ids" if k == "ext_ids" else k
+                result.link_stats[key] = result.link_stats.get(key, 0) + v
+            result.link_stats["rows_dropped"] = rec.dropped
+            result.link_stats["cycles"] = e.cycles_done
+            result.timing = self._timing_summary(e)
+            if result.realtime_notes and self.mode == "realtime":
+                self._event(t_end, "realtime_setup", result.realtime_notes, 0.0)
+        if result.error:
+            self._event(t_end, "error", result.error, 0.0)
+        if link is not None:
+            link.close()
+        try:
+            if hasattr(self, "session") and not stopped:
+                self.session.command(Command.STOP)
+        except (LinkError, OSError):
+            pass
+        code = opened.close()
+        if opened.stub is not None and code not in (0, None):
+            message = opened.stub.death_message()
+            self._event(t_end, "stub_exit", message, float(code))
+            if result.error is None:   # e.g. a sanitizer report at exit: never a silent pass
+                result.error = f"after the run: {message}"
+        result.wall_s = time.monotonic() - t0
+        rec.metadata("run_result", {
+            "cycles_done": result.cycles_done, "cycles_planned": result.cycles_planned,
+            "error": result.error or "", "interrupted": result.interrupted,
+            "end": result.end, "wall_s": f"{result.wall_s:.3f}",
+            "rows_dropped": rec.dropped,
+            "timing": json.dumps(result.timing),
+            "counters": json.dumps(result.link_stats)})
+
+    def _timing_summary(self, e: eng.Engine) -> dict:
+        out = {"cycle_p50_us": e.percentile("cycle", 0.5), "cycle_p99_us": e.percentile("cycle", 0.99),
+               "cycle_p999_us": e.percentile("cycle", 0.999), "cycle_max_us": e.hist_max("cycle")}
+        if self.mode == "realtime":
+            c = e.counters()
+            out.update(jitter_p50_us=e.percentile("jitter", 0.5),
+                       jitter_p99_us=e.percentile("jitter", 0.99),
+                       jitter_p999_us=e.percentile("jitter", 0.999),
+                       jitter_max_us=e.hist_max("jitter"),
+                       missed=c["missed_duty"], late=c["late_duty"],
+                       overruns=c["rt_overruns"],
+                       miss_rate=c["missed_duty"] / max(e.cycles_done, 1),
+                       lost_rate=(c["missed_duty"] + c["rt_overruns"]) / max(e.cycles_done, 1))
+        return out
+
+
+def _stub_failure(stub) -> str | None:
+    """If the stub died, that is the cause of a failed link (give it a moment)."""
+    deadline = time.monotonic() + 0.5
+    while stub.alive() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return None if stub.alive() else stub.death_message()
+
+
+class _Progress:
+    """A rich progress bar on stderr (silent when stderr is not a terminal)."""
+
+    def __init__(self, total: int, name: str):
+        from rich.console import Console
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+        )
+
+        console = Console(stderr=True)
+        self.enabled = console.is_terminal
+        self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
+                                 MofNCompleteColumn(), TextColumn("{task.fields[speed]}"),
+                                 TimeElapsedColumn(), console=console, transient=True,
+                                 disable=not self.enabled)
+        self.progress.start()
+        self.task = self.progress.add_task(name, total=total, speed="")
+
+    def update(self, done: int, speed_rpm: float) -> None:
+        self.progress.update(self.task, completed=done, speed=f"{speed_rpm:7.1f} rpm")
+
+    def close(self, done: int) -> None:
+        self.progress.update(self.task, completed=done)
+        self.progress.stop()
+
+
+def run_scenario(scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,
+                 progress: bool = True, stub_args: tuple[str, ...] = (),
+                 allow_slow_link: bool = False, force: bool = False,
+                 realtime: bool | None = None, cpu: int | None = None,
+                 record: bool = True) -> RunResult:
+    """Run a scenario against the controller on ``link_spec`` and record it (lockstep, or real
+    time when the scenario or ``realtime=True`` asks)."""
+    return Runner(scenario, link_spec, out_path, progress, stub_args, allow_slow_link, force,
+                  realtime, record, cpu).run()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit("use: python -m hil_bench run SCENARIO")

@@ -1,0 +1,550 @@
+"""``bench claims --run``: run every claim's scenarios, measure every quantity, write a report.
+
+    .venv/bin/bench claims --run [--only Y1,G2] [--out reports/claims] [--jobs N] [--no-beyond]
+
+Steps: plan the runs (hil_bench.papers.claims.CLAIMS, plus the studies beyond the papers,
+bench/papers/beyond.py), run them against the C stub in parallel (one process per run, ``--jobs``
+at a time, rich progress on the terminal), measure each quantity on its recording
+(hil_bench.papers.claims.measure), compute the studies (bench/papers/studies.py), draw the plots
+(bench/papers/report_plots.py) and write ``<out>/report.md``, ``<out>/report.html`` (self-contained:
+the plots inlined as base64 PNG) and ``<out>/plots/*.png``. The recordings stay in
+``<out>/recordings`` (``bench check`` works on each).
+"""
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import math
+import os
+import platform
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+
+from hil_bench.record.recorder import SIDE_SUFFIXES
+
+from .claims import (
+    CLAIMS,
+    OPERATING_POINT_DEF,
+    TELEM_EMF_LSB_V,
+    TELEM_IQ_LSB_A,
+    TELEM_OMEGA_LSB_RAD_S,
+    TELEM_THETA_LSB_RAD,
+    Claim,
+    Context,
+    Quantity,
+    Relation,
+    Run,
+    derive,
+    measure_with_resolution,
+    relate,
+    run_failure,
+    speed_lsb_rpm,
+)
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@dataclass
+class RunOutcome:
+    run: Run
+    recording: Path
+    ok: bool
+    error: str = ""
+    wall_s: float = 0.0
+    cycles: int = 0
+    reused: bool = False
+    retried: str = ""       # the error of a first attempt the bench broke (run once more)
+
+
+@dataclass
+class Row:
+    claim: str
+    key: str
+    what: str
+    paper: str
+    measured: str
+    unit: str
+    rule: str
+    source: str
+    verdict: str
+    note: str = ""
+    diagnostic: bool = False
+    value: float = math.nan
+    is_relation: bool = False
+
+
+@dataclass
+class Report:
+    out_dir: Path
+    claims: list[Claim]
+    rows: list[Row] = field(default_factory=list)
+    outcomes: dict[str, RunOutcome] = field(default_factory=dict)
+    studies: dict[str, dict] = field(default_factory=dict)
+    study_errors: dict[str, str] = field(default_factory=dict)
+    plots: dict[str, list[Path]] = field(default_factory=dict)
+    beyond: dict[str, Any] = field(default_factory=dict)
+    wall_s: float = 0.0
+    jobs: int = 1
+
+
+# -- running --------------------------------------------------------------------------------------
+
+def scenario_for(run: Run):
+    from hil_bench.scenario import derive_scenario, load_scenario
+    if not run.overrides:
+        return load_scenario(run.scenario)
+    return derive_scenario(run.scenario, run.name, run.overrides, note=run.label)
+
+
+def _run_one(run: Run, out_path: str) -> tuple[bool, str, float, int]:
+    """Worker (own process): one scenario against a fresh stub."""
+    from hil_bench.loop.runner import run_scenario
+    try:
+        scn = scenario_for(run)
+        res = run_scenario(scn, link_spec="stub", out_path=Path(out_path), progress=False)
+        return res.ok, res.error or "", res.wall_s, res.cycles_done
+    except Exception as exc:  # noqa: BLE001 - reported in the row, never a crash of the report
+        return False, f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}", 0.0, 0
+
+
+def default_jobs() -> int:
+    return max(1, min(os.cpu_count() or 1, 4))
+
+
+def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | None = None,
+            reuse: bool = False) -> dict[str, RunOutcome]:
+    """Run every scenario (``jobs`` in parallel) with a progress bar; returns outcomes by run id."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    rec_dir.mkdir(parents=True, exist_ok=True)
+    outcomes: dict[str, RunOutcome] = {}
+    todo = []
+    for rid, run in runs.items():
+        path = rec_dir / f"{rid}.mcap"
+        if reuse and path.exists():
+            outcomes[rid] = RunOutcome(run, path, True, reused=True)
+        else:
+            todo.append((rid, run, path))
+    console = console or Console(stderr=True)
+    import sys
+    sys.stdout.flush()          # a forked worker must not inherit (and repeat) buffered output
+    sys.stderr.flush()
+    with Progress(TextColumn("[bold]claims[/bold] {task.description}"), BarColumn(),
+                  MofNCompleteColumn(), TimeElapsedColumn(), console=console,
+                  disable=not console.is_terminal) as progress:
+        task = progress.add_task("", total=len(todo))
+        with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+            futs = {pool.submit(_run_one, run, str(path)): (rid, run, path)
+                    for rid, run, path in todo}
+            running = {rid for rid, _, _ in todo[:jobs]}
+            progress.update(task, description=", ".join(sorted(running))[:60])
+            for fut in as_completed(futs):
+                rid, run, path = futs[fut]
+                try:
+                    ok, err, wall, cycles = fut.result()
+                except Exception as exc:  # noqa: BLE001 - a dead worker
+                    ok, err, wall, cycles = False, f"worker failed: {exc}", 0.0, 0
+                outcomes[rid] = RunOutcome(run, path, ok, err, wall, cycles)
+                progress.update(task, advance=1, description=rid)
+                if not console.is_terminal:
+                    console.print(f"  {rid}: {'ok' if ok else 'ended: ' + err.splitlines()[0]}"
+                                  f" ({wall:.1f} s)")
+    # a run the bench broke (not the controller: a link that timed out on a loaded machine, a
+    # dead stub) is run once more, alone; the report says so. A controller fault is a result.
+    for rid, o in list(outcomes.items()):
+        if o.ok or o.reused or "controller reported fault" in o.error:
+            continue
+        first = (o.error.splitlines() or ["no error text"])[0]
+        console.print(f"  {rid}: the bench broke the run ({first}): once more")
+        _keep_attempt(o.recording)
+        ok, err, wall, cycles = _run_one(o.run, str(o.recording))
+        outcomes[rid] = RunOutcome(o.run, o.recording, ok, err, wall, cycles, retried=first)
+    return outcomes
+
+
+#: <run>.mcap and the files a run writes beside it (bench/record/recorder.py: the serial and CAN captures)
+_RUN_SIBLINGS = (".mcap",) + tuple(sfx for sfx, _ in SIDE_SUFFIXES)
+
+
+def _keep_attempt(recording: Path) -> None:
+    """Move a broken attempt's files (<run>.mcap, <run>.serial.bin, <run>.log) to
+    <run>.attempt1.*: the recorder refuses to overwrite, and a record is never thrown away."""
+    stem = recording.name[:-len(".mcap")] if recording.name.endswith(".mcap") else recording.stem
+    for suffix in _RUN_SIBLINGS:
+        f = recording.with_name(stem + suffix)
+        if f.exists():
+            f.rename(recording.with_name(f"{stem}.attempt1{suffix}"))
+
+
+# -- measuring ------------------------------------------------------------------------------------
+
+def _fmt(v: Any, unit: str = "") -> str:
+    if isinstance(v, str):
+        return v
+    if v is None or not math.isfinite(v):
+        return "n/a"
+    a = abs(v)
+    s = f"{v:.4g}" if (a >= 1e-3 or a == 0) else f"{v:.3e}"
+    return f"{s} {unit}".strip()
+
+
+def _context(path: Path) -> Context:
+    from hil_bench.record.recording import load_recording
+    from hil_bench.scenario import scenario_of
+
+    from .check import build_context
+    rec = load_recording(path)
+    return build_context(rec, scenario_of(rec))
+
+
+class _Contexts:
+    """Recordings are loaded once each."""
+
+    def __init__(self, outcomes: dict[str, RunOutcome]):
+        self.outcomes = outcomes
+        self.cache: dict[str, Context | Exception] = {}
+
+    def get(self, run_id: str) -> Context:
+        if run_id not in self.cache:
+            out = self.outcomes.get(run_id)
+            try:
+                if out is None:
+                    raise FileNotFoundError(f"run {run_id} was not run")
+                if not out.recording.exists():
+                    raise FileNotFoundError(f"no recording for run {run_id}: {out.error}")
+                self.cache[run_id] = _context(out.recording)
+            except Exception as exc:  # noqa: BLE001
+                self.cache[run_id] = exc
+        v = self.cache[run_id]
+        if isinstance(v, Exception):
+            raise v
+        return v
+
+
+def _measure_quantity(q: Quantity, ctxs: _Contexts, studies: dict, study_errors: dict,
+                      values: dict[str, float]) -> tuple[float, str, str, float]:
+    """(value, verdict, note, resolution) of one quantity."""
+    if q.metric == "derived":
+        v = derive(q, values)
+        if not math.isfinite(v):
+            return v, "INVALID", "an input quantity has no value", 0.0
+        return v, q.verdict(v), q.not_reproducible, 0.0
+    if q.study:
+        if q.study in study_errors:
+            return math.nan, "INVALID", study_errors[q.study], 0.0
+        v = float(studies[q.study][dict(q.params)["key"]])
+        return v, q.verdict(v), q.not_reproducible, 0.0
+    if q.aggregate:
+        vals, notes = [], []
+        for rid in q.runs:
+            try:
+                ctx = ctxs.get(rid)
+            except Exception as exc:  # noqa: BLE001
+                return math.nan, "INVALID", str(exc), 0.0
+            v, verdict, note, _res = measure_with_resolution(q, ctx)
+            vals.append(v)
+            if note:
+                notes.append(f"{rid}: {note}")
+        finite = [v for v in vals if math.isfinite(v)]
+        if q.aggregate == "max_abs":
+            right = [abs(v) for v in finite if abs(v) < 90.0]
+            value = max(right) if right else math.nan
+            note = f"per trial: {', '.join(_fmt(v) for v in vals)} deg"
+            if not right:
+                return value, "FAIL", "no trial with the right polarity; " + note, 0.0
+        elif q.aggregate == "polarity_failures":
+            value = float(sum(1 for v in vals if not (math.isfinite(v) and abs(v) < 90.0)))
+            note = f"of {len(vals)} trials"
+        else:
+            raise ValueError(f"{q.key}: unknown aggregate {q.aggregate!r}")
+        if notes:
+            note += "; " + "; ".join(notes)
+        return value, q.verdict(value), note, 0.0
+    try:
+        ctx = ctxs.get(q.runs[0])
+    except Exception as exc:  # noqa: BLE001
+        return math.nan, "INVALID", str(exc), 0.0
+    return measure_with_resolution(q, ctx)
+
+
+def _source_cell(q: Quantity) -> str:
+    """The rule's source, then what the measurement rests on that is the bench's own."""
+    out = q.rule.source
+    if q.definition:
+        out += f" | {q.definition}"
+    if q.at_speed_rpm is not None:
+        out += " | operating point checked (bench definition, see above)"
+    if q.calibration:
+        out += " | CALIBRATION: the plant was fitted to this number"
+    return out
+
+
+def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies: dict,
+                   study_errors: dict) -> list[Row]:
+    rows: list[Row] = []
+    for c in claims:
+        ctxs = _Contexts(outcomes)          # one claim's recordings in memory at a time
+        values: dict[str, float] = {}
+        resolutions: dict[str, float] = {}
+        qrows = []
+        # derived quantities last: they read the others' values
+        for q in sorted(c.quantities, key=lambda q: q.metric == "derived"):
+            v, verdict, note, res = _measure_quantity(q, ctxs, studies, study_errors, values)
+            values[q.key] = v
+            resolutions[q.key] = res
+            measured = _fmt(v, q.unit)
+            if "lower bound" in note and math.isfinite(v):
+                measured = ">= " + measured
+            if not math.isfinite(v):
+                measured = "no value: " + (_short_fault(note) if "ended early" in note
+                                           else "not measurable (see note)")
+            qrows.append((q, Row(c.id, q.key, q.what, _fmt(q.paper_value, q.unit if not
+                                                            isinstance(q.paper_value, str) else ""),
+                                 measured, q.unit,
+                                 "no verdict" if q.calibration else q.rule.text(),
+                                 _source_cell(q), verdict, note, q.diagnostic, v)))
+        order = {q.key: i for i, q in enumerate(c.quantities)}
+        rows += [r for _, r in sorted(qrows, key=lambda x: order[x[0].key])]
+        nr = frozenset(r.key for _, r in qrows if r.verdict == "NOT REPRODUCIBLE")
+        off = frozenset(r.key for _, r in qrows if "did not hold" in r.note)
+        for rel in c.relations:
+            vals, verdict, note = relate(rel, values, nr, off, resolutions)
+            sym = {"<": " < ", ">": " > ", "=": " = "}[rel.op]
+            rows.append(Row(c.id, rel.key, rel.what, rel.paper,
+                            sym.join(_fmt(v) for v in vals), "",
+                            {"<": "increasing as listed", ">": "decreasing as listed",
+                             "=": f"|difference| < {rel.tol:g}"}[rel.op], rel.source, verdict,
+                            note, rel.diagnostic, is_relation=True))
+    return rows
+
+
+def _short_fault(note: str) -> str:
+    """'controller reported fault STARTUP_FAILED at seq 519 ...' -> 'controller fault
+    STARTUP_FAILED at t = 0.0519 s'."""
+    import re
+    m = re.search(r"fault (\w+) at seq (\d+)", note)
+    if m:
+        cause = re.search(r"\[([^\];]+)", note)       # diagnose_fault's first clause
+        return (f"the controller faulted ({m.group(1)}"
+                + (f": {cause.group(1).strip()}" if cause else "") + f") at cycle {m.group(2)}")
+    return "the run ended early"
+
+
+def claim_verdict(rows: list[Row]) -> str:
+    """A claim's summary over its non-diagnostic rows: FAIL if any fails, INVALID if any could
+    not be measured, PASS if every pass/fail row passed, else COMPARED / NOT REPRODUCIBLE."""
+    vs = [r.verdict for r in rows if not r.diagnostic and r.verdict != "CALIBRATION"]
+    for v in ("FAIL", "INVALID"):
+        if v in vs:
+            return v
+    if "PASS" in vs:
+        return "PASS" if all(v in ("PASS", "COMPARED") for v in vs) else "PARTLY"
+    for v in ("NOT REPRODUCIBLE", "NOT RESOLVED"):
+        if v in vs:
+            return v
+    return "COMPARED"
+
+
+def _css_class(verdict: str) -> str:
+    return verdict.replace(" ", "_")
+
+
+#: what the report says about the resolution of the controller's telemetry and the bench's own
+#: definitions (the same text in report.md and report.html)
+RESOLUTION_TEXT = (
+    f"Telemetry resolution (docs/protocol.md): the controller reports its speed estimate in "
+    f"steps of {TELEM_OMEGA_LSB_RAD_S:g} rad/s electrical ({speed_lsb_rpm(4):.3f} "
+    f"rpm at p = 4, {speed_lsb_rpm(3):.3f} rpm at p = 3), its angle in "
+    f"{TELEM_THETA_LSB_RAD:.3g} rad, its EMF in {TELEM_EMF_LSB_V:g} V and its i_q reference in "
+    f"{TELEM_IQ_LSB_A * 1e3:g} mA. Where a host reference estimator ran on the same samples "
+    f"(the same C, recorded in float64) the speed metrics are computed from it; otherwise from "
+    f"the telemetry, and a relation whose difference is below one LSB is NOT RESOLVED (not "
+    f"FAIL).")
+DEFINITIONS_TEXT = (
+    "Bench definitions (not the papers'; each row that rests on one says so in its source "
+    "column): " + OPERATING_POINT_DEF + "; the estimator response time, the G8 settling band, "
+    "the Y3 chattering index and the Y5 2 % tracking criterion.")
+
+
+# -- writing --------------------------------------------------------------------------------------
+
+def _md_cell(s: str) -> str:
+    return str(s).replace("|", "\\|").replace("\n", " ")
+
+
+def write_markdown(rep: Report) -> Path:
+    L = ["# Paper claims reproduced on the bench", ""]
+    L += [f"Generated {_dt.datetime.now().isoformat(timespec='seconds')} on {platform.node()} "
+          f"({os.cpu_count()} cores, {rep.jobs} parallel runs), wall time {rep.wall_s:.0f} s. "
+          f"Command: `.venv/bin/bench claims --run --out {rep.out_dir}`.", ""]
+    L += ["Verdicts: **PASS** / **FAIL** against a rule from the paper; **COMPARED**: the paper "
+          "gives a value without a bound or a stated resolution, so the value is compared, no "
+          "pass/fail; **NOT REPRODUCIBLE**: the reason is given; **INVALID**: the bench could "
+          "not measure; **NOT RESOLVED**: a relation whose difference is below the resolution of "
+          "what it was measured from; **CALIBRATION**: the plant was fitted to this number, so "
+          "the row is the fit's input (no verdict). Rows marked *diagnostic* are not the paper's "
+          "setup (e.g. dead time off, to locate a failure) and do not count for the claim.", ""]
+    L += [RESOLUTION_TEXT, "", DEFINITIONS_TEXT, ""]
+    L += ["| claim | verdict | what |", "|---|---|---|"]
+    by_claim = {c.id: [r for r in rep.rows if r.claim == c.id] for c in rep.claims}
+    for c in rep.claims:
+        L.append(f"| [{c.id}](#{c.id.lower()}) | {claim_verdict(by_claim[c.id])} | "
+                 f"{_md_cell(c.text)} |")
+    L.append("")
+    for c in rep.claims:
+        L += [f"## {c.id}", "", f"**{c.paper}.** {c.text}", ""]
+        if c.setup:
+            L += [f"Setup: {c.setup}.", ""]
+        if c.notes:
+            L += [f"Notes: {c.notes}", ""]
+        L += ["| quantity | paper | measured | rule | rule's source | verdict | note |",
+              "|---|---|---|---|---|---|---|"]
+        for r in by_claim[c.id]:
+            what = ("*" + r.what + "*") if r.diagnostic else r.what
+            if r.is_relation:
+                what = "relation: " + what
+            L.append(f"| {_md_cell(what)} | {_md_cell(r.paper)} | {_md_cell(r.measured)} | "
+                     f"{_md_cell(r.rule)} | {_md_cell(r.source)} | **{r.verdict}** | "
+                     f"{_md_cell(r.note)} |")
+        L.append("")
+        runs = [rep.outcomes[r.id] for r in c.runs if r.id in rep.outcomes]
+        if runs:
+            L.append("Runs: " + "; ".join(
+                f"`{o.run.id}` ({o.run.name}{': ' + o.run.label if o.run.label else ''}) "
+                f"{'ok' if o.ok else 'ended early: ' + o.error.splitlines()[0] if o.error else ''}"
+                f"{', reused' if o.reused else f', {o.wall_s:.1f} s'}"
+                f"{f' (second attempt; the first ended: {o.retried})' if o.retried else ''}"
+                for o in runs))
+            L.append("")
+        for p in rep.plots.get(c.id, []):
+            L += [f"![{c.id}]({p.relative_to(rep.out_dir)})", ""]
+    if rep.beyond:
+        from .beyond import markdown as beyond_md
+        L += beyond_md(rep)
+    path = rep.out_dir / "report.md"
+    path.write_text("\n".join(L) + "\n")
+    return path
+
+
+_CSS = """
+body { font-family: sans-serif; max-width: 1400px; margin: 1em auto; padding: 0 1em; }
+table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
+td, th { border: 1px solid #bbb; padding: 3px 6px; vertical-align: top; }
+th { background: #eee; }
+.PASS { background: #c8f0c8; } .FAIL { background: #f6c4c4; } .COMPARED { background: #e8e8f8; }
+.INVALID { background: #f6e0a8; } .NOT_REPRODUCIBLE { background: #ead8f0; }
+.PARTLY { background: #f0f0b0; } .NOT_RESOLVED { background: #dde8ee; }
+.CALIBRATION { background: #eeeeee; }
+tr.diag td { color: #666; font-style: italic; }
+img { max-width: 100%; border: 1px solid #ccc; margin: 0.5em 0; }
+code { background: #f4f4f4; }
+"""
+
+
+def _img(path: Path) -> str:
+    data = base64.b64encode(path.read_bytes()).decode()
+    return f'<img alt="{html.escape(path.stem)}" src="data:image/png;base64,{data}">'
+
+
+def write_html(rep: Report) -> Path:
+    e = html.escape
+    H = [f"<!doctype html><html><head><meta charset='utf-8'><title>Paper claims</title>"
+         f"<style>{_CSS}</style></head><body>", "<h1>Paper claims reproduced on the bench</h1>"]
+    H.append(f"<p>Generated {e(_dt.datetime.now().isoformat(timespec='seconds'))} on "
+             f"{e(platform.node())}, wall time {rep.wall_s:.0f} s, {rep.jobs} parallel runs. "
+             f"Command: <code>.venv/bin/bench claims --run --out {e(str(rep.out_dir))}</code>.</p>")
+    H.append("<p>Verdicts: PASS / FAIL against a rule from the paper; COMPARED: value compared, "
+             "no pass/fail (the paper gives no bound and no resolution); NOT REPRODUCIBLE (reason "
+             "given); INVALID: the bench could not measure; NOT RESOLVED: a relation whose "
+             "difference is below the resolution of what it was measured from; CALIBRATION: the "
+             "plant was fitted to this number (no verdict). <i>Diagnostic</i> rows are not the "
+             "paper's setup and do not count.</p>")
+    H.append(f"<p>{e(RESOLUTION_TEXT)}</p><p>{e(DEFINITIONS_TEXT)}</p>")
+    by_claim = {c.id: [r for r in rep.rows if r.claim == c.id] for c in rep.claims}
+    H.append("<table><tr><th>claim</th><th>verdict</th><th>what</th></tr>")
+    for c in rep.claims:
+        v = claim_verdict(by_claim[c.id])
+        H.append(f"<tr><td><a href='#{c.id}'>{c.id}</a></td><td class='{_css_class(v)}'>{v}</td>"
+                 f"<td>{e(c.text)}</td></tr>")
+    H.append("</table>")
+    for c in rep.claims:
+        H.append(f"<h2 id='{c.id}'>{c.id}</h2><p><b>{e(c.paper)}.</b> {e(c.text)}</p>")
+        if c.setup:
+            H.append(f"<p>Setup: {e(c.setup)}.</p>")
+        if c.notes:
+            H.append(f"<p>Notes: {e(c.notes)}</p>")
+        H.append("<table><tr><th>quantity</th><th>paper</th><th>measured</th><th>rule</th>"
+                 "<th>rule's source</th><th>verdict</th><th>note</th></tr>")
+        for r in by_claim[c.id]:
+            what = ("relation: " if r.is_relation else "") + r.what
+            H.append(f"<tr class='{'diag' if r.diagnostic else ''}'><td>{e(what)}</td>"
+                     f"<td>{e(r.paper)}</td><td>{e(r.measured)}</td><td>{e(r.rule)}</td>"
+                     f"<td>{e(r.source)}</td><td class='{_css_class(r.verdict)}'>{e(r.verdict)}"
+                     f"</td><td>{e(r.note)}</td></tr>")
+        H.append("</table>")
+        for p in rep.plots.get(c.id, []):
+            H.append(_img(p))
+    if rep.beyond:
+        from .beyond import html_section
+        H += html_section(rep, _img)
+    H.append("</body></html>")
+    path = rep.out_dir / "report.html"
+    path.write_text("\n".join(H))
+    return path
+
+
+# -- the whole thing -----------------------------------------------------------------------------
+
+def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = None,
+               beyond: bool = True, reuse: bool = False, console: Console | None = None,
+               beyond_quick: bool = False) -> Report:
+    t0 = time.monotonic()
+    console = console or Console(stderr=True)
+    out_dir = Path(out_dir)
+    (out_dir / "plots").mkdir(parents=True, exist_ok=True)
+    ids = [c for c in CLAIMS] if not only else only
+    unknown = [c for c in ids if c not in CLAIMS]
+    if unknown:
+        raise ValueError(f"unknown claim(s) {', '.join(unknown)}; known: {', '.join(CLAIMS)}")
+    claims = [CLAIMS[c] for c in ids]
+    runs: dict[str, Run] = {}
+    for c in claims:
+        for r in c.runs:
+            runs.setdefault(r.id, r)
+    beyond_plan = None
+    if beyond:
+        from . import beyond as by
+        beyond_plan = by.plan(quick=beyond_quick)
+        for r in beyond_plan.runs:
+            runs.setdefault(r.id, r)
+    jobs = jobs or default_jobs()
+    rep = Report(out_dir, claims, jobs=jobs)
+    console.print(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
+                  + (" and the studies beyond the papers" if beyond else ""))
+    rep.outcomes = execute(runs, out_dir / "recordings", jobs, console, reuse=reuse)
+    from .studies import STUDIES
+    for c in claims:
+        for s in c.studies:
+            if s in rep.studies or s in rep.study_errors:
+                continue
+            try:
+                rep.studies[s] = STUDIES[s]()
+            except Exception as exc:  # noqa: BLE001
+                rep.study_errors[s] = f"{type(exc).__name__}: {exc}"
+    rep.rows = measure_claims(claims, rep.outcomes, rep.studies, rep.study_errors)
+    from .report_plots import plot_claims
+    rep.plots = plot_claims(rep)
+    if beyond_plan is not None:
+        from . import beyond as by
+        rep.beyond = by.evaluate(beyond_plan, rep)
+    rep.wall_s = time.monotonic() - t0
+    write_markdown(rep)
+    write_html(rep)
+    return rep

@@ -1,0 +1,519 @@
+"""PNG plots of the claims report: per claim, what the paper's figure shows, from the recordings.
+
+Each ``plot_<claim>(rep)`` returns the figures it drew (a claim without a usable recording gets
+a figure that says so instead of a blank). matplotlib with the Agg backend (no display needed).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Callable
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from hil_bench.record import channels as ch  # noqa: E402
+
+from . import metrics  # noqa: E402
+
+DPI = 90
+
+
+def _load(rep, run_id):
+    from hil_bench.record.recording import load_recording
+    out = rep.outcomes.get(run_id)
+    if out is None or not out.recording.exists():
+        return None
+    try:
+        return load_recording(out.recording)
+    except Exception:  # noqa: BLE001 - a broken recording is shown as missing
+        return None
+
+
+def _save(fig, rep, name) -> Path:
+    path = rep.out_dir / "plots" / f"{name}.png"
+    fig.tight_layout()
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def _missing(ax, what):
+    ax.text(0.5, 0.5, f"no recording: {what}", ha="center", va="center", transform=ax.transAxes)
+    ax.set_axis_off()
+
+
+def _win(rec, topic, t0, t1):
+    d = rec.topic(topic)
+    t = np.asarray(d["t_s"], float)
+    m = (t >= t0) & (t <= t1)
+    return {k: np.asarray(v)[m] for k, v in d.items()}
+
+
+def _speed_panel(ax, rec, t0, t1, title, ref=None):
+    if rec is None:
+        return _missing(ax, title)
+    st = _win(rec, ch.PLANT_STATE, t0, t1)
+    te = _win(rec, ch.CONTROLLER_TELEMETRY, t0, t1)
+    ax.plot(st["t_s"], st["speed_rpm"], label="true speed n", lw=1)
+    ax.plot(te["t_s"], te["speed_hat_rpm"], label="estimated n^", lw=0.8, alpha=0.8)
+    if ref is not None:
+        ax.plot(st["t_s"], [ref(t) for t in st["t_s"]], "k--", lw=0.8, label="reference")
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("speed [rpm]")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+
+
+def _error_panel(ax, rec, t0, t1, title, bands=()):
+    if rec is None:
+        return _missing(ax, title)
+    st = rec.topic(ch.PLANT_STATE)
+    te = _win(rec, ch.CONTROLLER_TELEMETRY, t0, t1)
+    idx = np.clip(np.searchsorted(st["t_s"], te["t_s"]), 0, len(st["t_s"]) - 1)
+    ax.plot(te["t_s"], te["speed_hat_rpm"] - np.asarray(st["speed_rpm"])[idx], lw=0.8,
+            label="n^ - n")
+    for (a, b), band, lab in bands:
+        ax.hlines([band, -band], a, b, colors="r", linestyles="--", lw=1)
+        ax.text(a, band, f" paper +-{band:g} ({lab})", color="r", fontsize=7, va="bottom")
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("speed error [rpm]")
+    ax.grid(alpha=0.3)
+
+
+def _pee_panel(ax, rec, t0, t1, title, bound=None, source=ch.CONTROLLER_TELEMETRY, label=None):
+    if rec is None:
+        return _missing(ax, title)
+    st = rec.topic(ch.PLANT_STATE)
+    te = _win(rec, source, t0, t1)
+    idx = np.clip(np.searchsorted(st["t_s"], te["t_s"]), 0, len(st["t_s"]) - 1)
+    pee = metrics.wrap_pi(te["theta_hat_rad"] - np.asarray(st["theta_e_rad"])[idx])
+    ax.plot(te["t_s"], pee, lw=0.8, label=label or "PEE")
+    if bound is not None:
+        ax.axhline(bound, color="r", ls="--", lw=1)
+        ax.axhline(-bound, color="r", ls="--", lw=1)
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("PEE [rad]")
+    ax.grid(alpha=0.3)
+
+
+def _ref_fn(rec):
+    from hil_bench.scenario import RPM_PER_RAD_S, scenario_of, speed_ref_at
+    try:
+        scn = scenario_of(rec)
+    except Exception:  # noqa: BLE001
+        return None
+    return lambda t: speed_ref_at(scn, t) * RPM_PER_RAD_S
+
+
+# -- per claim ----------------------------------------------------------------------------------
+
+def _two_method_speed(rep, name, runs, t_range, bands_for, title):
+    fig, axes = plt.subplots(2, len(runs), figsize=(6 * len(runs), 6.5), squeeze=False)
+    for j, (rid, label) in enumerate(runs):
+        rec = _load(rep, rid)
+        _speed_panel(axes[0][j], rec, *t_range, f"{label} ({rid})",
+                     _ref_fn(rec) if rec is not None else None)
+        _error_panel(axes[1][j], rec, *t_range, f"{label}: speed-estimation error",
+                     bands_for(rid))
+    fig.suptitle(title, fontsize=10)
+    return [_save(fig, rep, name)]
+
+
+def plot_y1(rep):
+    b = {"Y1.improved": (((2.8, 3.3), 1.5, "10 rpm"), ((3.8, 4.3), 3.0, "50 rpm")),
+         "Y1.conventional": (((2.8, 3.3), 4.0, "10 rpm"), ((3.8, 4.3), 6.0, "50 rpm"))}
+    out = _two_method_speed(rep, "Y1", [("Y1.conventional", "conventional SMO (Fig. 13)"),
+                                        ("Y1.improved", "improved SMO (Fig. 14)")], (0, 4.3),
+                            lambda r: b.get(r.replace(".nodt", ""), ()),
+                            "Y1: full load, 10 -> 50 rpm, dead time on (the paper's hardware)")
+    out += _two_method_speed(rep, "Y1_nodt", [("Y1.conventional.nodt", "conventional, no dead time"),
+                                              ("Y1.improved.nodt", "improved, no dead time")],
+                             (0, 4.3), lambda r: b.get(r.replace(".nodt", ""), ()),
+                             "Y1 diagnostic: the same runs without dead time")
+    return out
+
+
+def plot_y2(rep):
+    return _two_method_speed(rep, "Y2", [("Y2.conventional", "conventional SMO (Fig. 15)"),
+                                         ("Y2.improved", "improved SMO (Fig. 16)"),
+                                         ("Y2.improved.nodt", "improved, no dead time")],
+                             (0.9, 1.6), lambda r: (),
+                             "Y2: 10 rpm, rated load step at 1.2 s")
+
+
+def plot_y3(rep):
+    from hil_bench.firmware_stub.estimators import REFERENCE_ESTIMATORS
+    from hil_bench.plant_rt.profile import load_profile
+
+    from .estimator_trace import replay
+    rec = _load(rep, "Y3")
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+    if rec is None:
+        _missing(axes[0], "Y3")
+        return [_save(fig, rep, "Y3")]
+    prof = load_profile("yuan2020")
+    for ax, name, label in ((axes[0], "SMO_SIGN", "conventional (sign) SMO"),
+                            (axes[1], "SMO_SIGMOID", "improved (sigmoid) SMO")):
+        r = replay(rec, REFERENCE_ESTIMATORS[name](prof, 1e-4), window_s=(0.6, 1.2))
+        ax.plot(r.i_hat_alpha_a, r.i_alpha_a, ",", alpha=0.5)
+        lo, hi = np.nanmin(r.i_alpha_a), np.nanmax(r.i_alpha_a)
+        ax.plot([lo, hi], [lo, hi], "r--", lw=0.8, label="sliding surface i^ = i")
+        ax.set_xlabel("estimated i_alpha [A]")
+        ax.set_ylabel("measured i_alpha [A]")
+        w_e = abs(float(np.mean(_win(rec, ch.PLANT_STATE, 0.6, 1.2)["omega_e_rad_s"])))
+        idx = metrics.chattering_index_a(r.i_hat_alpha_a, r.i_hat_beta_a, r.i_alpha_a,
+                                         r.i_beta_a, r.t_s, w_e)
+        ax.set_title(f"{label}: chattering index {idx:.3g} A", fontsize=9)
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+    fig.suptitle("Y3 (Fig. 17): estimated vs measured current, same samples, 50 rpm full load",
+                 fontsize=10)
+    return [_save(fig, rep, "Y3")]
+
+
+def plot_y4(rep):
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7))
+    for row, rpm in enumerate((10, 50)):
+        w = (0.9, 4.0) if rpm == 10 else (0.9, 2.1)
+        bars = {}
+        ax_t = axes[row][0]
+        for state in ("off", "on"):
+            rec = _load(rep, f"Y4.{rpm}.{state}")
+            if rec is None:
+                continue
+            st = _win(rec, ch.PLANT_STATE, *w)
+            f_e = abs(np.mean(st["omega_e_rad_s"])) / (2 * math.pi)
+            s = metrics.harmonic_spectrum(st["i_a_a"], 1e4, f_e)
+            bars[state] = [100 * s.harmonics.get(h, 0) / s.fundamental_amplitude for h in
+                           range(2, 20)]
+            ax_t.plot(st["t_s"], st["i_a_a"], lw=0.8,
+                      label=f"compensation {state}: THD {s.thd_percent:.2f} %")
+        ax_t.set_title(f"{rpm} rpm: phase-a current (Fig. {18 if rpm == 10 else 20}-"
+                       f"{19 if rpm == 10 else 21})", fontsize=9)
+        ax_t.set_xlabel("t [s]")
+        ax_t.set_ylabel("i_a [A]")
+        ax_t.legend(fontsize=7)
+        ax_t.grid(alpha=0.3)
+        ax = axes[row][1]
+        h = np.arange(2, 20)
+        for k, (state, vals) in enumerate(bars.items()):
+            ax.bar(h + (k - 0.5) * 0.4, vals, width=0.4, label=f"bench, compensation {state}")
+        paper = {10: ((4.08, 4.11), (2.18, 2.61)), 50: ((4.62, 4.36), (1.71, 1.77))}[rpm]
+        ax.plot([5, 7], paper[0], "kx", ms=8, label="paper, without")
+        ax.plot([5, 7], paper[1], "k+", ms=10, label="paper, with")
+        ax.set_xticks(h)
+        ax.set_xlabel("harmonic order")
+        ax.set_ylabel("% of fundamental")
+        ax.set_title(f"{rpm} rpm: spectrum (FFT over whole periods of the window)", fontsize=9)
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+    fig.suptitle("Y4: phase current without / with Yuan's 5th/7th compensation", fontsize=10)
+    return [_save(fig, rep, "Y4")]
+
+
+def plot_y5(rep):
+    s = rep.studies.get("Y5")
+    fig, ax = plt.subplots(figsize=(9, 4))
+    if s is None:
+        _missing(ax, "Y5 study")
+        return [_save(fig, rep, "Y5")]
+    cycles = s["t_s"] * 250.0
+    ax.plot(cycles, s["x"], color="0.7", lw=0.6, label="input sin(500 pi t)")
+    ax.plot(cycles, s["amp_in"], "k--", lw=0.8, label="input amplitude")
+    ax.plot(cycles, s["SDFT.amp"], label=f"SDFT |bin 5| (step: {s['SDFT.step']:.2f} cycles)")
+    ax.plot(cycles, s["GSDFT.amp"], label=f"GSDFT |bin 5| (step: {s['GSDFT.step']:.2f} cycles)")
+    ax.set_xlabel("time [cycles of 250 Hz]")
+    ax.set_ylabel("amplitude [A]")
+    ax.set_title("Y5 (Fig. 11-12): M = 24, k = 5, fs = 1200 Hz; amplitude 1 -> 2 at 0.2 s "
+                 "(50 cycles)", fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    return [_save(fig, rep, "Y5")]
+
+
+def plot_y6(rep):
+    s = rep.studies.get("Y6")
+    fig, ax = plt.subplots(figsize=(7, 4))
+    if s is None:
+        _missing(ax, "Y6 study: " + rep.study_errors.get("Y6", ""))
+        return [_save(fig, rep, "Y6")]
+    labels = ["protected (modulated)", "direct recursion"]
+    sd = [s["sdft_57_real_mod"], s["sdft_57_real_direct"]]
+    gs = [s["gsdft_57_real_mod"], s["gsdft_57_real_direct"]]
+    x = np.arange(2)
+    ax.bar(x - 0.2, sd, 0.4, label="SDFT")
+    ax.bar(x + 0.2, gs, 0.4, label="GSDFT")
+    ax.set_xticks(x, labels)
+    ax.set_ylabel("x86-64 instructions per sample (5th + 7th)")
+    ax.set_title("Y6 (Table 2): paper says GSDFT 44.82 % less time; bench: "
+                 f"{s['saving_protected']:+.1f} % / {s['saving_direct']:+.1f} % saving", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, axis="y")
+    return [_save(fig, rep, "Y6")]
+
+
+def plot_y7(rep):
+    rows = {r.key: r.value for r in rep.rows if r.claim == "Y7"}
+    fig, ax = plt.subplots(figsize=(6, 4))
+    x = np.arange(2)
+    ax.bar(x - 0.2, [rows.get("Y7.sdft.5", np.nan), rows.get("Y7.sdft.7", np.nan)], 0.4,
+           label="SDFT")
+    ax.bar(x + 0.2, [rows.get("Y7.gsdft.5", np.nan), rows.get("Y7.gsdft.7", np.nan)], 0.4,
+           label="GSDFT")
+    ax.set_xticks(x, ["5th", "7th"])
+    ax.set_ylabel("% of fundamental")
+    ax.set_title("Y7 (Table 3): steady-state extraction, 10 rpm phase current", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, axis="y")
+    return [_save(fig, rep, "Y7")]
+
+
+def plot_y8(rep):
+    from .claims import Y8_SPEEDS
+    rows = {r.key: r for r in rep.rows if r.claim == "Y8"}
+    fig, ax = plt.subplots(figsize=(8, 4))
+    speeds = [s for s, _ in Y8_SPEEDS]
+    ax.plot(speeds, [dn for _, dn in Y8_SPEEDS], "ks--", label="paper Table 4 (dn)")
+    for sfx, lab in (("", "bench, dead time on"), (".nodt", "bench, dead time off (diagnostic)")):
+        ax.plot(speeds, [rows[f"Y8.{s:g}rpm{sfx}"].value if f"Y8.{s:g}rpm{sfx}" in rows else np.nan
+                         for s in speeds], "o-", label=lab)
+    ax.set_yscale("log")
+    ax.set_xlabel("speed [rpm]")
+    ax.set_ylabel("max |n^ - n| [rpm]")
+    ax.set_title("Y8 (Table 4): improved SMO speed-estimation error vs speed, full load", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    return [_save(fig, rep, "Y8")]
+
+
+def plot_h1(rep):
+    b = {"H1.hfi": (((2.0, 2.4), 1.5, "10 rpm"), ((2.8, 3.2), 3.0, "50 rpm")),
+         "H1.smo": (((2.9, 3.3), 4.0, "10 rpm"), ((3.7, 4.1), 6.0, "50 rpm"))}
+    out = _two_method_speed(rep, "H1", [("H1.smo", "SMO (Fig. 7)"), ("H1.hfi", "HFI + SDFT (Fig. 8)")],
+                            (0, 4.1), lambda r: b.get(r.replace(".nodt", ""), ()),
+                            "H1: full load, 10 -> 50 rpm, dead time on (the paper's hardware)")
+    out += _two_method_speed(rep, "H1_nodt", [("H1.smo.nodt", "SMO, no dead time"),
+                                              ("H1.hfi.nodt", "HFI, no dead time")], (0, 4.1),
+                             lambda r: b.get(r.replace(".nodt", ""), ()),
+                             "H1 diagnostic: without dead time")
+    return out
+
+
+def plot_h2(rep):
+    return _two_method_speed(rep, "H2", [("H2.smo", "SMO (Fig. 9)"), ("H2.hfi", "HFI (Fig. 10)"),
+                                         ("H2.hfi.nodt", "HFI, no dead time")], (0.5, 1.2),
+                             lambda r: (), "H2: 10 rpm, 6.5 N m load step at 0.8 s")
+
+
+def plot_h3(rep):
+    from .claims import H3_ANGLES_DEG
+    rows = {r.key: r for r in rep.rows if r.claim == "H3"}
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for method, diag, style in (("pure", False, "o-"), ("pure", True, "o:"), ("bias", False, "s-"),
+                                ("bias", True, "s:")):
+        errs = []
+        for a in H3_ANGLES_DEG:
+            rid = f"H3.{method}.{a:g}deg" + (".nodt" if diag else "")
+            rec = _load(rep, rid)
+            v = np.nan
+            out = rep.outcomes.get(rid)
+            if rec is not None and out is not None and not out.error:   # a fault: no point
+                te = rec.topic(ch.CONTROLLER_TELEMETRY)
+                e = metrics.wrap_pi(np.asarray(te["pee_rad"])[np.asarray(te["t_s"]) >= 0.17])
+                if e.size:
+                    v = math.degrees(math.atan2(np.mean(np.sin(e)), np.mean(np.cos(e))))
+            errs.append(v)
+        ax.plot(H3_ANGLES_DEG, errs, style, label=f"{'HF-only' if method == 'pure' else 'd-bias'}"
+                f" test{', dead time off' if diag else ''}")
+    ax.axhspan(-1, 1, color="g", alpha=0.15, label="paper +-1 deg")
+    ax.set_xlabel("actual initial position [deg el.]")
+    ax.set_ylabel("estimate - actual [deg] (180: wrong polarity)")
+    ax.set_title("H3 (Fig. 12): initial position error; missing points = procedure failed "
+                 "(polarity undecided)", fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    return [_save(fig, rep, "H3")]
+
+
+def plot_g1(rep):
+    rec = _load(rep, "G1")
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    if rec is None:
+        _missing(axes[0], "G1")
+        return [_save(fig, rep, "G1")]
+    from .claims import G1_MS
+    for m, _ in G1_MS:
+        d = _win(rec, ch.REFERENCE_PREFIX + f"SMO_TANH:m{m:g}", 1.45, 1.5)
+        axes[0].plot(d["t_s"], d["e_alpha_v"], lw=0.8, label=f"m = {m:g}")
+    st = _win(rec, ch.PLANT_STATE, 1.45, 1.5)
+    axes[0].plot(st["t_s"], st["e_alpha_v"], "k--", lw=1, label="true e_alpha")
+    axes[0].set_ylim(-60, 60)
+    axes[0].set_xlabel("t [s]")
+    axes[0].set_ylabel("estimated e_alpha [V]")
+    axes[0].set_title("G1 (Fig. 7a-d): estimated EMF at 500 rpm (clipped to +-60 V)", fontsize=9)
+    axes[0].legend(fontsize=7)
+    rows = {r.key: r.value for r in rep.rows if r.claim == "G1"}
+    ms = [m for m, _ in G1_MS]
+    axes[1].loglog(ms, [t for _, t in G1_MS], "ks--", label="paper THD")
+    axes[1].loglog(ms, [rows.get(f"G1.m{m:g}.thd", np.nan) for m in ms], "o-",
+                   label="bench THD (10 kHz, closed loop)")
+    from .claims import G1_STEPS_US
+    for ts_us in G1_STEPS_US[1:]:
+        axes[1].loglog(ms, [max(rows.get(f"G1.step{ts_us:g}us.m{m:g}.thd", np.nan), 1e-5)
+                            for m in ms], "x:", label=f"host observer, Ts = {ts_us:g} us")
+    axes[1].set_xlabel("m [1/A]")
+    axes[1].set_ylabel("THD+N of e_alpha [%] (floored at 1e-5)")
+    axes[1].set_title("G1 (Fig. 7e): THD vs m", fontsize=9)
+    axes[1].legend(fontsize=7)
+    axes[1].grid(alpha=0.3, which="both")
+    return [_save(fig, rep, "G1")]
+
+
+def _steady(rep, name, rid, window, pee_bound, title):
+    rec = _load(rep, rid)
+    fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
+    if rec is None:
+        _missing(axes[0], rid)
+        return [_save(fig, rep, name)]
+    _speed_panel(axes[0], rec, *window, "speed", _ref_fn(rec))
+    te = _win(rec, ch.CONTROLLER_TELEMETRY, window[1] - 0.05, window[1])
+    st = _win(rec, ch.PLANT_STATE, window[1] - 0.05, window[1])
+    axes[1].plot(te["t_s"], te["e_alpha_v"], lw=0.8, label="e^_alpha")
+    axes[1].plot(te["t_s"], te["e_beta_v"], lw=0.8, label="e^_beta")
+    axes[1].plot(st["t_s"], st["i_a_a"] * 10, lw=0.8, label="10 x i_a [A]")
+    axes[1].set_title("estimated EMF, phase current (last 50 ms)", fontsize=9)
+    axes[1].legend(fontsize=7)
+    axes[1].grid(alpha=0.3)
+    _pee_panel(axes[2], rec, *window, "position-estimation error", pee_bound)
+    fig.suptitle(title, fontsize=10)
+    return [_save(fig, rep, name)]
+
+
+def plot_g2(rep):
+    return _steady(rep, "G2", "G2", (1.0, 1.5), 0.1, "G2 (Fig. 8): 500 rpm, tanh SMO, ideal plant")
+
+
+def plot_g3(rep):
+    return _steady(rep, "G3", "G3", (1.5, 2.0), 0.05, "G3 (Fig. 9): 2000 rpm, tanh SMO, ideal plant")
+
+
+def _dynamics(rep, name, rid, window, title, pee_bound):
+    rec = _load(rep, rid)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+    _speed_panel(axes[0], rec, *window, "speed", _ref_fn(rec) if rec is not None else None)
+    _pee_panel(axes[1], rec, *window, "position-estimation error", pee_bound)
+    fig.suptitle(title, fontsize=10)
+    return [_save(fig, rep, name)]
+
+
+def plot_g4(rep):
+    return _dynamics(rep, "G4", "G4", (1.5, 2.0), "G4 (Fig. 10): load 2 N m at 1.6 s, 1200 rpm at "
+                     "1.65 s, unload 1.7 s, 1000 rpm 1.75 s (paper's events + 1.5 s)", 0.25)
+
+
+def plot_g5(rep):
+    from .claims import dual_samples
+    rec = _load(rep, "G5")
+    fig, ax = plt.subplots(figsize=(8, 4))
+    if rec is None:
+        _missing(ax, "G5")
+        return [_save(fig, rep, "G5")]
+    t, i1, i2 = dual_samples(rec)
+    m = (t >= 1.0) & (t <= 1.5)
+    est = 1e6 * metrics.delay_estimates_s(i1[m], i2[m], 1e-4)
+    est = est[np.isfinite(est)]
+    ax.hist(est, bins=60, range=(0, 90), alpha=0.8, label=f"bench eq. 20 per period "
+            f"(mean {np.mean(est):.1f} us, n = {est.size})")
+    ax.axvspan(33.2, 35.3, color="g", alpha=0.2, label="paper Table II range 33.2..35.3 us")
+    ax.axvline(34.1, color="k", ls="--", lw=1, label="plant delay 34.1 us")
+    ax.set_xlabel("t_d estimate [us]")
+    ax.set_ylabel("periods")
+    ax.set_title("G5 (Table II): eq. 20 delay estimates, 500 rpm no load", fontsize=9)
+    ax.legend(fontsize=7)
+    return [_save(fig, rep, "G5")]
+
+
+def plot_g6(rep):
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4))
+    for ax, rpm in zip(axes[:2], (2000, 3000)):
+        for state in ("off", "on", "naive"):
+            rec = _load(rep, f"G67.{rpm}.{state}")
+            if rec is None:
+                continue
+            w = {2000: (2.1, 2.2), 3000: (2.7, 2.8)}[rpm]
+            _pee_panel(ax, rec, *w, f"{rpm} rpm: PEE without / with pre-compensation",
+                       label={"off": "compensation off", "on": "compensation on",
+                              "naive": "Gong's naive baseline"}[state])
+        ax.legend(fontsize=7)
+    rows = {r.key: r.value for r in rep.rows if r.claim == "G6"}
+    speeds = [500, 2000, 3000]
+    axes[2].bar(np.arange(3) - 0.2, [rows.get(f"G6.{s}.off.iq", np.nan) for s in speeds], 0.4,
+                label="controller's i_q without")
+    axes[2].bar(np.arange(3) + 0.2, [rows.get(f"G6.{s}.on.iq", np.nan) for s in speeds], 0.4,
+                label="controller's i_q with")
+    axes[2].plot([-0.2, 0.2, 0.8, 1.2], [0.87, 0.83, 1.15, 1.08], "k*", ms=9,
+                 label="paper (Gong V-B)")
+    axes[2].set_xticks(np.arange(3), [f"{s} rpm" for s in speeds])
+    axes[2].set_ylabel("mean i_q reference of the controller [A]")
+    axes[2].set_title("G6: i_q at no load (paper: -4.6 / -6.1 / -7.5 % with compensation)",
+                      fontsize=9)
+    axes[2].legend(fontsize=7)
+    fig.suptitle("G6 (Fig. 15): the lag removed by the pre-compensation", fontsize=10)
+    return [_save(fig, rep, "G6")]
+
+
+def plot_g7(rep):
+    rows = {r.key: r.value for r in rep.rows if r.claim == "G7"}
+    fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
+    paper = {"sf": ((35, 33), (54, 51)), "thd": ((1.25, 1.23), (0.64, 0.62)),
+             "pee": ((0.2, 0.2), (0.1, 0.1))}
+    for ax, m, lab in zip(axes, ("sf", "thd", "pee"), ("SF [rpm]", "EMF THD [%]", "max PEE [rad]")):
+        x = np.arange(2)
+        for k, state in enumerate(("off", "on")):
+            ax.bar(x + (k - 0.5) * 0.4, [rows.get(f"G7.{s}.{state}.{m}", np.nan) for s in (500, 2000)],
+                   0.4, label=f"bench, compensation {state}")
+            ax.plot(x + (k - 0.5) * 0.4, [paper[m][i][k] for i in range(2)], "kx", ms=8,
+                    label="paper" if k == 0 else None)
+        ax.set_xticks(x, ["500 rpm", "2000 rpm"])
+        ax.set_ylabel(lab)
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3, axis="y")
+    fig.suptitle("G7 (Table III): experiment, without / with compensation", fontsize=10)
+    return [_save(fig, rep, "G7")]
+
+
+def plot_g8(rep):
+    return _dynamics(rep, "G8", "G8", (1.4, 3.2), "G8 (Fig. 16): load 2 N m at 1.6 s, unload 2.0 s, "
+                     "1200 rpm 2.4 s, 1000 rpm 2.8 s", 0.15)
+
+
+PLOTS: dict[str, Callable] = {
+    "Y1": plot_y1, "Y2": plot_y2, "Y3": plot_y3, "Y4": plot_y4, "Y5": plot_y5, "Y6": plot_y6,
+    "Y7": plot_y7, "Y8": plot_y8, "H1": plot_h1, "H2": plot_h2, "H3": plot_h3, "G1": plot_g1,
+    "G2": plot_g2, "G3": plot_g3, "G4": plot_g4, "G5": plot_g5, "G6": plot_g6, "G7": plot_g7,
+    "G8": plot_g8,
+}
+
+
+def plot_claims(rep) -> dict[str, list[Path]]:
+    out: dict[str, list[Path]] = {}
+    for c in rep.claims:
+        fn = PLOTS.get(c.id)
+        if fn is None:
+            continue
+        try:
+            out[c.id] = fn(rep)
+        except Exception as exc:  # noqa: BLE001 - a plot must not lose the report
+            fig, ax = plt.subplots(figsize=(6, 1.5))
+            ax.text(0.01, 0.5, f"{c.id}: plot failed: {type(exc).__name__}: {exc}", fontsize=8,
+                    va="center")
+            ax.set_axis_off()
+            out[c.id] = [_save(fig, rep, f"{c.id}_error")]
+    return out

@@ -1,0 +1,829 @@
+"""MCAP recorder: a child process that drains the cycle engine's shared-memory ring into MCAP.
+
+Data path. The bench maps a shared ring (``plant_rt/c/rec_ring.h``) before it forks the
+recorder. The C cycle engine writes every recorded message into it already encoded (protobuf,
+``bench/record/channels.py``); the recorder only copies records out and hands them to the ``mcap``
+writer (zstd chunks). The engine never blocks on the recorder: in real time it drops and counts
+a row the ring cannot take; in lockstep it waits a bounded time first (engine.h). The bench
+writes the few messages of its own (set-up frames, events, final statistics) into the same ring
+while the engine is not running, so the ring always has one producer.
+
+Control (channels, metadata, attachments, close) goes through a pipe. Metadata and attachments
+are written as they arrive; messages in ring order.
+
+Files are never lost or overwritten: the recording is written to ``.<name>.partial`` beside the
+target and renamed when it is finalised (normal end, Ctrl-C, a killed bench: the recorder sees
+the pipe close and still finalises). An existing target is refused unless ``force``, and so are
+the side files a run writes beside it (``<name>.serial.bin``, ``<name>.log``: ``SIDE_SUFFIXES``).
+If the recorder itself fails (disk full, an unwritable folder) it says why in one line, the bench
+ends the run, and the partial file keeps every complete chunk (``bench recover``).
+
+A recorder that is killed (SIGKILL, the OOM killer) cannot finalise anything, so what it has is
+on disk as soon as it has it: the MCAP header right after start, every schema and channel as it is
+registered (also outside the chunks: the chunk that carries them may never be written), the
+metadata and attachments as they arrive, every chunk when it closes. The bench side turns a
+closed pipe into ``RecorderError("recorder process (pid N) for PATH died (killed by signal S)
+...")`` wherever it talks to the recorder.
+"""
+from __future__ import annotations
+
+import mmap
+import os
+import struct
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mcap.records import Channel, Schema
+
+from hil_bench.plant_rt._plant_c import ffi, lib
+
+from . import channels as chans
+
+CHUNK_SIZE_BYTES = 256 * 1024
+PROFILE = "hil-bench"
+RING_CAPACITY_BYTES = 64 * 1024 * 1024   #: ~9 s of a 10 kHz G2 run at ~700 octets per cycle
+READ_BATCH_BYTES = 4 * 1024 * 1024
+STALL_TIMEOUT_S = 5.0     #: a recorder that drains nothing for this long while closing is stalled
+FINISH_TIMEOUT_S = 60.0   #: ... and with the ring empty, to write the file's summary
+EXIT_WAIT_S = 5.0         #: a recorder whose pipe closed is reaped within this (SIGKILL under load)
+_REC_HEADER = struct.Struct("<IHHq")
+
+
+class RecorderError(RuntimeError):
+    """The recorder cannot write the recording (message names the cause and the path)."""
+
+
+#: files a run writes beside its recording X.mcap: the serial byte capture (serial links,
+#: docs/replay.md) and the candump log (CAN links); refused like the recording itself
+SIDE_SUFFIXES: tuple[tuple[str, str], ...] = ((".serial.bin", "serial byte capture"),
+                                              (".log", "CAN log"))
+
+
+def partial_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.partial")
+
+
+def check_target(path: Path, force: bool, *, option: str = "--out",
+                 side_suffixes: tuple[tuple[str, str], ...] = SIDE_SUFFIXES) -> None:
+    """Refuse a target that exists (unless force) or cannot be a file, before anything runs; and
+    the side files the run writes beside it (``side_suffixes``: suffix, what) the same way."""
+    if path.is_dir():
+        raise RecorderError(f"{option} {path}: is a directory; give a file name (e.g. {path}/run.mcap)")
+    if path.exists() and not force:
+        raise RecorderError(f"{option} {path}: file exists; refusing to overwrite a recording "
+                            f"(use --force to replace it)")
+    for suffix, what in side_suffixes:
+        side = path.with_suffix(suffix)
+        if side.is_dir():
+            raise RecorderError(f"{option} {path}: {side} (the run's {what}) is a directory")
+        if side.exists() and not force:
+            raise RecorderError(f"{option} {path}: {side} exists (the run's {what} would replace it); "
+                                f"refusing to overwrite it (move it, choose another {option}, or use "
+                                f"--force to replace both)")
+    parent = path.parent if str(path.parent) else Path(".")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RecorderError(f"cannot create the recordings folder {parent}: {exc.strerror}") from None
+    if not os.access(parent, os.W_OK):
+        raise RecorderError(f"cannot write recordings into {parent}: permission denied")
+
+
+# -- the child ------------------------------------------------------------------------------
+
+
+class SpilledChunkIndexes:
+    """The writer's list of chunk indexes, kept in a temporary file instead of memory.
+
+    mcap's ``Writer`` keeps one ``ChunkIndex`` object per chunk (a dataclass and a dict of
+    per-channel offsets, about 1.7 kB) until ``finish`` writes the summary: 41 % growth of the
+    recorder's memory over a 10-minute soak (24 000 chunks). Each index is serialised to its
+    record bytes when the chunk closes and appended to an unnamed temporary file; ``finish``
+    reads them back in order. Memory stays flat; the summary written is byte for byte the same.
+    """
+
+    class _Record:
+        __slots__ = ("data",)
+
+        def __init__(self, data: bytes):
+            self.data = data
+
+        def write(self, stream) -> None:   # what Writer.finish calls on each index
+            stream.write(self.data)
+
+    def __init__(self) -> None:
+        import tempfile
+
+        self._file = tempfile.TemporaryFile()
+        self.count = 0
+
+    def append(self, index) -> None:
+        from mcap.data_stream import RecordBuilder
+
+        rb = RecordBuilder()
+        index.write(rb)
+        data = rb.end()
+        self._file.write(struct.pack("<I", len(data)))
+        self._file.write(data)
+        self.count += 1
+
+    def __len__(self) -> int:
+        return self.count
+
+    def __iter__(self):
+        self._file.flush()
+        self._file.seek(0)
+        for _ in range(self.count):
+            (n,) = struct.unpack("<I", self._file.read(4))
+            yield self._Record(self._file.read(n))
+        self._file.seek(0, os.SEEK_END)
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def spill_chunk_indexes(writer) -> SpilledChunkIndexes | None:
+    """Swap the writer's in-memory chunk index list for a SpilledChunkIndexes (before the first
+    chunk). None if this mcap version keeps them differently: the recording is the same, only
+    the memory grows with the run (tests/test_recording_safety.py checks the swap happens)."""
+    attr = "_Writer__chunk_indices"
+    if not isinstance(getattr(writer, attr, None), list) or getattr(writer, attr):
+        return None
+    spilled = SpilledChunkIndexes()
+    setattr(writer, attr, spilled)
+    return spilled
+
+
+class _BatchMessageIndex:
+    """A chunk's MessageIndex record of one channel, kept as numpy arrays (mcap's MessageIndex
+    holds a Python tuple per message); ``write`` emits the same bytes as mcap's."""
+
+    __slots__ = ("channel_id", "_times", "_offsets")
+
+    def __init__(self, channel_id: int):
+        self.channel_id = channel_id
+        self._times: list = []
+        self._offsets: list = []
+
+    def extend(self, times, offsets) -> None:
+        self._times.append(times)
+        self._offsets.append(offsets)
+
+    def write(self, stream) -> None:
+        import numpy as np
+        from mcap.opcode import Opcode
+
+        t = np.concatenate(self._times) if self._times else np.zeros(0, "<u8")
+        pairs = np.empty((len(t), 2), dtype="<u8")
+        pairs[:, 0] = t
+        pairs[:, 1] = np.concatenate(self._offsets) if self._offsets else pairs[:, 1]
+        stream.start_record(Opcode.MESSAGE_INDEX)
+        stream.write2(self.channel_id)
+        stream.write4(len(t) * 16)
+        stream.write(pairs.tobytes())
+        stream.finish_record()
+
+
+class FastChunkBuilder:
+    """mcap's ChunkBuilder (same interface, same bytes), fed whole batches of Message records
+    built in C (plant_rt/c/rec_mcap.c): the recorder spends no Python per message, which is what
+    lets it keep up at 10 kHz beside the real-time engine (docs/realtime.md). Single messages
+    (the slow path) go through mcap's own code."""
+
+    def __init__(self) -> None:
+        from mcap.data_stream import RecordBuilder
+
+        self.record_writer = RecordBuilder()
+        self.message_indices: dict = {}
+        self.message_start_time = 0
+        self.message_end_time = 0
+        self.num_messages = 0
+
+    @property
+    def count(self) -> int:
+        return self.record_writer.count
+
+    def end(self):
+        return self.record_writer.end()
+
+    def add_channel(self, channel) -> None:
+        channel.write(self.record_writer)
+
+    def add_schema(self, schema) -> None:
+        schema.write(self.record_writer)
+
+    def add_message(self, message) -> None:
+        import numpy as np
+
+        if self.num_messages == 0:
+            self.message_start_time = message.log_time
+        else:
+            self.message_start_time = min(self.message_start_time, message.log_time)
+        self.message_end_time = max(self.message_end_time, message.log_time)
+        index = self.message_indices.get(message.channel_id)
+        if index is None:
+            index = self.message_indices[message.channel_id] = _BatchMessageIndex(message.channel_id)
+        index.extend(np.array([message.log_time], "<u8"), np.array([self.record_writer.count], "<u8"))
+        self.num_messages += 1
+        message.write(self.record_writer)
+
+    def add_batch(self, records: bytes, entries) -> None:
+        """``records``: consecutive Message records; ``entries``: rec_mcap_entry_t rows (their
+        offsets from the start of ``records``, log times, channel ids)."""
+        import numpy as np
+
+        base = self.record_writer.count
+        times = entries["log_time"]
+        chans = entries["channel_id"]
+        if self.num_messages == 0:
+            self.message_start_time = int(times.min())
+        else:
+            self.message_start_time = min(self.message_start_time, int(times.min()))
+        self.message_end_time = max(self.message_end_time, int(times.max()))
+        _, first = np.unique(chans, return_index=True)
+        for i in np.sort(first):             # channels in the order of their first message
+            cid = int(chans[i])
+            mask = chans == cid
+            index = self.message_indices.get(cid)
+            if index is None:
+                index = self.message_indices[cid] = _BatchMessageIndex(cid)
+            index.extend(times[mask].astype("<u8"), entries["offset"][mask].astype("<u8") + base)
+        self.num_messages += len(entries)
+        self.record_writer.write(records)
+
+    def reset(self) -> None:
+        self.message_end_time = 0
+        self.message_indices.clear()
+        self.message_start_time = 0
+        self.record_writer.end()
+        self.num_messages = 0
+
+
+class FastPath:
+    """Ring records -> MCAP through FastChunkBuilder, updating the writer's statistics as
+    mcap's add_message does. ``install`` returns None when this mcap version keeps its state
+    differently (then the recorder takes the slow path: same file, more CPU)."""
+
+    OUT_CAP = 1 << 20
+    ENTRIES = 16384
+    RAW_CAP = 1 << 20
+
+    def __init__(self, writer, chunk_size: int):
+        import numpy as np
+
+        self.writer = writer
+        self.chunk_size = chunk_size
+        self.builder = FastChunkBuilder()
+        writer._Writer__chunk_builder = self.builder
+        self.stats = writer._Writer__statistics
+        self.finalize = writer._Writer__maybe_finalize_chunk
+        self.out = bytearray(self.OUT_CAP)
+        self.cout = ffi.from_buffer(self.out)
+        self.entries = np.zeros(self.ENTRIES, dtype=_ENTRY_DTYPE)
+        self.centries = ffi.cast("rec_mcap_entry_t *", ffi.from_buffer(self.entries))
+        self.raw = bytearray(self.RAW_CAP)
+        self.craw = ffi.from_buffer(self.raw)
+        self.res = ffi.new("rec_mcap_result_t *")
+        self.map = np.zeros(0, dtype=np.int32)
+        self.seqs = np.zeros(0, dtype=np.uint32)
+
+    @classmethod
+    def install(cls, writer, chunk_size: int) -> "FastPath | None":
+        builder = getattr(writer, "_Writer__chunk_builder", None)
+        if (builder is None or getattr(builder, "num_messages", 1) != 0
+                or not hasattr(writer, "_Writer__statistics")
+                or not hasattr(writer, "_Writer__maybe_finalize_chunk")
+                or not hasattr(builder, "record_writer") or _ENTRY_DTYPE is None):
+            return None
+        return cls(writer, chunk_size)
+
+    def set_channels(self, channel_ids: list[int], seqs: list[int]) -> None:
+        """channel_ids[ring channel]: the MCAP id (-1: the serial byte capture)."""
+        import numpy as np
+
+        self.map = np.array([c if c >= 0 else -1 for c in channel_ids], dtype=np.int32)
+        old = self.seqs
+        self.seqs = np.zeros(len(channel_ids), dtype=np.uint32)
+        self.seqs[:len(old)] = old[:len(channel_ids)]
+
+    def messages(self, cbuf, n: int, start_ns: int, raw_file) -> int:
+        """Write the ring records in cbuf[0..n) into the chunk(s) and the capture file; returns
+        the messages written."""
+        import numpy as np
+
+        stats = self.stats
+        cmap = ffi.cast("int32_t *", ffi.from_buffer(self.map))
+        cseqs = ffi.cast("uint32_t *", ffi.from_buffer(self.seqs))
+        pos, written = 0, 0
+        while pos < n:
+            limit = max(self.chunk_size - self.builder.count, 0)
+            lib.rec_to_mcap(cbuf + pos, n - pos, cmap, len(self.map), cseqs, start_ns, limit,
+                            self.cout, len(self.out), self.centries, self.ENTRIES, self.craw,
+                            len(self.raw), self.res)
+            r = self.res
+            if r.in_used == 0:
+                raise RuntimeError("recorder: a ring record larger than the fast path's buffers")
+            if r.raw_len and raw_file is not None:
+                raw_file.write(memoryview(self.raw)[:r.raw_len])
+            k = int(r.n_entries)
+            if k:
+                ents = self.entries[:k]
+                times = ents["log_time"]
+                if stats.message_count == 0:
+                    stats.message_start_time = int(times.min())
+                else:
+                    stats.message_start_time = min(stats.message_start_time, int(times.min()))
+                stats.message_end_time = max(stats.message_end_time, int(times.max()))
+                chans, first, counts = np.unique(ents["channel_id"], return_index=True,
+                                                 return_counts=True)
+                for j in np.argsort(first):   # first-seen order, as add_message inserts them
+                    stats.channel_message_counts[int(chans[j])] += int(counts[j])
+                stats.message_count += k
+                self.builder.add_batch(bytes(memoryview(self.out)[:r.out_len]), ents)
+                self.finalize()
+                written += k
+            pos += int(r.in_used)
+        return written
+
+
+def _entry_dtype():
+    try:
+        import numpy as np
+
+        return np.dtype({"names": ["offset", "log_time", "channel_id"],
+                         "formats": ["<u8", "<u8", "<u2"],
+                         "offsets": [ffi.offsetof("rec_mcap_entry_t", "offset"),
+                                     ffi.offsetof("rec_mcap_entry_t", "log_time"),
+                                     ffi.offsetof("rec_mcap_entry_t", "channel_id")],
+                         "itemsize": ffi.sizeof("rec_mcap_entry_t")})
+    except Exception:  # noqa: BLE001 - an older compiled module: the slow path
+        return None
+
+
+_ENTRY_DTYPE = _entry_dtype()
+
+
+def _close_inherited_fds(keep: tuple[int, ...]) -> None:
+    """Close every descriptor above stderr but ``keep`` (the recorder's pipe to the bench)."""
+    try:
+        fds = [int(name) for name in os.listdir("/proc/self/fd")]
+    except OSError:
+        fds = list(range(3, 1024))
+    for fd in fds:
+        if fd > 2 and fd not in keep:
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+
+def _write_outside_chunks(f, record) -> None:
+    """A Schema or Channel record straight into the data section, and to disk. The writer also
+    puts it into the open chunk (written only once it holds messages); MCAP allows the duplicate
+    (identical records with the same id), and a reader of a file cut before that chunk still
+    knows every channel. Called only between writer operations, when the writer has flushed its
+    own records (its offsets come from f.tell(), so they stay right)."""
+    from mcap.data_stream import RecordBuilder
+
+    rb = RecordBuilder()
+    record.write(rb)
+    f.write(rb.end())
+    f.flush()
+
+
+def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: int,
+           force: bool, cpus: tuple[int, ...] = ()) -> None:
+    import signal as _signal
+
+    from mcap.writer import CompressionType, Writer
+
+    # fork copied the parent's end of the pipe: close it, or a dead parent would never show as
+    # EOF here and the file would never be finalised
+    parent_end.close()
+    # ... and every other descriptor the parent had open: a link's pty master or socket kept
+    # open here would hide the link's end from the controller (a stub blocked writing to a pty
+    # whose master the bench has closed would never see EIO, nor exit)
+    _close_inherited_fds(keep=(conn.fileno(),))
+    _signal.signal(_signal.SIGINT, _signal.SIG_IGN)   # the parent decides when to stop
+    if cpus:
+        try:
+            os.sched_setaffinity(0, cpus)   # real time: the engine's CPU, below the engine
+        except OSError:
+            pass
+    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0":
+        # throughput, not latency: every other task of the machine comes first
+        try:
+            os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+            os.nice(19)
+        except OSError:
+            pass
+    target = Path(path)
+    tmp = partial_path(target)
+    ring = ffi.new("rec_ring_t *")
+    if lib.rec_ring_attach(ring, ffi.from_buffer(ring_mem), ring_size) != 0:
+        conn.send(("error", "recorder: the shared ring is not formatted"))
+        return
+    buf = bytearray(READ_BATCH_BYTES)
+    cbuf = ffi.from_buffer(buf)
+    channel_ids: list[int] = []
+    raw_files: dict[int, object] = {}   # ring channel -> side file (serial byte capture)
+    messages = 0
+    error = None
+    f = None
+    writer = None
+    try:
+        f = open(tmp, "wb")
+        writer = Writer(f, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        spill_chunk_indexes(writer)
+        fast = (FastPath.install(writer, chunk_size)
+                if os.environ.get("HIL_RECORDER_FAST", "1") != "0" else None)
+        writer.start(profile=PROFILE, library="hil-bench recorder")
+        f.flush()   # a recorder killed from here on leaves a file that starts as an MCAP file
+        schema_ids: dict[str, int] = {}
+        seqs: list[int] = []
+        # the run's wall-clock start: log times are start + the engine's run time (a test pins
+        # it with HIL_RECORDER_T0_NS to compare two recorders byte for byte)
+        start_ns = int(os.environ.get("HIL_RECORDER_T0_NS") or time.time_ns())
+
+        def drain(budget: int | None = None) -> int:
+            """Copy records out of the ring into the file until it is empty, or until
+            ``budget`` octets were read (what was pending at a request: a writer that keeps the
+            ring busy cannot hold a control message back for ever). Returns octets read."""
+            nonlocal messages
+            total = 0
+            while budget is None or total < budget:
+                n = lib.rec_ring_read(ring, cbuf, len(buf))
+                if n == 0:
+                    return total
+                total += n
+                if fast is not None and len(raw_files) <= 1:
+                    if len(fast.map) != len(channel_ids):
+                        fast.set_channels(channel_ids, seqs)
+                    messages += fast.messages(cbuf, n, start_ns,
+                                              next(iter(raw_files.values()), None))
+                    continue
+                view = memoryview(buf)[:n]
+                off = 0
+                add = writer.add_message
+                while off < n:
+                    length, channel, _flags, t_ns = _REC_HEADER.unpack_from(view, off)
+                    data = bytes(view[off + 16:off + 16 + length])
+                    off += 16 + ((length + 7) & ~7)
+                    if channel >= len(channel_ids):
+                        continue   # a channel the bench never registered: cannot happen
+                    side = raw_files.get(channel)
+                    if side is not None:   # serial byte capture: direction octet, then octets
+                        from .serial_capture import write_record
+
+                        write_record(side, t_ns, data[0], data[1:])
+                        continue
+                    t = start_ns + t_ns
+                    add(channel_id=channel_ids[channel], log_time=t, publish_time=t,
+                        sequence=seqs[channel], data=data)
+                    seqs[channel] += 1
+                    messages += 1
+            return total
+
+        conn.send(("ready", str(tmp)))
+        busy = False
+        while True:
+            if conn.poll(0 if busy else 0.002):
+                try:
+                    msg = conn.recv()
+                except EOFError:
+                    break   # parent gone: finalise what we have
+                kind = msg[0]
+                if kind == "channel":
+                    _, topic, schema_name = msg
+                    if schema_name not in schema_ids:
+                        sid = schema_ids[schema_name] = writer.register_schema(
+                            name=schema_name, encoding="protobuf",
+                            data=chans.file_descriptor_set())
+                        _write_outside_chunks(f, Schema(id=sid, name=schema_name, encoding="protobuf",
+                                                        data=chans.file_descriptor_set()))
+                    cid = writer.register_channel(topic=topic, message_encoding=chans.MESSAGE_ENCODING,
+                                                  schema_id=schema_ids[schema_name])
+                    _write_outside_chunks(f, Channel(id=cid, topic=topic,
+                                                     message_encoding=chans.MESSAGE_ENCODING,
+                                                     schema_id=schema_ids[schema_name], metadata={}))
+                    channel_ids.append(cid)
+                    seqs.append(0)
+                    conn.send(("channel_ok", len(channel_ids) - 1))
+                elif kind == "rawfile":
+                    from .serial_capture import write_header
+
+                    try:
+                        side = open(msg[1], "wb" if force else "xb")   # never replaces a capture
+                    except FileExistsError:
+                        conn.send(("error", f"{msg[1]} exists (appeared after the check); refusing "
+                                            f"to overwrite it"))
+                        continue
+                    write_header(side)
+                    raw_files[len(channel_ids)] = side
+                    channel_ids.append(-1)
+                    seqs.append(0)
+                    conn.send(("channel_ok", len(channel_ids) - 1))
+                elif kind == "metadata":
+                    drain(int(lib.rec_ring_pending(ring)))   # what was written before it
+                    writer.add_metadata(name=msg[1], data=msg[2])
+                    f.flush()
+                elif kind == "attachment":
+                    now = time.time_ns()
+                    writer.add_attachment(create_time=now, log_time=now, name=msg[1],
+                                          media_type=msg[2], data=msg[3])
+                    f.flush()
+                elif kind == "drain":
+                    drain(int(lib.rec_ring_pending(ring)))
+                    conn.send(("drained", messages))
+                elif kind == "close":
+                    break
+            busy = drain(READ_BATCH_BYTES) > 0   # then look at the pipe again
+        drain()
+    except OSError as exc:
+        error = f"recorder: cannot write {target}: {exc.strerror or exc}"
+    except Exception as exc:  # noqa: BLE001 - report, then finalise what we can
+        error = f"recorder: {type(exc).__name__}: {exc} (writing {target})"
+    finally:
+        for side in raw_files.values():
+            try:
+                side.close()
+            except OSError as exc:
+                error = error or f"recorder: cannot close {side.name}: {exc.strerror}"
+        finished = False
+        if writer is not None:
+            try:
+                writer.finish()
+                finished = True
+            except Exception as exc:  # noqa: BLE001
+                error = error or f"recorder: cannot finalise {target}: {exc}"
+        if f is not None:
+            try:
+                f.close()
+            except OSError as exc:
+                error = error or f"recorder: cannot close {target}: {exc.strerror}"
+        final = str(tmp)
+        if finished and error is None:
+            try:
+                if target.exists() and not force:
+                    raise OSError(f"{target} appeared while recording; kept as {tmp}")
+                os.replace(tmp, target)
+                final = str(target)
+            except OSError as exc:
+                error = f"recorder: cannot rename {tmp} to {target}: {exc}"
+        try:
+            conn.send(("closed", messages, final, error))
+        except (BrokenPipeError, OSError):
+            pass
+        conn.close()
+
+
+# -- the bench side ---------------------------------------------------------------------------
+
+
+def _empty_size() -> int:
+    """Octets of what the recorder writes before any data: the magic and its header record."""
+    import io
+
+    from mcap.writer import Writer
+
+    buf = io.BytesIO()
+    Writer(buf).start(profile=PROFILE, library="hil-bench recorder")
+    return len(buf.getvalue())
+
+
+@dataclass
+class ProcessChannel:
+    """A registered channel; the bench writes through it only while the engine is not running."""
+
+    recorder: "ProcessRecorder"
+    index: int
+    topic: str
+    kind: str
+
+    def write_values(self, t_s: float, values) -> None:
+        self.recorder.write(self.index, t_s, chans.encode_row(self.kind, values))
+
+    def write(self, t_s: float, message: dict[str, Any]) -> None:
+        self.write_values(t_s, message)
+
+
+class ProcessRecorder:
+    """Writes one MCAP file through a recorder process. Context manager; always finalised."""
+
+    def __init__(self, path: Path, *, force: bool = False, ring_capacity: int = RING_CAPACITY_BYTES,
+                 chunk_size: int = CHUNK_SIZE_BYTES, cpus: tuple[int, ...] = ()):
+        """``cpus``: the CPUs the recorder process may run on (empty: any)."""
+        import multiprocessing as mp
+
+        self.path = Path(path)
+        check_target(self.path, force, side_suffixes=())   # the side files: the run checked them first
+        self.ring_size = int(lib.rec_ring_mapping_size(ring_capacity))
+        self.ring_mem = mmap.mmap(-1, self.ring_size)   # MAP_SHARED | MAP_ANONYMOUS: survives fork
+        if lib.rec_ring_format(ffi.from_buffer(self.ring_mem), self.ring_size) != 0:
+            raise RecorderError("cannot format the recording ring")
+        self.ring = ffi.new("rec_ring_t *")
+        lib.rec_ring_attach(self.ring, ffi.from_buffer(self.ring_mem), self.ring_size)
+        ctx = mp.get_context("fork")
+        self._conn, child = ctx.Pipe()
+        self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path),
+                                                      self.ring_mem, self.ring_size, chunk_size,
+                                                      force, tuple(cpus)),
+                                 name="hil-recorder", daemon=False)
+        self._proc.start()
+        child.close()
+        self.channels: list[ProcessChannel] = []
+        self.closed = False
+        self.final_path: Path | None = None
+        self.messages = 0
+        self.error: str | None = None
+        first = self._request(None, "start", timeout_s=10.0)
+        if first[0] != "ready":
+            self._proc.join(5.0)
+            raise RecorderError(self._child_error(first))
+
+    @staticmethod
+    def _child_error(msg) -> str:
+        if msg[0] == "closed":
+            return msg[3] or "recorder stopped"
+        return str(msg[1])
+
+    @property
+    def pid(self) -> int:
+        return self._proc.pid
+
+    def alive(self) -> bool:
+        return self._proc.is_alive()
+
+    def _exit_text(self) -> str:
+        """How the recorder process ended (waits a moment for it to be reaped)."""
+        self._proc.join(EXIT_WAIT_S)
+        code = self._proc.exitcode
+        if code is None:
+            return "still running, but its pipe is closed"
+        return f"killed by signal {-code}" if code < 0 else f"exit code {code}"
+
+    def _leftover(self) -> str:
+        """What a dead recorder left: the partial file with what it wrote, or nothing (an empty
+        or header-only partial file is removed: it holds no recorded data)."""
+        part = partial_path(self.path)
+        try:
+            size = part.stat().st_size
+        except OSError:
+            self.final_path = None
+            return "nothing was recorded"
+        if size <= _empty_size():
+            try:
+                part.unlink()
+            except OSError:
+                return f"nothing was recorded ({part} is empty)"
+            self.final_path = None
+            return f"nothing was recorded (the empty {part} was removed)"
+        self.final_path = part
+        return f"what it wrote is in {part} (`bench check` reads it, `bench recover` copies its intact chunks)"
+
+    def death_message(self) -> str:
+        """Why the recorder is gone (its own words if it sent them)."""
+        try:
+            if self._conn.poll(0.5):
+                msg = self._conn.recv()
+                if msg[0] == "closed" and msg[3]:
+                    self.error = msg[3]
+                    return msg[3]
+        except (EOFError, OSError):
+            pass
+        return (f"recorder process (pid {self._proc.pid}) for {self.path} died ({self._exit_text()}); "
+                f"{self._leftover()}")
+
+    def _request(self, msg, what: str, timeout_s: float = 10.0):
+        """Send a control message (None: only wait) and wait for its answer. A recorder that
+        died (closed pipe: EOFError, BrokenPipeError) or does not answer is a RecorderError that
+        names it, never a traceback."""
+        try:
+            if msg is not None:
+                self._conn.send(msg)
+            if not self._conn.poll(timeout_s):
+                if self._proc.is_alive():
+                    raise RecorderError(f"recorder process (pid {self._proc.pid}) for {self.path} "
+                                        f"does not answer ({what}, {timeout_s:g} s)")
+                raise EOFError
+            return self._conn.recv()
+        except (EOFError, OSError):   # BrokenPipeError, ConnectionResetError: OSErrors
+            self.error = self.death_message()
+            raise RecorderError(self.error) from None
+
+    def channel(self, topic: str, kind: str | None = None) -> ProcessChannel:
+        kind = kind or chans.kind_of_topic(topic)
+        if kind is None:
+            raise ValueError(f"no channel kind for topic {topic!r}")
+        # synchronous: records of this channel may follow at once, and the recorder must know
+        # the channel before it drains them
+        reply = self._request(("channel", topic, chans.LAYOUTS[kind].schema_name), f"channel {topic}")
+        if reply[0] != "channel_ok" or reply[1] != len(self.channels):
+            raise RecorderError(self._child_error(reply))
+        ch = ProcessChannel(self, len(self.channels), topic, kind)
+        self.channels.append(ch)
+        return ch
+
+    def raw_capture(self, path: Path) -> int:
+        """A ring channel whose records go to a serial byte capture beside the recording
+        (bench/record/serial_capture.py: payload = direction octet + octets, time = the
+        record's t_ns as it is). Returns the channel index (engine ch_serial_raw)."""
+        reply = self._request(("rawfile", str(path)), f"serial capture {path}")
+        if reply[0] != "channel_ok" or reply[1] != len(self.channels):
+            raise RecorderError(self._child_error(reply))
+        self.channels.append(ProcessChannel(self, len(self.channels), str(path), "RAW"))
+        return reply[1]
+
+    def write_raw(self, index: int, t_ns: int, data: bytes) -> None:
+        """One record with its time in ns as it is (a raw capture channel)."""
+        deadline = time.monotonic() + 5.0
+        while lib.rec_ring_write(self.ring, index, int(t_ns), data, len(data)) != 0:
+            if not self.alive() or time.monotonic() > deadline:
+                return
+            time.sleep(0.001)
+
+    def write(self, index: int, t_s: float, data: bytes) -> None:
+        """One message into the ring (only while no engine is writing)."""
+        t_ns = int(round(t_s * 1e9))
+        deadline = time.monotonic() + 5.0
+        while lib.rec_ring_write(self.ring, index, t_ns, data, len(data)) != 0:
+            if not self.alive() or time.monotonic() > deadline:
+                return   # counted as a drop in the ring header
+            time.sleep(0.001)
+
+    def _send(self, msg) -> bool:
+        """A control message; False if the recorder is gone (its death is reported by the
+        bench's watch and by close(), which name the cause)."""
+        try:
+            self._conn.send(msg)
+            return True
+        except (BrokenPipeError, OSError):
+            return False
+
+    def metadata(self, name: str, data: dict[str, str]) -> None:
+        self._send(("metadata", name, {k: str(v) for k, v in data.items()}))
+
+    def attachment(self, name: str, media_type: str, data: bytes) -> None:
+        self._send(("attachment", name, media_type, data))
+
+    @property
+    def dropped(self) -> int:
+        return int(self.ring.hdr.records_dropped)
+
+    def close(self) -> None:
+        """Drain, finalise, rename. Raises RecorderError naming the cause if that failed."""
+        if self.closed:
+            return
+        self.closed = True
+        lib.rec_ring_close(self.ring)
+        reply = None
+        pipe_closed = False
+        try:
+            self._conn.send(("close",))
+            # the recorder drains what is left; it is stalled only if it makes no progress
+            pending = lib.rec_ring_pending(self.ring)
+            last_progress = time.monotonic()
+            while reply is None and time.monotonic() - last_progress < (
+                    STALL_TIMEOUT_S if pending > 0 else FINISH_TIMEOUT_S):
+                if self._conn.poll(0.2):
+                    msg = self._conn.recv()
+                    if msg[0] == "closed":
+                        reply = msg
+                elif not self._proc.is_alive():
+                    break
+                now_pending = lib.rec_ring_pending(self.ring)
+                if now_pending < pending:
+                    pending = now_pending
+                    last_progress = time.monotonic()
+        except (EOFError, OSError):   # the recorder closed its pipe: it is gone, or going
+            pipe_closed = True
+        finally:
+            self._conn.close()
+        if reply is None:
+            self.final_path = partial_path(self.path)
+            if pipe_closed:
+                self._proc.join(EXIT_WAIT_S)   # killed: on a loaded machine it takes a moment
+            if self._proc.is_alive():
+                self._proc.kill()
+                self._proc.join(5.0)
+                self.error = (f"recorder process (pid {self._proc.pid}) stalled: nothing "
+                              f"written for {STALL_TIMEOUT_S:g} s while finishing {self.path}; it "
+                              f"was killed; {self._leftover()}")
+            else:
+                self.error = (f"recorder process (pid {self._proc.pid}) for {self.path} died "
+                              f"({self._exit_text()}); {self._leftover()}")
+            raise RecorderError(self.error)
+        self._proc.join(10.0)
+        _, self.messages, final, error = reply
+        self.final_path = Path(final)
+        if error:
+            self.error = error
+            raise RecorderError(error)
+
+    def __enter__(self) -> "ProcessRecorder":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
