@@ -616,7 +616,8 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
                                 cfg->source == ENGINE_SOURCE_REPLAY_PLANT;
         const int needs_rows = cfg->source != ENGINE_SOURCE_PLANT;
         if ((needs_plant && plant == NULL) || !(cfg->ts_s > 0.0) || cfg->n_cycles < 0 ||
-            (needs_link && cfg->link_fd < 0) || (needs_rows && cfg->replay_cycles == NULL) ||
+            (needs_link && cfg->link_fd < 0 && cfg->link_peer.write == NULL) ||
+            (needs_rows && cfg->replay_cycles == NULL) ||
             (cfg->source == ENGINE_SOURCE_REPLAY_CONTROLLER && cfg->replay_frames == NULL) ||
             cfg->source < ENGINE_SOURCE_PLANT || cfg->source > ENGINE_SOURCE_REPLAY_ESTIMATORS ||
             !(cfg->sig_i.scale > 0.0) || !(cfg->sig_vdc.scale > 0.0) || cfg->duty_raw_full == 0u) {
@@ -646,14 +647,23 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
         }
         e->have_ring = 1;
     }
-    if (cfg->link_fd >= 0) {
+    if (cfg->link_peer.write != NULL) {
+        if (cfg->link_peer.read == NULL || cfg->link_kind != ENG_LINK_SERIAL) {
+            set_message(e, "engine: an in-process controller needs read and write, on the serial "
+                        "framing");
+            return -1;
+        }
+        hil_deframer_init(&e->link.deframer);
+        eng_link_attach_peer(&e->link, &cfg->link_peer);
+    } else if (cfg->link_fd >= 0) {
         eng_link_init(&e->link, cfg->link_fd, cfg->link_kind);
     } else {
         hil_deframer_init(&e->link.deframer);
         e->link.fd = -1;
     }
     e->link.fd_brs = cfg->can_brs;
-    if (cfg->capture_serial && e->have_ring && cfg->link_fd >= 0 &&
+    if (cfg->capture_serial && e->have_ring &&
+        (cfg->link_fd >= 0 || cfg->link_peer.write != NULL) &&
         cfg->link_kind == ENG_LINK_SERIAL) {
         e->link.tap = serial_tap;
         e->link.tap_ctx = e;
@@ -744,8 +754,10 @@ int engine_add_event(engine_t *e, const engine_event_t *ev)
             return -1;
         }
     }
-    if (ev->kind == ENGINE_EV_CONTROLLER_RESET && ev->command <= 1) {
-        set_message(e, "engine: a controller reset needs the controller's process id");
+    if (ev->kind == ENGINE_EV_CONTROLLER_RESET && ev->command <= 1 &&
+        e->link.peer.restart == NULL) {
+        set_message(e, "engine: a controller reset needs the controller's process id (or an "
+                    "in-process controller)");
         return -1;
     }
     if (is_fault) {
@@ -909,9 +921,16 @@ static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
             break;
         case ENGINE_EV_CONTROLLER_RESET: {
             char text[128];
-            const int rc = kill((pid_t)ev->command, SIGUSR1);
-            snprintf(text, sizeof text, "SIGUSR1 to process %d%s", ev->command,
-                     rc == 0 ? "" : " failed: the process is gone");
+            int rc = 0;
+            if (e->link.peer.restart != NULL) {
+                /* software in the loop: the power cycle happens here, before this cycle's SENSE */
+                e->link.peer.restart(e->link.peer.ctx, eng_now_ns());
+                snprintf(text, sizeof text, "in-process controller restarted (power cycle)");
+            } else {
+                rc = kill((pid_t)ev->command, SIGUSR1);
+                snprintf(text, sizeof text, "SIGUSR1 to process %d%s", ev->command,
+                         rc == 0 ? "" : " failed: the process is gone");
+            }
             record_fault(e, (int32_t)c->seq, ev->fault_index, "controller", ev->fault_name, "",
                          rc == 0 ? "on" : "refused", text, 0.0);
             if (rc == 0) {
@@ -1305,6 +1324,9 @@ static void record_cycle(engine_t *e, cycle_t *c)
     const double theta = s->theta_e_rad;
     if (!e->have_ring) {
         text_reset(e->rx_text, &e->rx_len);
+        if (c->have_telem && c->st >= 0) {
+            e->last_state = c->st; /* a restart is told by it, recorded or not */
+        }
         return;
     }
     if (!record_full(e, c->k)) {

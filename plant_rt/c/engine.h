@@ -100,7 +100,8 @@ typedef enum {
     ENGINE_EV_NOTE = 3,       /* only the /events row */
     ENGINE_EV_PLANT_FAULT = 4,       /* plant_set_fault(fault_kind, phase, phase2, level, value) */
     ENGINE_EV_PLANT_FAULT_CLEAR = 5, /* plant_clear_fault(fault_kind, fault_phase) */
-    ENGINE_EV_CONTROLLER_RESET = 6   /* SIGUSR1 to process `command` (the stub restarts) */
+    ENGINE_EV_CONTROLLER_RESET = 6   /* restart the controller: SIGUSR1 to process `command` (the
+                                      * stub), or the in-process controller's power cycle */
 } engine_event_kind_t;
 
 typedef struct {
@@ -206,6 +207,9 @@ typedef struct {
     /* the link */
     int link_kind;             /* eng_link_kind_t */
     int link_fd;
+    eng_link_peer_t link_peer; /* software in the loop: the controller in this process (its
+                                * write != NULL; link_fd unused, serial framing); controller
+                                * restarts call its restart() instead of signalling a process */
     int can_brs;
     double retry_timeout_s;    /* lockstep: wait this long for DUTY before re-sending SENSE */
     int max_retries;           /* lockstep: re-sends of one cycle's SENSE */
