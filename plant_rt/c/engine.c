@@ -318,7 +318,7 @@ static void trace_act(engine_t *e, int index, long extra_cycles)
     if (index < 0 || index >= ENGINE_MAX_TRACES) {
         return;
     }
-    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+    for (i = 0; i < e->n_traces; ++i) {
         if (i != index && e->traces[i].state == 1 && e->traces[i].seen_k >= 0 &&
             e->traces[i].seen_k < e->cur_k) {
             trace_close(e, i, NULL);
@@ -376,7 +376,7 @@ static void trace_close(engine_t *e, int index, const char *ended)
 static void traces_step(engine_t *e)
 {
     int i;
-    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+    for (i = 0; i < e->n_traces; ++i) {
         engine_trace_t *t = &e->traces[i];
         if (t->state != 1) {
             continue;
@@ -662,6 +662,9 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
         e->link.fd = -1;
     }
     e->link.fd_brs = cfg->can_brs;
+    if (!e->have_ring) {
+        e->cfg.record_frames = 0; /* the frames' text is only ever recorded */
+    }
     if (cfg->capture_serial && e->have_ring &&
         (cfg->link_fd >= 0 || cfg->link_peer.write != NULL) &&
         cfg->link_kind == ENG_LINK_SERIAL) {
@@ -719,6 +722,9 @@ static int trace_setup(engine_t *e, int index, const char *name, const char *tar
         return -1;
     }
     t = &e->traces[index];
+    if (index >= e->n_traces) {
+        e->n_traces = index + 1;
+    }
     snprintf(t->name, sizeof t->name, "%s", name);
     snprintf(t->target, sizeof t->target, "%s", target);
     t->window_cycles = (long)ceil(detect_within_s / e->cfg.ts_s);
@@ -1518,7 +1524,7 @@ static void rtt_evidence(engine_t *e, const cycle_t *c, int64_t sent_ns)
     if (!has_link_faults(e) || !c->have_duty) {
         return;
     }
-    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+    for (i = 0; i < e->n_traces; ++i) {
         engine_trace_t *t = &e->traces[i];
         if (t->state == 1 && t->delay_s > 0.0 &&
             (double)(c->duty_t_ns - sent_ns) * 1e-9 >= t->delay_s) {
@@ -2313,7 +2319,7 @@ static void traces_end(engine_t *e)
     const int evidence = e->end == ENGINE_END_NO_DUTY || e->end == ENGINE_END_CONTROLLER_FAULT ||
                          e->end == ENGINE_END_WATCHDOG || e->end == ENGINE_END_LINK ||
                          e->end == ENGINE_END_BAD_DUTIES || e->end == ENGINE_END_PROTOCOL;
-    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+    for (i = 0; i < e->n_traces; ++i) {
         if (e->traces[i].state == 1) {
             trace_close(e, i, evidence ? e->message : NULL);
         }

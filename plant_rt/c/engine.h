@@ -293,6 +293,7 @@ typedef struct engine {
     /* the trace of every fault of the scenario (by its [[faults]] index): the counters that
      * moved between the fault's first action and the end of its detection window */
     engine_trace_t traces[ENGINE_MAX_TRACES];
+    int n_traces;                /* traces[0..n_traces) may be set up */
     /* full-rate recording windows [start, end) in cycles (faults), and after a trip */
     long full_rate[ENGINE_MAX_EVENTS + ENGINE_MAX_LINK_FAULTS][2];
     int n_full_rate;

@@ -230,28 +230,29 @@ static int read_available(eng_link_t *l)
                 max = sizeof buf;
             }
             if (l->peer.read != NULL) {
-                n = (ssize_t)l->peer.read(l->peer.ctx, buf, max, eng_now_ns());
+                now = eng_now_ns();
+                n = (ssize_t)l->peer.read(l->peer.ctx, buf, max, now);
                 if (n == 0) {
                     return 0;
                 }
             } else {
                 n = read(l->fd, buf, max);
-            }
-            if (n < 0) {
-                if (errno == EINTR) {
-                    continue;
+                if (n < 0) {
+                    if (errno == EINTR) {
+                        continue;
+                    }
+                    if (errno == EAGAIN) {
+                        return 0;
+                    }
+                    fail(l, "read", errno);
+                    return -1;
                 }
-                if (errno == EAGAIN) {
-                    return 0;
+                if (n == 0) {
+                    fail(l, "read", 0);
+                    return -1;
                 }
-                fail(l, "read", errno);
-                return -1;
+                now = eng_now_ns();
             }
-            if (n == 0) {
-                fail(l, "read", 0);
-                return -1;
-            }
-            now = eng_now_ns();
             if (l->tap != NULL) {
                 l->tap(l->tap_ctx, 1, buf, (size_t)n, now);
             }
