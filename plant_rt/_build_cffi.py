@@ -314,6 +314,7 @@ int engine_add_event(engine_t *e, const engine_event_t *ev);
 int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f);
 int engine_run(engine_t *e);
 void engine_request_stop(engine_t *e);
+int engine_add_full_rate(engine_t *e, long from_k, long to_k);
 double engine_hist_percentile(const engine_hist_t *h, double q);
 void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extra);
 int engine_send(engine_t *e, uint16_t id, const uint8_t *data, uint16_t dlc);

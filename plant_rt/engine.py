@@ -230,6 +230,11 @@ class Engine:
         if lib.engine_add_event(self._e, ev) != 0:
             raise ValueError(ffi.string(self._e.message).decode())
 
+    def add_full_rate(self, from_cycle: int, to_cycle: int) -> None:
+        """Cycles [from_cycle, to_cycle) recorded in full in a decimated recording."""
+        if lib.engine_add_full_rate(self._e, int(from_cycle), int(to_cycle)) != 0:
+            raise ValueError(ffi.string(self._e.message).decode())
+
     def add_link_fault(self, *, index: int, name: str, kind: str, direction: int,
                        frame_id: int = -1, cycle_on: int, cycle_off: int = 0, count: int = 0,
                        probability: float = 1.0, delay_s: float = 0.0, jitter_s: float = 0.0,

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
+from hil_bench.cluster.limits import expired
 from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
 from hil_bench.plant_rt.profile import load_profile
@@ -64,6 +65,7 @@ class RunResult:
     timing: dict = field(default_factory=dict)
     realtime_notes: str = ""
     ts_s: float = 0.0              # the control period [s]
+    timed_out: bool = False        # ended by the executor's per-run time limit
 
     @property
     def ok(self) -> bool:
@@ -171,8 +173,12 @@ class Runner:
                  progress: bool = True, stub_args: tuple[str, ...] = (),
                  allow_slow_link: bool = False, force: bool = False,
                  realtime: bool | None = None, record: bool = True, cpu: int | None = None,
-                 ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None):
-        """``recorder_cpus``: overrides where the recorder runs (hil_bench.perf.loop compares)."""
+                 ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None,
+                 full_rate_s: tuple[tuple[float, float], ...] = ()):
+        """``recorder_cpus``: overrides where the recorder runs (hil_bench.perf.loop compares).
+        ``full_rate_s``: time windows [s] recorded in full when the scenario's recording is
+        decimated (the windows its metrics read: hil_bench.sweep)."""
+        self.full_rate_s = tuple(full_rate_s)
         self.scn = scenario
         self._recorder_cpus_override = recorder_cpus
         self.mode = "realtime" if (realtime if realtime is not None else
@@ -573,6 +579,8 @@ class Runner:
                        sil=link.sil, **options)
         for (_, kind, est), chan in zip(self.references, self.ch_refs):
             e.add_reference(int(kind), est, chan.index)
+        for t0_s, t1_s in self.full_rate_s:
+            e.add_full_rate(max(0, math.floor(t0_s / self.ts_s) - 1), math.ceil(t1_s / self.ts_s) + 1)
         self._schedule_events(e)
         # what the Python link received but did not use: the engine continues from there
         py_link = opened.link
@@ -647,6 +655,13 @@ class Runner:
                     result.interrupted = True
                     break
                 result.cycles_done = e.cycles_done
+                limit_s = expired()
+                if limit_s is not None:
+                    # the executor's per-run time limit (hil_bench.cluster): a hung run ends
+                    e.request_stop()
+                    e.join()
+                    result.timed_out = True
+                    break
                 if progress is not None:
                     progress.update(result.cycles_done, e.speed_rpm)
                 if not rec.alive():
@@ -662,7 +677,10 @@ class Runner:
         result.end = r.end_name
         result.realtime_notes = "; ".join(n for n in (r.rt_notes, self._throttling_note(),
                                                       self._stub_rt_notes()) if n)
-        if result.interrupted:
+        if result.timed_out:
+            result.error = (f"time limit of {expired():g} s per run exceeded at cycle "
+                            f"{r.cycles_done}: the run was ended")
+        elif result.interrupted:
             result.error = f"interrupted by the user at cycle {r.cycles_done}"
         elif r.end == eng.END_CONTROLLER_FAULT:
             try:

@@ -742,6 +742,21 @@ static void add_full_rate_window(engine_t *e, long from, long to)
     }
 }
 
+int engine_add_full_rate(engine_t *e, long from_k, long to_k)
+{
+    if (e->cfg.record_every <= 1) {
+        return 0; /* every cycle is recorded anyway */
+    }
+    if (e->n_full_rate >= ENGINE_MAX_EVENTS + ENGINE_MAX_LINK_FAULTS || to_k < from_k) {
+        set_message(e, "engine: too many full-rate windows, or one that ends before it starts");
+        return -1;
+    }
+    e->full_rate[e->n_full_rate][0] = from_k;
+    e->full_rate[e->n_full_rate][1] = to_k;
+    e->n_full_rate++;
+    return 0;
+}
+
 int engine_add_event(engine_t *e, const engine_event_t *ev)
 {
     const int is_fault = ev->kind == ENGINE_EV_PLANT_FAULT ||

@@ -350,6 +350,9 @@ int engine_add_reference(engine_t *e, int kind, const void *config, size_t confi
                          uint16_t channel);
 /** Add a scheduled event; events must be added in cycle order. 0 or -1 (full, out of order). */
 int engine_add_event(engine_t *e, const engine_event_t *ev);
+/** Record cycles [from_k, to_k) in full in a decimated recording (record_every > 1; else a
+ *  no-op): the windows the metrics read. 0, or -1 (full). */
+int engine_add_full_rate(engine_t *e, long from_k, long to_k);
 /** Add a link fault (engine_faults.h). 0, or -1 with e->message (bad values, full, not possible
  *  on this link). */
 int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f);
