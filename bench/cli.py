@@ -133,7 +133,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     out_dir = Path(args.out) if args.out else Path("reports") / "campaigns" / camp.name
     t0 = time.monotonic()
     results = run_campaign(camp, out_dir, jobs=args.jobs, link=args.link, keep_all=args.keep_all,
-                           console=err)
+                           console=err, scheduler=args.scheduler)
     md = write_report(camp, results, out_dir, time.monotonic() - t0)
     out = Console()
     for r in results:
@@ -192,7 +192,7 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
             rep = run_report(args.out, only=only, jobs=args.jobs, beyond=not args.no_beyond,
-                             reuse=args.reuse, beyond_quick=args.quick)
+                             reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler)
         except ValueError as exc:
             Console(stderr=True).print(f"[red]error:[/red] {exc}")
             return 2
@@ -281,7 +281,10 @@ def build_parser() -> argparse.ArgumentParser:
                                         "detection and reaction against the file's limits")
     g.add_argument("campaign", help="campaign TOML (e.g. bench/campaigns/g2_protection.toml)")
     g.add_argument("--out", help="report folder (default reports/campaigns/<name>)")
-    g.add_argument("--jobs", type=int, default=1, help="runs in parallel (default 1)")
+    g.add_argument("--jobs", type=int, default=None,
+                   help="local Dask cluster: worker processes (default: one per core)")
+    g.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run on an existing Dask scheduler instead (docs/sweeps.md)")
     g.add_argument("--link", default=None, help="link of every run (default: the file's, or stub)")
     g.add_argument("--keep-all", action="store_true",
                    help="keep every run's recording (default: only the runs that did not PASS)")
@@ -307,7 +310,10 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--out", type=Path, default=Path("reports/claims"),
                    help="report folder (default reports/claims)")
     k.add_argument("--jobs", type=int, default=None,
-                   help="runs in parallel (default: the number of cores, at most 4)")
+                   help="local Dask cluster: worker processes (default: the number of cores, "
+                        "at most 4)")
+    k.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run on an existing Dask scheduler instead (docs/sweeps.md)")
     k.add_argument("--no-beyond", action="store_true",
                    help="skip the studies beyond the papers (error vs speed, initial position "
                         "over 360 deg, parameter sensitivity, speed reversal)")
