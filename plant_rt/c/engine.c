@@ -1444,8 +1444,8 @@ static void step_references(engine_t *e, const cycle_t *c, ref_voltage_t *v, int
     const engine_config_t *cfg = &e->cfg;
     const double inv_sqrt3 = 1.0 / sqrt(3.0);
     int i;
-    if (e->n_refs == 0) {
-        return;
+    if (e->n_refs == 0 || !e->have_ring) {
+        return; /* a reference's only output is its recorded rows: unrecorded, nobody reads it */
     }
     if (v->have_prev && v->have_older) {
         const double i_al = (2.0 * c->s_i[0] - c->s_i[1] - c->s_i[2]) * (1.0 / 3.0);
