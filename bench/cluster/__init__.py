@@ -51,7 +51,8 @@ class TaskResult:
     wall_s: float
 
 
-def _cpu_s() -> float:
+def process_cpu_s() -> float:
+    """CPU seconds of this process and of every child it has reaped (getrusage)."""
     total = 0.0
     for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN):
         r = resource.getrusage(who)
@@ -79,14 +80,14 @@ def call(fn: Callable, args: tuple, time_limit_s: float | None) -> TaskResult | 
                            "processes (the stub, the recorder): start the workers with "
                            "DASK_DISTRIBUTED__WORKER__DAEMON=False (docs/sweeps.md)",
                            _worker_name())
-    c0, t0 = _cpu_s(), time.monotonic()
+    c0, t0 = process_cpu_s(), time.monotonic()
     try:
         with time_limit(time_limit_s):
             value = fn(*args)
     except Exception as exc:  # noqa: BLE001 - a task's failure is a row, never a crash
         return TaskFailure(f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}",
                            _worker_name())
-    return TaskResult(value, _worker_name(), _cpu_s() - c0, time.monotonic() - t0)
+    return TaskResult(value, _worker_name(), process_cpu_s() - c0, time.monotonic() - t0)
 
 
 def default_workers() -> int:

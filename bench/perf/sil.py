@@ -38,7 +38,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import resource
 import statistics
 import subprocess
 import sys
@@ -46,20 +45,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from hil_bench.protocol import budget
+from hil_bench.cluster import process_cpu_s as cpu_s
 
 REPO = Path(__file__).resolve().parents[2]
 G2 = "gong_g2_500rpm"
 SHORT_S = 0.15
-
-
-def cpu_s() -> float:
-    """CPU seconds of this process and of every child it has reaped."""
-    total = 0.0
-    for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN):
-        r = resource.getrusage(who)
-        total += r.ru_utime + r.ru_stime
-    return total
 
 
 def run_cpu(scn, link: str, record: bool, realtime: bool = False) -> tuple[float, object]:
@@ -103,14 +93,11 @@ def per_cycle(link: str, record: bool, repeats: int) -> dict:
 
 
 def pingpong(iterations: int) -> dict:
-    exe = REPO / "build" / "bin" / "pty_pingpong"
-    if not exe.exists():
-        sys.exit(f"{exe} not found: run `make build`")
-    up = budget.serial_frame_bytes(8) * 2           # SENSE_AUX + SENSE
-    down = budget.serial_frame_bytes(8) * 3         # TELEM + TELEM_EMF + DUTY
+    """hil_bench.perf.loop's pty ceiling, in CPU seconds of both its processes."""
+    from .loop import pty_ceiling
+
     c0 = cpu_s()
-    out = json.loads(subprocess.run([str(exe), str(iterations), str(up), str(down)],
-                                    capture_output=True, text=True, check=True).stdout)
+    out = pty_ceiling(iterations)
     cpu = cpu_s() - c0
     out["cpu_s"] = cpu
     out["round_trips_per_cpu_s"] = iterations / cpu
