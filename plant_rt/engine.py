@@ -16,7 +16,7 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass
 
-from hil_bench.protocol.messages import DUTY_RAW_OFF, MESSAGES, SenseAuxFlag, State
+from hil_bench.protocol.messages import DUTY_RAW_OFF, MESSAGES, Fault, SenseAuxFlag, State
 
 from ._plant_c import ffi, lib
 
@@ -111,6 +111,18 @@ class EngineResult:
     rt_mlock: bool
     rt_pinned: bool
     rt_notes: str
+
+    def end_text(self) -> str:
+        """The engine's end message; for a controller fault with the fault's name, the cycle
+        (seq) the controller reported it in and its detail (FAULT_CTRL)."""
+        if self.end != END_CONTROLLER_FAULT:
+            return self.message
+        try:
+            name = Fault(self.fault_code).name
+        except ValueError:
+            name = f"unknown code {self.fault_code}"
+        return (f"{self.message}: controller reported fault {name} at seq {self.fault_seq} "
+                f"(detail {self.fault_detail})")
 
 
 class Engine:

@@ -682,15 +682,8 @@ class Runner:
                             f"{r.cycles_done}: the run was ended")
         elif result.interrupted:
             result.error = f"interrupted by the user at cycle {r.cycles_done}"
-        elif r.end == eng.END_CONTROLLER_FAULT:
-            try:
-                name = Fault(r.fault_code).name
-            except ValueError:
-                name = f"unknown code {r.fault_code}"
-            result.error = (f"{r.message}: controller reported fault {name} at seq {r.fault_seq} "
-                            f"(detail {r.fault_detail})")
         elif r.end != eng.END_DONE:
-            result.error = r.message
+            result.error = r.end_text()
             if r.end == 2:   # the link: say what is behind it
                 if link.error:
                     result.error = f"{r.message.split(': ', 1)[0]}: {link.error}"
