@@ -29,7 +29,7 @@ from hil_bench.cluster.limits import expired
 from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
 from hil_bench.plant_rt.profile import load_profile
-from hil_bench.protocol.messages import Command, Estimator, Fault, HelloFlag, Mode, Param
+from hil_bench.protocol.messages import Command, Estimator, HelloFlag, Mode, Param
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import ProcessRecorder, RecorderError, check_target
 from hil_bench.scenario import RPM_PER_RAD_S, Scenario
