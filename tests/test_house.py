@@ -1,57 +1,83 @@
 """The house's rules (docs/architecture.md, "The house"), read from the source by
-tools/import_graph.py: no import circle between modules nor between sub-packages, nothing in
+tools/import_graph.py: no import circle between modules or between sub-packages, nothing in
 plant_rt, protocol or firmware_stub imports the bench above it, and the claims registry
-(hil_bench.claims) imports nothing of the bench."""
+(hil_bench.claims) imports nothing of the bench; and pyproject.toml installs every package of the
+namespace."""
 from __future__ import annotations
 
 import importlib.util
+import tomllib
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _tool():
+@pytest.fixture(scope="module")
+def ig():
     spec = importlib.util.spec_from_file_location("import_graph", ROOT / "tools" / "import_graph.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
-def test_no_module_imports_itself_around_a_circle():
-    ig = _tool()
-    assert ig.cycles(ig.graph()) == []
+@pytest.fixture(scope="module")
+def graph(ig):
+    return ig.graph()
 
 
-def test_no_sub_package_imports_itself_around_a_circle():
+def test_no_module_imports_itself_around_a_circle(ig, graph):
+    assert ig.cycles(graph) == []
+
+
+def test_no_sub_package_imports_itself_around_a_circle(ig, graph):
     """Sub-packages form layers: scenario asks the claims registry (hil_bench.claims, below it)
     whether a claim id exists, never papers, which imports scenario."""
-    ig = _tool()
-    assert ig.cycles(ig.package_graph(ig.graph())) == []
+    assert ig.cycles(ig.package_graph(graph)) == []
 
 
-def test_the_claims_registry_imports_nothing_of_the_bench():
+def test_the_claims_registry_imports_nothing_of_the_bench(graph):
     """hil_bench.claims (definitions, data, loader) sits below scenario, loop and papers."""
-    ig = _tool()
     up = {m: sorted(d for d in deps if not d.startswith("hil_bench.claims"))
-          for m, deps in ig.graph().items() if m.startswith("hil_bench.claims")}
-    assert {m: d for m, d in up.items() if d} == {}
+          for m, deps in graph.items() if m.startswith("hil_bench.claims")}
+    assert "hil_bench.claims.registry" in up and {m: d for m, d in up.items() if d} == {}
 
 
-def test_the_lower_layers_import_nothing_of_the_bench():
-    ig = _tool()
+def test_the_lower_layers_import_nothing_of_the_bench(graph):
     lower = ("hil_bench.plant_rt", "hil_bench.protocol", "hil_bench.firmware_stub")
     up = {m: sorted(d for d in deps if not d.startswith(lower))
-          for m, deps in ig.graph().items() if m.startswith(lower)}
+          for m, deps in graph.items() if m.startswith(lower)}
     assert {m: d for m, d in up.items() if d} == {}
 
 
-def test_the_graph_sees_every_module_of_the_namespace():
-    """A module the tool misses would hide its imports: every .py of the four folders that is
-    part of the package is in the graph."""
-    ig = _tool()
+def _package_dirs() -> dict[str, Path]:
+    """Every package of the namespace on disk (a folder with an __init__.py under the folders of
+    pyproject.toml's package-dir): dotted name -> folder."""
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    out: dict[str, Path] = {}
+    for name, folder in project["tool"]["setuptools"]["package-dir"].items():
+        for init in (ROOT / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(ROOT / folder).parts
+            out[".".join((name,) + rel)] = init.parent
+    return out
+
+
+def test_pyproject_installs_every_package():
+    """pyproject.toml lists its packages by hand: one left out is missing from the wheel."""
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    assert listed == set(_package_dirs())
+
+
+def test_the_graph_sees_every_module_of_the_namespace(ig, graph):
+    """A module the tool misses would hide its imports: every module of every package is in the
+    graph, under its installed name and from its own file."""
+    on_disk: dict[str, Path] = {}
+    for name, folder in _package_dirs().items():
+        on_disk[name] = folder / "__init__.py"
+        on_disk.update({f"{name}.{p.stem}": p for p in folder.glob("*.py") if p.stem != "__init__"})
     mods = ig.modules()
-    assert "hil_bench.loop.runner" in mods and "hil_bench.plant_rt.plant" in mods
-    assert "hil_bench.protocol.messages" in mods and "hil_bench.firmware_stub.est_smo" in mods
-    assert "hil_bench.claims.registry" in mods and "hil_bench.papers.claims" in mods
+    assert {m: mods.get(m) for m in on_disk} == on_disk
+    assert set(graph) == set(mods)
     # an import inside a function counts: scenario asks the claims registry lazily
-    assert "hil_bench.claims.registry" in ig.graph()["hil_bench.scenario.scenario"]
+    assert "hil_bench.claims.registry" in graph["hil_bench.scenario.scenario"]

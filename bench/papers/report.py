@@ -41,8 +41,6 @@ from .claim_metrics import (
 )
 from .claims import OPERATING_POINT_DEF, derive, measure_with_resolution, relate
 
-REPO = Path(__file__).resolve().parents[2]
-
 
 @dataclass
 class RunOutcome:
