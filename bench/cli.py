@@ -184,7 +184,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _cmd_claims(args: argparse.Namespace) -> int:
-    from hil_bench.papers.claims import CLAIMS, METRICS
+    from hil_bench.claims.model import METRIC_DEFINITIONS
+    from hil_bench.claims.registry import CLAIMS
 
     if args.run:
         from hil_bench.papers.report import run_report
@@ -208,7 +209,8 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         print(f"{c.id}  {c.paper}: {c.text}")
         for q in c.quantities:
             unit = q.unit
-            definition = METRICS[q.metric][1] if q.metric in METRICS else q.metric
+            definition = (METRIC_DEFINITIONS[q.metric][1] if q.metric in METRIC_DEFINITIONS
+                          else q.metric)
             tag = " [diagnostic]" if q.diagnostic else ""
             print(f"      {q.key}{tag}: paper {q.paper_value} {unit}; rule {q.rule_text()} "
                   f"({q.rule.source}); {definition}")

@@ -20,13 +20,15 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from hil_bench.claims.registry import CLAIMS
 from hil_bench.record import channels as ch
 from hil_bench.record.integrity import Integrity, check_integrity
 from hil_bench.record.recording import Recording, RecordingError, load_recording
 from hil_bench.scenario import RPM_PER_RAD_S, Scenario, scenario_of, speed_ref_at
 
 from . import metrics
-from .claims import CLAIMS, Context, QuantityResult, evaluate
+from .claim_metrics import Context
+from .claims import QuantityResult, evaluate
 
 
 @dataclass
@@ -108,7 +110,7 @@ WINDOWED_TOPICS = (ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.L
                    "/reference/*")
 
 #: the fields `bench check` keeps of each per-cycle topic: those the summary, the claims' metrics
-#: (bench/papers/claims.py, bench/papers/metrics.py) and the estimator replay (bench/papers/estimator_trace.py) read.
+#: (bench/papers/claim_metrics.py, bench/papers/metrics.py) and the estimator replay (bench/papers/estimator_trace.py) read.
 #: Every other field, and the topics not named here (/timing, /replay/*), is never decoded:
 #: memory per second of window is what these columns take (float64: the metrics see the values
 #: exactly as recorded). tests/test_integrity.py holds this list against the field names those
@@ -133,7 +135,7 @@ WHOLE_TOPICS = (ch.LINK_STATS, ch.EVENTS, ch.FAULTS)
 
 
 def _sense_dual_only(cols: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """/link/frames reduced to what ``claims.dual_samples`` reads: the SENSE_DUAL frames of tx."""
+    """/link/frames reduced to what ``claim_metrics.dual_samples`` reads: the SENSE_DUAL frames of tx."""
     from hil_bench.protocol.messages import MESSAGES
 
     prefix = f"{MESSAGES['SENSE_DUAL'].frame_id:03X}#"
@@ -323,7 +325,7 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
     table = Table(title="paper claims: paper value vs measured", show_lines=False)
     for col in ("claim", "quantity", "paper", "measured", "rule", "verdict"):
         table.add_column(col)
-    from .claims import METRICS
+    from .claim_metrics import METRICS
 
     for r in report.results:
         unit = METRICS[r.quantity.metric][0]

@@ -2,11 +2,10 @@
 
     .venv/bin/bench claims --run [--only Y1,G2] [--out reports/claims] [--jobs N] [--no-beyond]
 
-Steps: plan the runs (hil_bench.papers.claims.CLAIMS, plus the studies beyond the papers,
-bench/papers/beyond.py), run them against the C stub in parallel (on hil_bench.cluster's executor: ``--jobs`` local workers
-or ``--scheduler``
-at a time, rich progress on the terminal), measure each quantity on its recording
-(hil_bench.papers.claims.measure), compute the studies (bench/papers/studies.py), draw the plots
+Steps: plan the runs (hil_bench.claims.registry.CLAIMS, plus the studies beyond the papers,
+bench/papers/beyond.py), run them against the C stub in parallel (on hil_bench.cluster's executor:
+``--jobs`` local workers or ``--scheduler``; rich progress on the terminal), measure each
+quantity on its recording (hil_bench.papers.claims.measure), compute the studies (bench/papers/studies.py), draw the plots
 (bench/papers/report_plots.py) and write ``<out>/report.md``, ``<out>/report.html`` (self-contained:
 the plots inlined as base64 PNG) and ``<out>/plots/*.png``. The recordings stay in
 ``<out>/recordings`` (``bench check`` works on each).
@@ -27,26 +26,19 @@ from typing import Any
 
 from rich.console import Console
 
+from hil_bench.claims.model import Claim, Quantity, Run
+from hil_bench.claims.registry import CLAIMS
 from hil_bench.record.recorder import SIDE_SUFFIXES
 
-from .claims import (
-    CLAIMS,
-    OPERATING_POINT_DEF,
+from .claim_metrics import (
     TELEM_EMF_LSB_V,
     TELEM_IQ_LSB_A,
     TELEM_OMEGA_LSB_RAD_S,
     TELEM_THETA_LSB_RAD,
-    Claim,
     Context,
-    Quantity,
-    Relation,
-    Run,
-    derive,
-    measure_with_resolution,
-    relate,
-    run_failure,
     speed_lsb_rpm,
 )
+from .claims import OPERATING_POINT_DEF, derive, measure_with_resolution, relate
 
 
 @dataclass

@@ -276,7 +276,7 @@ def plot_y7(rep):
 
 
 def plot_y8(rep):
-    from .claims import Y8_SPEEDS
+    from hil_bench.claims.registry import Y8_SPEEDS
     rows = {r.key: r for r in rep.rows if r.claim == "Y8"}
     fig, ax = plt.subplots(figsize=(8, 4))
     speeds = [s for s, _ in Y8_SPEEDS]
@@ -313,7 +313,7 @@ def plot_h2(rep):
 
 
 def plot_h3(rep):
-    from .claims import H3_ANGLES_DEG
+    from hil_bench.claims.registry import H3_ANGLES_DEG
     rows = {r.key: r for r in rep.rows if r.claim == "H3"}
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for method, diag, style in (("pure", False, "o-"), ("pure", True, "o:"), ("bias", False, "s-"),
@@ -348,7 +348,7 @@ def plot_g1(rep):
     if rec is None:
         _missing(axes[0], "G1")
         return [_save(fig, rep, "G1")]
-    from .claims import G1_MS
+    from hil_bench.claims.registry import G1_MS
     for m, _ in G1_MS:
         d = _win(rec, ch.REFERENCE_PREFIX + f"SMO_TANH:m{m:g}", 1.45, 1.5)
         axes[0].plot(d["t_s"], d["e_alpha_v"], lw=0.8, label=f"m = {m:g}")
@@ -364,7 +364,7 @@ def plot_g1(rep):
     axes[1].loglog(ms, [t for _, t in G1_MS], "ks--", label="paper THD")
     axes[1].loglog(ms, [rows.get(f"G1.m{m:g}.thd", np.nan) for m in ms], "o-",
                    label="bench THD (10 kHz, closed loop)")
-    from .claims import G1_STEPS_US
+    from hil_bench.claims.registry import G1_STEPS_US
     for ts_us in G1_STEPS_US[1:]:
         axes[1].loglog(ms, [max(rows.get(f"G1.step{ts_us:g}us.m{m:g}.thd", np.nan), 1e-5)
                             for m in ms], "x:", label=f"host observer, Ts = {ts_us:g} us")
@@ -419,7 +419,7 @@ def plot_g4(rep):
 
 
 def plot_g5(rep):
-    from .claims import dual_samples
+    from .claim_metrics import dual_samples
     rec = _load(rep, "G5")
     fig, ax = plt.subplots(figsize=(8, 4))
     if rec is None:

@@ -377,7 +377,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     post_trip_s = s.number("post_trip_s", 0.05 if has_faults else 0.0, min_value=0.0)
     s.within("post_trip_s", post_trip_s, 0.0, 10.0, "s",
              "how long the run records the controller's reaction after its FAULT_CTRL")
-    from hil_bench.papers.claims import CLAIMS
+    from hil_bench.claims.registry import CLAIMS
 
     for claim in claims:
         if claim not in CLAIMS:
