@@ -280,14 +280,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    import signal
+
     args = build_parser().parse_args(argv)
     try:
-        return args.func(args)
+        rc = args.func(args)
     except KeyboardInterrupt:
         # a run's recording is finalised by the runner whatever is pressed (DeferredInterrupts);
         # anywhere else a Ctrl-C ends the command, without a traceback
         Console(stderr=True).print("interrupted by the user")
-        return 130
+        rc = 130
+    if rc == 130:
+        # the command ends because the user interrupted it: a further Ctrl-C (the user pressing
+        # again) must not turn the exit into a KeyboardInterrupt at interpreter shutdown
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return rc
 
 
 if __name__ == "__main__":

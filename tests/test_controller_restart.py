@@ -17,33 +17,7 @@ from hil_bench.loop.runner import run_scenario
 from hil_bench.record import channels as ch
 from hil_bench.record.fault_outcomes import outcomes
 from hil_bench.record.recording import load_recording
-from hil_bench.scenario import check_against_profile, parse_scenario
-
-SCENARIO = """
-[scenario]
-name = "restart"
-profile = "gong2020"
-duration_s = 0.3
-[plant]
-initial_theta_e_rad = 0.4
-t_delay_s = 0.0
-[controller]
-estimator = "SMO_TANH"
-speed_ref_rpm = 500
-[controller.params]
-IQ_MAX_A = 6.0
-ALIGN_I_A = 3.0
-ALIGN_TIME_S = 0.1
-IF_I_A = 3.0
-IF_ACCEL_RAD_S2 = 60.0
-HANDOVER_SPEED_RAD_S = 20.0
-SMO_M_PER_A = 0.01
-[metrics]
-window_s = [0.0, 0.3]
-[[faults]]
-kind = "controller_reset"
-t_s = 0.2
-"""
+from tests.test_faults_engine import scenario
 
 #: what a restart run records that depends on the cycles only (the wall-clock columns of /timing
 #: and /link/stats, and the heartbeats the stub sends every 100 ms of wall time, do not)
@@ -52,9 +26,7 @@ COMPARED = {ch.PLANT_STATE: None, ch.PLANT_SENSE: None, ch.CONTROLLER_TELEMETRY:
 
 
 def _scenario():
-    scn = parse_scenario(SCENARIO, Path("restart.toml"))
-    check_against_profile(scn)
-    return scn
+    return scenario('[[faults]]\nkind = "controller_reset"\nt_s = 0.2')
 
 
 def _run(out: Path, link: str = "stub"):

@@ -20,41 +20,18 @@ from hil_bench.record import channels as ch
 from hil_bench.record.integrity import check_integrity, run_result_counters
 from hil_bench.record.recording import load_recording
 from hil_bench.scenario import ScenarioError, check_against_profile, load_scenario, parse_scenario
+from tests.test_faults_engine import BASE, scenario
 
 REPO = Path(__file__).resolve().parents[1]
 G2 = (REPO / "bench" / "scenarios" / "gong_g2_500rpm.toml").read_text()
 
-SHORT = """
-[scenario]
-name = "validity"
-profile = "gong2020"
-duration_s = {duration}
-[plant]
-initial_theta_e_rad = 0.4
-t_delay_s = 0.0
-[controller]
-estimator = "SMO_TANH"
-speed_ref_rpm = 500
-[controller.params]
-IQ_MAX_A = 6.0
-ALIGN_I_A = 3.0
-ALIGN_TIME_S = 0.2
-IF_I_A = 3.0
-IF_ACCEL_RAD_S2 = 60.0
-HANDOVER_SPEED_RAD_S = 20.0
-SMO_M_PER_A = 0.01
-{events}
-[metrics]
-window_s = [0.0, {duration}]
-{faults}
-"""
-
-
 def short(faults: str, duration: float = 0.3, events: str = ""):
-    scn = parse_scenario(SHORT.format(duration=duration, faults=faults, events=events),
-                         Path("validity.toml"))
-    check_against_profile(scn)
-    return scn
+    return scenario(faults, duration=duration, events=events)
+
+
+def short_text(faults: str, duration: float = 0.3, events: str = "", controller: str = "") -> str:
+    return BASE.format(duration=duration, faults=faults, events=events, estimator="SMO_TANH",
+                       controller=controller, scenario="")
 
 
 def g2_with(fault: str, tmp_path: Path) -> Path:
@@ -102,10 +79,9 @@ def test_a_fault_that_can_never_act_is_refused_at_load(tmp_path, fault, match):
 
 def test_telem_emf_without_the_flag_and_cmd_with_an_event_in_the_window():
     with pytest.raises(ScenarioError, match="TELEM_EMF crosses only when"):
-        parse = SHORT.replace('speed_ref_rpm = 500', 'speed_ref_rpm = 500\ntelemetry_emf = false')
-        scn = parse_scenario(parse.format(duration=0.3, events="", faults=(
+        scn = parse_scenario(short_text(
             '[[faults]]\nkind = "drop"\ndirection = "from_controller"\nmessage = "TELEM_EMF"\n'
-            'count = 1\nt_s = 0.2')), Path("v.toml"))
+            'count = 1\nt_s = 0.2', controller="telemetry_emf = false"), Path("v.toml"))
         check_against_profile(scn)
     # a CMD does cross when an event sends one inside the window
     short('[[faults]]\nkind = "drop"\ndirection = "to_controller"\nmessage = "CMD"\ncount = 1\n'
@@ -149,9 +125,8 @@ def test_a_fault_that_never_acted_fails_run_and_check_strict(tmp_path, capsys):
     """A FAULT_CTRL the healthy controller never sends: validation cannot know, the run does. Both
     `bench run --strict` and `bench check --strict` exit 1 and say which fault and why."""
     p = tmp_path / "never.toml"
-    p.write_text(SHORT.format(duration=0.3, events="", faults=(
-        '[[faults]]\nkind = "drop"\ndirection = "from_controller"\nmessage = "FAULT_CTRL"\n'
-        'count = 1\nt_s = 0.2')))
+    p.write_text(short_text('[[faults]]\nkind = "drop"\ndirection = "from_controller"\n'
+                            'message = "FAULT_CTRL"\ncount = 1\nt_s = 0.2'))
     out = tmp_path / "never.mcap"
     assert cli_main(["run", str(p), "--strict", "--no-progress", "--out", str(out)]) == 1
     text = capsys.readouterr().out

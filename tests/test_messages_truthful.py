@@ -6,7 +6,6 @@ capture of a killed run says it was cut; rich markup does not eat `[[faults]]` i
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -24,38 +23,22 @@ from hil_bench.record.recording import NotABenchRecording, load_recording
 from hil_bench.replay.readers import read_capture
 from hil_bench.scenario import check_against_profile, parse_scenario
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(Path(__file__).parent))
-from test_host_session import ScriptedLink, hello_ack  # noqa: E402
+from tests.test_faults_engine import BASE
+from tests.test_host_session import ScriptedLink, hello_ack
 
-BASE = """
-[scenario]
-name = "truthful"
-profile = "gong2020"
-duration_s = {duration}
-description = "[bold]not markup[/bold] [[faults]]"
-[plant]
-initial_theta_e_rad = 0.4
-t_delay_s = 0.0
-[controller]
-estimator = "SMO_TANH"
-speed_ref_rpm = 500
-[controller.params]
-IQ_MAX_A = 6.0
-ALIGN_I_A = 3.0
-ALIGN_TIME_S = 0.1
-IF_I_A = 3.0
-IF_ACCEL_RAD_S2 = 60.0
-HANDOVER_SPEED_RAD_S = 20.0
-SMO_M_PER_A = 0.01
-[metrics]
-window_s = [0.0, {duration}]
-{faults}
-"""
+REPO = Path(__file__).resolve().parents[1]
+
+#: a scenario description rich would take for markup, were it not escaped
+DESCRIPTION = 'description = "[bold]not markup[/bold] [[faults]]"'
+
+
+def text(faults: str = "", duration: float = 0.3) -> str:
+    return BASE.format(duration=duration, faults=faults, events="", estimator="SMO_TANH",
+                       controller="", scenario=DESCRIPTION)
 
 
 def scenario(faults: str = "", duration: float = 0.3):
-    scn = parse_scenario(BASE.format(duration=duration, faults=faults), Path("truthful.toml"))
+    scn = parse_scenario(text(faults, duration), Path("truthful.toml"))
     check_against_profile(scn)
     return scn
 
@@ -176,7 +159,7 @@ def test_the_serial_capture_of_a_killed_run_says_it_was_cut(bench_run, tmp_path)
     # the bench killed mid-run (its recorder goes on and closes the capture): said so too
     out = tmp_path / "killed.mcap"
     scn = tmp_path / "long.toml"
-    scn.write_text(BASE.format(duration=60.0, faults=""))
+    scn.write_text(text(duration=60.0))
     proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--no-progress",
                              "--out", str(out)], cwd=REPO, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
@@ -198,7 +181,7 @@ def test_the_serial_capture_of_a_killed_run_says_it_was_cut(bench_run, tmp_path)
 
 def test_error_texts_keep_their_brackets(tmp_path, capsys, bench_run):
     bad = tmp_path / "bad.toml"
-    bad.write_text("faults = 3\n" + BASE.format(duration=0.3, faults=""))
+    bad.write_text("faults = 3\n" + text())
     assert cli_main(["run", str(bad), "--no-progress", "--out", str(tmp_path / "x.mcap")]) == 2
     assert "([[faults]])" in capsys.readouterr().err
     camp = tmp_path / "camp.toml"

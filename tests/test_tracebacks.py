@@ -18,6 +18,7 @@ from hil_bench.faults.campaign import CampaignError, load_campaign
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import partial_path
 from hil_bench.record.recording import load_recording
+from tests.test_loop import SHORT
 
 REPO = Path(__file__).resolve().parents[1]
 CAMPAIGN = (REPO / "bench" / "campaigns" / "g2_protection.toml").read_text()
@@ -35,28 +36,12 @@ def test_a_campaign_name_that_cannot_name_its_files_is_refused(tmp_path, capsys,
     assert not (tmp_path / "r").exists()
 
 
-SHORT = """
-[scenario]
-name = "ctrl_c"
-profile = "gong2020"
-duration_s = 600.0
-[controller]
-estimator = "SMO_SIGN"
-speed_ref_rpm = 300
-[controller.params]
-ALIGN_TIME_S = 0.05
-IF_ACCEL_RAD_S2 = 200.0
-[metrics]
-window_s = [0.0, 600.0]
-"""
-
-
 @pytest.mark.parametrize("gaps_s", [(0.05,), (0.05, 0.3), (0.0, 0.0, 0.05, 0.1)],
                          ids=["twice-50ms", "three", "four"])
 def test_repeated_ctrl_c_finalises_the_recording_and_exits_cleanly(tmp_path, gaps_s):
     out = tmp_path / "interrupted.mcap"
     scn = tmp_path / "long.toml"
-    scn.write_text(SHORT)
+    scn.write_text(SHORT.format(duration=600.0))   # the run cannot end by itself
     proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,

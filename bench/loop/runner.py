@@ -57,6 +57,7 @@ class DeferredInterrupts:
     def __init__(self):
         self.count = 0
         self._depth = 0
+        self._held = 0
         self._previous = None
 
     def _note(self, signum, frame) -> None:   # noqa: ARG002 - a signal handler's signature
@@ -78,6 +79,16 @@ class DeferredInterrupts:
         if self._depth == 0 and self._previous is not None:
             signal.signal(signal.SIGINT, self._previous)
             self._previous = None
+
+    def hold(self) -> None:
+        """From the first Ctrl-C on: deferred until release() (the run is being closed)."""
+        self.__enter__()
+        self._held += 1
+
+    def release(self) -> None:
+        while self._held:
+            self._held -= 1
+            self.__exit__(None, None, None)
 
 
 @dataclass
@@ -377,6 +388,7 @@ class Runner:
                 engine = self._make_engine(rec, opened, engine_link)
                 self._watch(engine, rec, opened, engine_link, result)
             except KeyboardInterrupt:
+                closing.hold()
                 result.interrupted = True
                 result.error = f"interrupted by the user at cycle {result.cycles_done}"
             except (LinkError, RunAborted, RecorderError) as exc:
@@ -395,6 +407,7 @@ class Runner:
                 except RecorderError as exc:
                     result.error = result.error or str(exc)
             result.interrupts_while_closing = closing.count
+            closing.release()
             result.recording = rec.final_path or self.out_path
             if result.cycles_done == 0 and result.error and rec.final_path:
                 result.error += (f" (no cycle ran; the recording of the attempt, with its "
@@ -652,9 +665,9 @@ class Runner:
                 try:
                     e.join(WATCH_PERIOD_S)
                 except KeyboardInterrupt:
-                    with self._closing:     # a second Ctrl-C must not leave the engine running
-                        e.request_stop()
-                        e.join()
+                    self._closing.hold()    # from here on the run is being closed: a further
+                    e.request_stop()        # Ctrl-C must not leave the engine running or the
+                    e.join()                # recording unfinished
                     result.interrupted = True
                     break
                 result.cycles_done = e.cycles_done
