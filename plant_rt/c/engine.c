@@ -550,8 +550,8 @@ static void link_fault_acted(void *ctx, int i, int dir, const char *action, uint
     if (strcmp(action, "drop") == 0) {
         e->cyc_drop++;
         e->cyc_drop_fault = lf->fault_index;
-    } else if (strcmp(action, "stall_drop") == 0 || strcmp(action, "stall") == 0) {
-        e->cyc_stall_drop += action[5] == '_' ? 1u : 0u;
+    } else if (strcmp(action, "stall_drop") == 0) {
+        e->cyc_stall_drop++;
         e->cyc_stall_fault = lf->fault_index;
     } else if (strcmp(action, "delay") == 0) {
         engine_trace_t *t = &e->traces[lf->fault_index];
@@ -1269,6 +1269,7 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
                              "over: the controller restarted", (double)h.counter);
             }
             e->hb_rx_last = h.rx_errors;
+            e->hb_state = (int)h.state;
             e->n.ctrl_rx_errors = e->hb_rx_base + h.rx_errors;
             e->hb_counter = h.counter;
             e->hb_have = 1;
@@ -1339,9 +1340,11 @@ static void describe_no_duty(engine_t *e, const cycle_t *c)
         append(what, sizeof what, &n, "the controller restarted (its HEARTBEAT_CTRL started "
                "over): a restarted controller answers no SENSE before a new HELLO");
     } else if ((k = (unsigned long)(e->n.heartbeats_rx - c->hb0)) > 0u) {
-        append(what, sizeof what, &n, "%lu HEARTBEAT_CTRL (the controller is alive, state %s)",
-               k, e->last_state >= 0 && e->last_state < ENGINE_STATE_NAMES &&
-                  e->cfg.state_names[e->last_state][0] ? e->cfg.state_names[e->last_state] : "?");
+        append(what, sizeof what, &n, "%lu HEARTBEAT_CTRL (the controller is alive, state %s): "
+               "it answers no SENSE", k,
+               e->hb_state >= 0 && e->hb_state < ENGINE_STATE_NAMES &&
+                       e->cfg.state_names[e->hb_state][0] ? e->cfg.state_names[e->hb_state]
+                                                          : "?");
     }
     if (e->cyc_drop > 0u) {
         append(what, sizeof what, &n, "the bench's own drop fault faults[%d] dropped %lu "

@@ -327,6 +327,7 @@ typedef struct engine {
     uint16_t hb_counter;
     uint64_t hb_rx_base;         /* rx_errors reported before the controller's last restart */
     uint16_t hb_rx_last;
+    int hb_state;                /* the state of the controller's last HEARTBEAT_CTRL */
     long cur_k;                  /* the cycle running now */
     double cur_t_s;
     /* live (read by the bench while it runs) */
