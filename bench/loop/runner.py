@@ -49,6 +49,49 @@ class RunAborted(RuntimeError):
     """The run could not continue; the message says why and where."""
 
 
+class DeferredInterrupts:
+    """While a run is being closed (the engine stopping after a first Ctrl-C, the final statistics,
+    the run_result record, the recorder finalising the file) a further Ctrl-C is counted, not
+    raised: the recording is finalised whatever the user presses. Re-entrant; a no-op outside the
+    main thread (only it receives signals)."""
+
+    def __init__(self):
+        self.count = 0
+        self._depth = 0
+        self._held = 0
+        self._previous = None
+
+    def _note(self, signum, frame) -> None:   # noqa: ARG002 - a signal handler's signature
+        self.count += 1
+
+    def __enter__(self) -> "DeferredInterrupts":
+        import signal
+        import threading
+
+        if self._depth == 0 and threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._note)
+        self._depth += 1
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import signal
+
+        self._depth -= 1
+        if self._depth == 0 and self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
+
+    def hold(self) -> None:
+        """From the first Ctrl-C on: deferred until release() (the run is being closed)."""
+        self.__enter__()
+        self._held += 1
+
+    def release(self) -> None:
+        while self._held:
+            self._held -= 1
+            self.__exit__(None, None, None)
+
+
 @dataclass
 class RunResult:
     scenario: str
@@ -66,6 +109,7 @@ class RunResult:
     realtime_notes: str = ""
     ts_s: float = 0.0              # the control period [s]
     timed_out: bool = False        # ended by the executor's per-run time limit
+    interrupts_while_closing: int = 0   # Ctrl-C pressed while the recording was being finalised
 
     @property
     def ok(self) -> bool:
@@ -231,15 +275,9 @@ class Runner:
     @staticmethod
     def _check_faults_fit_the_link(scn: Scenario, link_spec: str) -> None:
         """Faults this link cannot carry are refused before any process or device is touched."""
-        is_stub = _is_stub_link(link_spec) or _is_sil_link(link_spec)
         is_can = link_spec.startswith(("can:", *STUB_CAN_MODES))
         for fs in scn.faults:
             where = f"{scn.display_path}: faults[{fs.index}] ({fs.kind})"
-            if fs.kind == "controller_reset" and not is_stub:
-                raise RunAborted(f"{where}: a controller_reset needs the firmware stub as the "
-                                 f"controller (--link stub... or --link sil): the bench restarts "
-                                 f"it (SIGUSR1 to the stub, a call in process); a real drive has "
-                                 f"no such line")
             if fs.kind == "bitflip" and is_can and fs.direction & 1:
                 raise RunAborted(f"{where}: on CAN a corrupted frame is destroyed by the bus's CRC "
                                  f"and retransmitted by the sender's controller: a bit flip towards "
@@ -346,6 +384,7 @@ class Runner:
             raise
         engine = None
         engine_link = None
+        closing = self._closing = DeferredInterrupts()
         try:
             try:
                 self._open_channels(rec)
@@ -360,6 +399,7 @@ class Runner:
                 engine = self._make_engine(rec, opened, engine_link)
                 self._watch(engine, rec, opened, engine_link, result)
             except KeyboardInterrupt:
+                closing.hold()
                 result.interrupted = True
                 result.error = f"interrupted by the user at cycle {result.cycles_done}"
             except (LinkError, RunAborted, RecorderError) as exc:
@@ -369,12 +409,16 @@ class Runner:
                 result.error = (f"internal error at cycle {result.cycles_done}: "
                                 f"{type(exc).__name__}: {exc}")
             finally:
-                self._finish(rec, opened, engine, engine_link, result, t0)
+                with closing:
+                    self._finish(rec, opened, engine, engine_link, result, t0)
         finally:
-            try:
-                rec.close()
-            except RecorderError as exc:
-                result.error = result.error or str(exc)
+            with closing:
+                try:
+                    rec.close()
+                except RecorderError as exc:
+                    result.error = result.error or str(exc)
+            result.interrupts_while_closing = closing.count
+            closing.release()
             result.recording = rec.final_path or self.out_path
             if result.cycles_done == 0 and result.error and rec.final_path:
                 result.error += (f" (no cycle ran; the recording of the attempt, with its "
@@ -598,11 +642,8 @@ class Runner:
     def _schedule_events(self, e: eng.Engine) -> None:
         from .fault_events import schedule
 
-        stub = getattr(getattr(self, "opened", None), "stub", None)
-        # the stub restarts on SIGUSR1 to its pid; the in-process firmware by a call (pid 0)
-        pid = stub.proc.pid if stub is not None else 0 if _is_sil_link(self.link_spec) else None
         try:
-            fault_events = schedule(e, self.scn.faults, self.ts_s, controller_pid=pid)
+            fault_events = schedule(e, self.scn.faults, self.ts_s)
         except ValueError as exc:
             raise RunAborted(f"{self.scn.display_path}: {exc}") from None
         # the engine takes events in cycle order: the scenario's and the faults' merged
@@ -617,20 +658,10 @@ class Runner:
                 raise RunAborted(f"{self.scn.display_path}: {exc}") from None
 
     def _add_scenario_event(self, e: eng.Engine, k: int, ev) -> None:
-        subs = []
-        if ev.speed_ref_rad_s is not None:
-            subs.append((eng.EV_CMD, int(Command.SET_SPEED_REF), ev.speed_ref_rad_s))
-        if ev.iq_ref_a is not None:
-            subs.append((eng.EV_CMD, int(Command.SET_IQ_REF), ev.iq_ref_a))
-        if ev.id_ref_a is not None:
-            subs.append((eng.EV_CMD, int(Command.SET_ID_REF), ev.id_ref_a))
-        if ev.control_mode is not None:
-            subs.append((eng.EV_CMD, int(Command.SET_CONTROL_MODE),
-                         1.0 if ev.control_mode == "current" else 0.0))
-        if ev.load_torque_nm is not None:
-            subs.append((eng.EV_LOAD, 0, ev.load_torque_nm))
-        if not subs:
-            subs.append((eng.EV_NOTE, 0, 0.0))
+        commands = {"speed_ref": Command.SET_SPEED_REF, "iq_ref": Command.SET_IQ_REF,
+                    "id_ref": Command.SET_ID_REF, "control_mode": Command.SET_CONTROL_MODE}
+        subs = [(eng.EV_LOAD, 0, v) if name == "load" else (eng.EV_CMD, int(commands[name]), v)
+                for name, v in ev.actions()] or [(eng.EV_NOTE, 0, 0.0)]
         value = (ev.speed_ref_rad_s if ev.speed_ref_rad_s is not None
                  else (ev.load_torque_nm or 0.0))
         for i, (kind, command, v) in enumerate(subs):
@@ -650,8 +681,9 @@ class Runner:
                 try:
                     e.join(WATCH_PERIOD_S)
                 except KeyboardInterrupt:
-                    e.request_stop()
-                    e.join()
+                    self._closing.hold()    # from here on the run is being closed: a further
+                    e.request_stop()        # Ctrl-C must not leave the engine running or the
+                    e.join()                # recording unfinished
                     result.interrupted = True
                     break
                 result.cycles_done = e.cycles_done
@@ -699,13 +731,22 @@ class Runner:
         """After the run: final statistics, the error, STOP, the link closed, run_result."""
         t_end = result.cycles_done * self.ts_s
         stopped = False
+        if e is not None and e.running():   # interrupted before the engine was stopped
+            e.request_stop()
+            e.join()
+            result.cycles_done = e.cycles_done
         if e is not None and hasattr(self, "session"):
             # STOP through the engine's link, counted with the run's frames
             stopped = e.send(*self.session.command_frame(Command.STOP, 0.0, seq=e.cmd_seq))
             if link is not None:
                 link.settle()
         extra = link.extra_counters() if link is not None else {}
+        faults = "[]"
         if e is not None:
+            from .fault_events import account
+
+            faults = json.dumps(account(self.scn.faults, e.fault_states(), self.ts_s,
+                                        self.n_cycles))
             e.write_stats(t_end, extra)
             result.link_stats = e.counters()
             for k, v in extra.items():
@@ -738,7 +779,8 @@ class Runner:
             "end": result.end, "wall_s": f"{result.wall_s:.3f}",
             "rows_dropped": rec.dropped,
             "timing": json.dumps(result.timing),
-            "counters": json.dumps(result.link_stats)})
+            "counters": json.dumps(result.link_stats),
+            "faults": faults})
 
     def _timing_summary(self, e: eng.Engine) -> dict:
         out = {"cycle_p50_us": e.percentile("cycle", 0.5), "cycle_p99_us": e.percentile("cycle", 0.99),

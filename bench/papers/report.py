@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 
 from hil_bench.claims.model import Claim, Quantity, Run
 from hil_bench.claims.registry import CLAIMS
@@ -137,15 +138,15 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int | None,
                 ok, err, wall, cycles = res.value
             outcomes[rid] = RunOutcome(run, path, ok, err, wall, cycles)
             if not console.is_terminal:
-                console.print(f"  {rid}: {'ok' if ok else 'ended: ' + err.splitlines()[0]}"
-                              f" ({wall:.1f} s)")
+                console.print(escape(f"  {rid}: {'ok' if ok else 'ended: ' + err.splitlines()[0]}"
+                                     f" ({wall:.1f} s)"))
     # a run the bench broke (not the controller: a link that timed out on a loaded machine, a
     # dead stub) is run once more, alone; the report says so. A controller fault is a result.
     for rid, o in list(outcomes.items()):
         if o.ok or o.reused or "controller reported fault" in o.error:
             continue
         first = (o.error.splitlines() or ["no error text"])[0]
-        console.print(f"  {rid}: the bench broke the run ({first}): once more")
+        console.print(escape(f"  {rid}: the bench broke the run ({first}): once more"))
         _keep_attempt(o.recording)
         ok, err, wall, cycles = _run_one(o.run, str(o.recording))
         outcomes[rid] = RunOutcome(o.run, o.recording, ok, err, wall, cycles, retried=first)
@@ -509,8 +510,8 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
             runs.setdefault(r.id, r)
     jobs = jobs or default_jobs()
     rep = Report(out_dir, claims, jobs=jobs)
-    console.print(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
-                  + (" and the studies beyond the papers" if beyond else ""))
+    console.print(escape(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
+                         + (" and the studies beyond the papers" if beyond else "")))
     rep.outcomes = execute(runs, out_dir / "recordings", jobs, console, reuse=reuse,
                            scheduler=scheduler)
     from .studies import STUDIES

@@ -33,7 +33,7 @@ from typing import Any
 from hil_bench.protocol import params as param_info
 from hil_bench.protocol.messages import MESSAGES, Estimator, HelloFlag, Param
 
-from .faults import PLANT_KINDS, parse_faults, parse_recording
+from .faults import PLANT_KINDS, check_faults_can_act, parse_faults, parse_recording
 from .fields import Fields, ScenarioError, line_of
 
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
@@ -60,6 +60,28 @@ class Event:
     id_ref_a: float | None = None
     control_mode: str | None = None  # "speed" | "current"
     label: str = ""
+
+    def actions(self) -> list[tuple[str, float]]:
+        """What the event does, in the order the engine applies it: ("speed_ref", rad/s),
+        ("iq_ref", A), ("id_ref", A), ("control_mode", 0 speed / 1 current) -- each a CMD to the
+        controller -- and ("load", N m), the plant's load torque. One engine event each."""
+        out: list[tuple[str, float]] = []
+        if self.speed_ref_rad_s is not None:
+            out.append(("speed_ref", self.speed_ref_rad_s))
+        if self.iq_ref_a is not None:
+            out.append(("iq_ref", self.iq_ref_a))
+        if self.id_ref_a is not None:
+            out.append(("id_ref", self.id_ref_a))
+        if self.control_mode is not None:
+            out.append(("control_mode", 1.0 if self.control_mode == "current" else 0.0))
+        if self.load_torque_nm is not None:
+            out.append(("load", self.load_torque_nm))
+        return out
+
+    @property
+    def sends_cmd(self) -> bool:
+        """The event sends at least one CMD frame (with the frames of its cycle)."""
+        return any(name != "load" for name, _ in self.actions())
 
     def describe(self) -> str:
         parts = []
@@ -519,6 +541,8 @@ def check_against_profile(scn: Scenario) -> None:
         except ValueError as exc:
             raise fail(f"faults[{fs.index}]", "kind", f"this plant cannot take it: {exc}") from None
         plant.clear_faults()
+    check_faults_can_act(scn, ts_s, max(1, round(scn.duration_s / ts_s)),
+                         bool(plant.params.dual_sampling), fail)
     _check_plant_values(scn, plant, profile.name, fail, max_rpm / RPM_PER_RAD_S)
     if scn.reference_estimators:
         try:
@@ -623,11 +647,22 @@ def derive_scenario(base: str | Path, name: str, overrides: tuple[tuple[str, Any
 def scenario_of(rec) -> Scenario:
     """The scenario attached to a recording (hil_bench.record.recording.Recording), parsed;
     RecordingError if it has none or it is invalid."""
-    from hil_bench.record.recording import RecordingError
+    from hil_bench.record.recording import NotABenchRecording, RecordingError
 
     found = rec.attachment_text("scenario/")
     if found is None:
-        raise RecordingError(f"{rec.path}: no scenario attached (not a recording of this bench?)")
+        intact = rec.has_footer and not rec.truncated and not rec.damage and not rec.unreadable_chunks
+        if intact and "run" not in rec.metadata:
+            topics = sorted(rec.counts or rec.topics)
+            raise NotABenchRecording(
+                f"{rec.path}: a valid MCAP file, but not a recording of this bench: it has no "
+                f"run metadata and no scenario attached ({rec.messages} messages"
+                + (f" on {', '.join(topics[:6])}" + (", ..." if len(topics) > 6 else "")
+                   if topics else "") + "); `bench replay` reads other captures (docs/replay.md)")
+        raise RecordingError(f"{rec.path}: no scenario attached"
+                             + ("" if intact else " (the file is damaged: its summary or the "
+                                                  "records after the damage are not read)"),
+                             damaged=not intact)
     name, text = found
     try:
         return parse_scenario(text, Path(f"{rec.path}#{name}"))

@@ -60,6 +60,18 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->stats.not_ready = 0u;
     s->stats.repeats = 0u;
     s->stats.cmd_seq_gaps = 0u;
+    s->restarts = 0u;
+}
+
+void hil_session_restart(hil_session_t *s)
+{
+    const hil_port_t port = s->port;
+    const uint16_t modes = s->modes;
+    const uint32_t restarts = s->restarts + 1u;
+    hil_session_init(s, &port);
+    s->modes = modes;
+    s->restarts = restarts;
+    hil_session_heartbeat(s, 0u);
 }
 
 static void send_fault(hil_session_t *s, uint16_t code, uint16_t seq, int32_t detail)
@@ -190,6 +202,9 @@ static void on_cmd(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         break;
     case HIL_CMD_SET_CONTROL_MODE:
         ctrl_set_mode(&s->ctrl, c.value > 0.5f ? CTRL_MODE_CURRENT : CTRL_MODE_SPEED);
+        break;
+    case HIL_CMD_RESTART:
+        hil_session_restart(s);
         break;
     default:
         break;

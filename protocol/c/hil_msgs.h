@@ -149,7 +149,8 @@ typedef enum {
     HIL_CMD_SET_SPEED_REF = 4,
     HIL_CMD_SET_IQ_REF = 5,
     HIL_CMD_SET_ID_REF = 6,
-    HIL_CMD_SET_CONTROL_MODE = 7
+    HIL_CMD_SET_CONTROL_MODE = 7,
+    HIL_CMD_RESTART = 8
 } hil_command_t;
 
 /* HELLO_ACK.status */
@@ -379,11 +380,11 @@ float hil_config_ack_status_decode(uint16_t raw);
 int hil_config_ack_status_is_in_range(uint16_t raw);
 
 /* ---- CMD: 0x040, 8 octets, sent by PLANT ---- */
-/* Command to the controller (run, stop, set reference); value in SI units. No acknowledgement. */
+/* Command to the controller (run, stop, set reference, restart); value in SI units. No acknowledgement. */
 #define HIL_CMD_FRAME_ID 0x040u
 #define HIL_CMD_LENGTH 8u
 typedef struct {
-    uint16_t command; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NOP, 1 = RUN, 2 = STOP, 3 = CLEAR_FAULT, 4 = SET_SPEED_REF, 5 = SET_IQ_REF, 6 = SET_ID_REF, 7 = SET_CONTROL_MODE */
+    uint16_t command; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NOP, 1 = RUN, 2 = STOP, 3 = CLEAR_FAULT, 4 = SET_SPEED_REF, 5 = SET_IQ_REF, 6 = SET_ID_REF, 7 = SET_CONTROL_MODE, 8 = RESTART */
     uint16_t seq; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     float value; /* IEEE binary32, DBC range [-3.4e+38, 3.4e+38] */
 } hil_cmd_t;
