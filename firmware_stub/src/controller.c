@@ -60,6 +60,14 @@ void ctrl_config_defaults(ctrl_config_t *cfg)
     cfg->harm_m = 96.0f;
     cfg->harm_k_comp = 1.0f;
     cfg->harm_extractor = (float)HARM_EXTRACT_GSDFT;
+    cfg->inv_comp_mode = 0.0f;     /* off: a scenario opts in (docs/inverter_comp.md) */
+    cfg->inv_comp_dead_time_s = 0.0f;
+    cfg->inv_comp_v_switch_v = 0.0f;
+    cfg->inv_comp_r_switch_ohm = 0.0f;
+    cfg->inv_comp_v_diode_v = 0.0f;
+    cfg->inv_comp_r_diode_ohm = 0.0f;
+    cfg->inv_comp_band_a = 0.1f;
+    cfg->inv_comp_shape = (float)INV_COMP_SHAPE_CAPACITIVE;
     ctrl_protect_default_config(&cfg->prot);
 }
 
@@ -93,6 +101,7 @@ void ctrl_init(controller_t *c)
     c->prot_ref_valid = 0;
     c->prot_i_prev_valid = 0;
     c->prot_emf_v = 0.0f;
+    c->inv_i_prev_valid = 0;
 }
 
 static void enter_fault(controller_t *c, ctrl_fault_t fault)
@@ -294,6 +303,21 @@ static int extras_init(controller_t *c)
             return -1;
         }
     }
+    if (k->inv_comp_mode > 0.5f) {
+        inv_comp_config_t ic;
+        inv_comp_default_config(&ic, k->ts_s);
+        ic.dead_time_s = k->inv_comp_dead_time_s;
+        ic.v_switch_v = k->inv_comp_v_switch_v;
+        ic.r_switch_ohm = k->inv_comp_r_switch_ohm;
+        ic.v_diode_v = k->inv_comp_v_diode_v;
+        ic.r_diode_ohm = k->inv_comp_r_diode_ohm;
+        ic.i_band_a = k->inv_comp_band_a;
+        ic.shape = (int)k->inv_comp_shape;
+        if (inv_comp_init(&c->inv, &ic) != 0) {
+            return -1;
+        }
+    }
+    c->inv_i_prev_valid = 0;
     return 0;
 }
 
@@ -449,6 +473,35 @@ static void rotate_current_integrators(controller_t *c, float delta_rad)
     v = fw_park(v, sd, cd);
     pi_ctrl_reset(&c->pi_d, v.x);
     pi_ctrl_reset(&c->pi_q, v.y);
+}
+
+/* Inverter-error feed-forward (inv_comp.h) on the SVPWM duties: the phase currents the period's
+ * error depends on (mode 1: the last two samples extrapolated to the middle of the interval the
+ * duties act on; mode 2: the sample), the compensated duties out, and the observers' voltage of
+ * the next period = what the compensation's inverter model says the duties make. */
+static void inverter_feed_forward(controller_t *c, const ctrl_sample_t *s, float v_dc)
+{
+    const ctrl_config_t *k = &c->cfg;
+    float i_now[3], i_use[3];
+    i_now[0] = s->i_a_a;
+    i_now[1] = s->i_b_a;
+    i_now[2] = s->i_c_a;
+    if (k->inv_comp_mode < 1.5f && c->inv_i_prev_valid) {
+        inv_comp_predict(i_now, c->inv_i_prev_a, (k->t_act_delay_s + 0.5f * k->ts_s) / k->ts_s,
+                         i_use);
+    } else {
+        i_use[0] = i_now[0];
+        i_use[1] = i_now[1];
+        i_use[2] = i_now[2];
+    }
+    c->v_ab_applied_v = inv_comp_step(&c->inv, c->out.duty_abc, i_use, v_dc);
+    c->out.duty_abc[0] = c->inv.duty_abc[0];
+    c->out.duty_abc[1] = c->inv.duty_abc[1];
+    c->out.duty_abc[2] = c->inv.duty_abc[2];
+    c->inv_i_prev_a[0] = i_now[0];
+    c->inv_i_prev_a[1] = i_now[1];
+    c->inv_i_prev_a[2] = i_now[2];
+    c->inv_i_prev_valid = 1;
 }
 
 static void handover(controller_t *c, fw_vec2_t i_ab)
@@ -627,6 +680,9 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     }
     c->v_ab_older_v = c->v_ab_applied_v;
     c->v_ab_applied_v = svpwm_duties(v_ab, v_dc, c->out.duty_abc);
+    if (k->inv_comp_mode > 0.5f) {
+        inverter_feed_forward(c, s, v_dc);
+    }
 
 finish:
     c->out.theta_hat_rad = c->est.theta_e_rad;

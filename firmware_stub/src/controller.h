@@ -5,7 +5,9 @@
  *
  * Per period: Clarke -> estimator (currents at t_k, voltage applied over the last period) ->
  * state machine (IDLE, ALIGN, OPEN_LOOP (I-f), CLOSED_LOOP, FAULT, STOPPED) -> speed PI (every
- * speed_loop_div periods) -> d/q current PI with decoupling -> inverse Park -> SVPWM.
+ * speed_loop_div periods) -> d/q current PI with decoupling -> inverse Park -> SVPWM ->
+ * inverter-error feed-forward (inv_comp.h, when on: the duties then realise the command, and the
+ * observers are fed the voltage the compensation's inverter model says the duties make).
  */
 #ifndef CONTROLLER_H
 #define CONTROLLER_H
@@ -19,6 +21,7 @@
 #include "est_smo_tanh.h"
 #include "fw_math.h"
 #include "harm_comp.h"
+#include "inv_comp.h"
 #include "pi_ctrl.h"
 
 /** Controller states; the numbers are the protocol's `state` value table (protocol/hil.dbc). */
@@ -102,6 +105,11 @@ typedef struct {
     float delay_comp_mode, delay_comp_td_s;
     /* inverter-nonlinearity compensation (Yuan eq. 28-37) */
     float harm_comp_enable, harm_m, harm_k_comp, harm_extractor;
+    /* inverter-error feed-forward (inv_comp.h): inv_comp_mode 0 off, 1 on with the phase currents
+     * extrapolated to the middle of the interval the duties act on (t_act_delay_s + Ts/2 after
+     * the sample), 2 on with the sampled currents; the drive's estimates of the inverter */
+    float inv_comp_mode, inv_comp_dead_time_s, inv_comp_v_switch_v, inv_comp_r_switch_ohm,
+          inv_comp_v_diode_v, inv_comp_r_diode_ohm, inv_comp_band_a, inv_comp_shape;
     /* protection thresholds (ctrl_protect.h; prot.i_trip_a is set from i_trip_a at start) */
     ctrl_protect_config_t prot;
 } ctrl_config_t;
@@ -161,6 +169,9 @@ typedef struct {
     const est_hfi_output_t *hfi_out; /**< last HFI output (HFI_SDFT only) */
     est_delay_comp_t delay_comp;
     harm_comp_t harm;
+    inv_comp_t inv;
+    float inv_i_prev_a[3];      /**< phase currents of the last period (inv_comp_predict) */
+    int inv_i_prev_valid;
     est_output_t est;
     /* voltage commands (for the estimator's next step) */
     fw_vec2_t v_ab_applied_v;   /**< command of the last ISR, as realised by SVPWM */
