@@ -133,7 +133,9 @@ PARAMS: tuple[ParamInfo, ...] = (
     _p("INV_COMP_ENABLE", "-", "enum", "inverter dead-time and device-drop feed-forward on the duties and "
        "the observers' voltage",
        ((0, "off"), (1, "on, currents extrapolated to the middle of the interval the duties act on"),
-        (2, "on, sampled currents"))),
+        (2, "on, sampled currents"), (3, "on, the current loop's reference currents"),
+        (4, "on, current-vector method: the measured vector low-passed in the rotating frame (with HF "
+            "injection plus the injection's current, predicted at its frequency)"))),
     _p("INV_COMP_DEAD_TIME_S", "s", "real", "the drive's estimate of the inverter's effective dead time "
        "(below half the PWM period)"),
     _p("INV_COMP_V_SWITCH_V", "V", "real", "estimate of the switch on-state threshold drop"),
@@ -144,6 +146,8 @@ PARAMS: tuple[ParamInfo, ...] = (
        "or the half-width of the linear band; > 0"),
     _p("INV_COMP_SHAPE", "-", "enum", "zero-crossing shape of the compensation",
        ((0, "linear band"), (1, "capacitive commutation (the plant's model)"))),
+    _p("INV_COMP_I_BW_RAD_S", "rad/s", "real", "current-vector method (INV_COMP_ENABLE = 4): bandwidth of the "
+       "low-pass on the measured current vector in the rotating frame (a filter frequency)"),
 )
 
 BY_NAME: dict[str, ParamInfo] = {p.name: p for p in PARAMS}

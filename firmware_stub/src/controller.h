@@ -105,11 +105,16 @@ typedef struct {
     float delay_comp_mode, delay_comp_td_s;
     /* inverter-nonlinearity compensation (Yuan eq. 28-37) */
     float harm_comp_enable, harm_m, harm_k_comp, harm_extractor;
-    /* inverter-error feed-forward (inv_comp.h): inv_comp_mode 0 off, 1 on with the phase currents
-     * extrapolated to the middle of the interval the duties act on (t_act_delay_s + Ts/2 after
-     * the sample), 2 on with the sampled currents; the drive's estimates of the inverter */
+    /* inverter-error feed-forward (inv_comp.h): inv_comp_mode 0 off, or the phase currents it
+     * uses: 1 the last two samples extrapolated to the middle of the interval the duties act on
+     * (t_act_delay_s + Ts/2 after the sample), 2 the sample, 3 the current loop's reference,
+     * 4 the current-vector method (the measured vector low-passed at inv_comp_i_bw_rad_s in the
+     * rotating frame, turned to that middle; with HF injection plus the injection's current,
+     * its mean over that interval predicted as a sampled tone of the injection frequency); the
+     * drive's estimates of the inverter */
     float inv_comp_mode, inv_comp_dead_time_s, inv_comp_v_switch_v, inv_comp_r_switch_ohm,
-          inv_comp_v_diode_v, inv_comp_r_diode_ohm, inv_comp_band_a, inv_comp_shape;
+          inv_comp_v_diode_v, inv_comp_r_diode_ohm, inv_comp_band_a, inv_comp_shape,
+          inv_comp_i_bw_rad_s;
     /* protection thresholds (ctrl_protect.h; prot.i_trip_a is set from i_trip_a at start) */
     ctrl_protect_config_t prot;
 } ctrl_config_t;
@@ -172,6 +177,11 @@ typedef struct {
     inv_comp_t inv;
     float inv_i_prev_a[3];      /**< phase currents of the last period (inv_comp_predict) */
     int inv_i_prev_valid;
+    fw_vec2_t inv_i_dq_f_a;     /**< current-vector method: low-passed i_dq of the loop's frame */
+    float inv_i_lpf_a;          /**< its coefficient 1 - exp(-w Ts) */
+    fw_vec2_t inv_hf_s1_a, inv_hf_s2_a; /**< observed HF injection current x_k, x_k-1 (alpha-beta) */
+    float inv_hf_cos, inv_hf_l1, inv_hf_l2; /**< its observer (cos w Ts, gains) */
+    float inv_hf_c1, inv_hf_c0; /**< its mean over the next interval from x_k, x_k-1 */
     est_output_t est;
     /* voltage commands (for the estimator's next step) */
     fw_vec2_t v_ab_applied_v;   /**< command of the last ISR, as realised by SVPWM */

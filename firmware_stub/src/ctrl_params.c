@@ -82,7 +82,7 @@ static const param_entry_t k_params[] = {
     P(HIL_PARAM_PROT_STALL_TIME_S, prot.stall_time_s, 0.0f, 100.0f),
     P(HIL_PARAM_PROT_STALL_SPEED_RAD_S, prot.stall_speed_rad_s, 0.0f, 1e5f),
     /* inverter-error feed-forward (inv_comp.h); t_dt < Ts/2 is checked at start */
-    W(HIL_PARAM_INV_COMP_ENABLE, inv_comp_mode, 0.0f, 2.0f),
+    W(HIL_PARAM_INV_COMP_ENABLE, inv_comp_mode, 0.0f, 4.0f),
     P(HIL_PARAM_INV_COMP_DEAD_TIME_S, inv_comp_dead_time_s, 0.0f, 1e-3f),
     P(HIL_PARAM_INV_COMP_V_SWITCH_V, inv_comp_v_switch_v, 0.0f, 50.0f),
     P(HIL_PARAM_INV_COMP_R_SWITCH_OHM, inv_comp_r_switch_ohm, 0.0f, 10.0f),
@@ -90,6 +90,7 @@ static const param_entry_t k_params[] = {
     P(HIL_PARAM_INV_COMP_R_DIODE_OHM, inv_comp_r_diode_ohm, 0.0f, 10.0f),
     P(HIL_PARAM_INV_COMP_BAND_A, inv_comp_band_a, 1e-6f, 1e3f),
     W(HIL_PARAM_INV_COMP_SHAPE, inv_comp_shape, 0.0f, 1.0f),
+    P(HIL_PARAM_INV_COMP_I_BW_RAD_S, inv_comp_i_bw_rad_s, 1.0f, 1e5f),
 };
 
 int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value)
