@@ -129,6 +129,10 @@ PARAMS: tuple[ParamInfo, ...] = (
        "for this long with less progress than PROT_STALL_SPEED_RAD_S is a STALL"),
     _p("PROT_STALL_SPEED_RAD_S", "rad/s", "real", "stall: the least the speed error must shrink over "
        "PROT_STALL_TIME_S at the limit, mechanical"),
+    # super-twisting SMO (SMO_STA, firmware_stub/src/est_smo_sta.h: Hou's comparator)
+    _p("SMO_STA_K1_V", "V/A^0.5", "real", "super-twisting SMO proportional gain k1; <= 0: from the speed "
+       "estimate by the algorithm's convergence condition"),
+    _p("SMO_STA_K2_V_S", "V/s", "real", "super-twisting SMO integral gain k2; <= 0: from the speed estimate"),
     # inverter-error feed-forward (firmware_stub/src/inv_comp.h, docs/inverter_comp.md)
     _p("INV_COMP_ENABLE", "-", "enum", "inverter dead-time and device-drop feed-forward on the duties and "
        "the observers' voltage",

@@ -46,6 +46,8 @@ void ctrl_config_defaults(ctrl_config_t *cfg)
     cfg->smo_m_per_a = 0.01f;
     cfg->smo_sigmoid_a_per_a = 0.0f;
     cfg->smo_lag_comp = (float)EST_SMO_SIGMOID_LAG_EQ15;
+    cfg->smo_sta_k1_v = 0.0f;      /* 0: the STA's adaptive gains */
+    cfg->smo_sta_k2_v_s = 0.0f;
     cfg->pll_kp = 0.0f;
     cfg->pll_ki = 0.0f;
     cfg->speed_lpf_rad_s = 0.0f;
@@ -252,6 +254,16 @@ static int estimator_init(controller_t *c)
         sc.pll_ki = ki;
         sc.speed_lpf_rad_s = k->speed_lpf_rad_s;
         return est_smo_tanh_init(&c->est_state.tanh_smo, &sc);
+    }
+    case CTRL_EST_SMO_STA: {
+        est_smo_sta_config_t sc;
+        est_smo_sta_default_config(&sc, k->rs_ohm, k->lq_h, k->psi_f_wb, k->ts_s);
+        sc.k1_v = k->smo_sta_k1_v;
+        sc.k2_v_s = k->smo_sta_k2_v_s;
+        sc.pll_kp = kp;
+        sc.pll_ki = ki;
+        sc.speed_lpf_rad_s = k->speed_lpf_rad_s;
+        return est_smo_sta_init(&c->est_state.sta, &sc);
     }
     case CTRL_EST_HFI_SDFT: {
         est_hfi_config_t hc;
@@ -464,6 +476,9 @@ static void run_estimator(controller_t *c, fw_vec2_t i_ab, const ctrl_sample_t *
         break;
     case CTRL_EST_SMO_TANH:
         c->est = *est_smo_tanh_step(&c->est_state.tanh_smo, i_ab, c->v_ab_acted_v);
+        break;
+    case CTRL_EST_SMO_STA:
+        c->est = *est_smo_sta_step(&c->est_state.sta, i_ab, c->v_ab_acted_v);
         break;
     case CTRL_EST_HFI_SDFT:
         c->hfi_out = est_hfi_step(&c->est_state.hfi, i_ab, c->v_ab_acted_v);

@@ -18,6 +18,7 @@
 #include "est_hfi.h"
 #include "est_smo_sigmoid.h"
 #include "est_smo_sign.h"
+#include "est_smo_sta.h"
 #include "est_smo_tanh.h"
 #include "fw_math.h"
 #include "harm_comp.h"
@@ -42,7 +43,8 @@ typedef enum {
     CTRL_EST_SMO_SIGMOID = 2,
     CTRL_EST_SMO_TANH = 3,
     CTRL_EST_HFI_SDFT = 4,
-    CTRL_EST_ENCODER = 5
+    CTRL_EST_ENCODER = 5,
+    CTRL_EST_SMO_STA = 6
 } ctrl_estimator_t;
 
 /** Fault causes; the numbers are the protocol's fault `code` value table. */
@@ -95,6 +97,7 @@ typedef struct {
     float smo_m_per_a;        /**< tanh SMO slope m (Gong eq. 8) */
     float smo_sigmoid_a_per_a; /**< sigmoid slope a (Yuan eq. 11); <= 0: deadbeat slope */
     float smo_lag_comp;       /**< sigmoid SMO phase compensation: 0 none, 1 eq. 15, 2 effective */
+    float smo_sta_k1_v, smo_sta_k2_v_s; /**< super-twisting SMO gains; <= 0: adaptive */
     float pll_kp, pll_ki, speed_lpf_rad_s;
     /* HF injection (Hou): amplitude, frequency, tracking loop, polarity test */
     float hfi_u_v, hfi_f_hz, hfi_bw_rad_s, hfi_kp, hfi_ki, hfi_ipd_timeout_s, hfi_pol_bias_a;
@@ -168,6 +171,7 @@ typedef struct {
         est_smo_sign_t sign;
         est_smo_sigmoid_t sigmoid;
         est_smo_tanh_t tanh_smo;
+        est_smo_sta_t sta;
         est_hfi_t hfi;
         est_pll_t encoder_pll;
     } est_state;

@@ -81,6 +81,9 @@ static const param_entry_t k_params[] = {
     P(HIL_PARAM_PROT_ENC_FROZEN_TIME_S, prot.enc_frozen_time_s, 0.0f, 10.0f),
     P(HIL_PARAM_PROT_STALL_TIME_S, prot.stall_time_s, 0.0f, 100.0f),
     P(HIL_PARAM_PROT_STALL_SPEED_RAD_S, prot.stall_speed_rad_s, 0.0f, 1e5f),
+    /* super-twisting SMO (est_smo_sta.h) */
+    P(HIL_PARAM_SMO_STA_K1_V, smo_sta_k1_v, 0.0f, 1e5f),
+    P(HIL_PARAM_SMO_STA_K2_V_S, smo_sta_k2_v_s, 0.0f, 1e9f),
     /* inverter-error feed-forward (inv_comp.h); t_dt < Ts/2 is checked at start */
     W(HIL_PARAM_INV_COMP_ENABLE, inv_comp_mode, 0.0f, 4.0f),
     P(HIL_PARAM_INV_COMP_DEAD_TIME_S, inv_comp_dead_time_s, 0.0f, 1e-3f),
