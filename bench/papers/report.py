@@ -16,6 +16,7 @@ import base64
 import datetime as _dt
 import html
 import math
+import json
 import os
 import platform
 import time
@@ -90,6 +91,7 @@ class Report:
     study_errors: dict[str, str] = field(default_factory=dict)
     plots: dict[str, list[Path]] = field(default_factory=dict)
     beyond: dict[str, Any] = field(default_factory=dict)
+    residual: dict[str, Any] = field(default_factory=dict)
     wall_s: float = 0.0
     jobs: int = 1
 
@@ -425,6 +427,9 @@ def write_markdown(rep: Report) -> Path:
             L.append("")
         for p in rep.plots.get(c.id, []):
             L += [f"![{c.id}]({p.relative_to(rep.out_dir)})", ""]
+    if rep.residual:
+        from .residual import markdown as residual_md
+        L += residual_md(rep)
     if rep.beyond:
         from .beyond import markdown as beyond_md
         L += beyond_md(rep)
@@ -491,6 +496,9 @@ def write_html(rep: Report) -> Path:
         H.append("</table>")
         for p in rep.plots.get(c.id, []):
             H.append(_img(p))
+    if rep.residual:
+        from .residual import html_section as residual_html
+        H += residual_html(rep, _img)
     if rep.beyond:
         from .beyond import html_section
         H += html_section(rep, _img)
@@ -504,7 +512,7 @@ def write_html(rep: Report) -> Path:
 
 def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = None,
                beyond: bool = True, reuse: bool = False, console: Console | None = None,
-               beyond_quick: bool = False) -> Report:
+               beyond_quick: bool = False, residual: bool = True) -> Report:
     t0 = time.monotonic()
     console = console or Console(stderr=True)
     out_dir = Path(out_dir)
@@ -524,6 +532,12 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
         beyond_plan = by.plan(quick=beyond_quick)
         for r in beyond_plan.runs:
             runs.setdefault(r.id, r)
+    residual_plan = None
+    if residual:
+        from . import residual as rs
+        residual_plan = rs.plan(ids)
+        for r in residual_plan.runs:
+            runs.setdefault(r.id, r)
     jobs = jobs or default_jobs()
     rep = Report(out_dir, claims, jobs=jobs)
     console.print(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
@@ -541,6 +555,17 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
     rep.rows = measure_claims(claims, rep.outcomes, rep.studies, rep.study_errors)
     from .report_plots import plot_claims
     rep.plots = plot_claims(rep)
+    if residual_plan is not None and residual_plan.claims:
+        from . import residual as rs
+        t_res = time.monotonic()
+        extra = rs.refine_runs(residual_plan, rs.measure(residual_plan, rep))
+        if extra:
+            console.print(f"residual study: {len(extra)} runs at the flips")
+            rep.outcomes.update(execute({r.id: r for r in extra}, out_dir / "recordings", jobs,
+                                        console, reuse=reuse))
+        rep.residual = rs.evaluate(residual_plan, rep)
+        (out_dir / "residual.json").write_text(json.dumps(rs.to_json(rep.residual), indent=1))
+        rep.residual["refine_s"] = time.monotonic() - t_res
     if beyond_plan is not None:
         from . import beyond as by
         rep.beyond = by.evaluate(beyond_plan, rep)
