@@ -32,7 +32,7 @@ from hil_bench.plant_rt.profile import load_profile
 from hil_bench.protocol.messages import Command, Estimator, HelloFlag, Mode, Param
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import ProcessRecorder, RecorderError, check_target
-from hil_bench.scenario import RPM_PER_RAD_S, Scenario
+from hil_bench.scenario import INV_COMP_CURRENTS, INV_COMP_SHAPES, RPM_PER_RAD_S, Scenario
 
 from .host_session import HostSession
 from .links import STUB_CAN_MODES, LinkError, OpenedLink, open_link
@@ -148,6 +148,42 @@ def estimator_defaults(estimator: Estimator, profile, ts_s: float,
     config = factory(profile, ts_s, **chosen).config
     return {p: float(config[f]) for f, p in SMO_CONFIG_PARAMS.items()
             if f in config and p not in given}
+
+
+#: the plant's inverter keys (plant_rt/README.md) -> the drive's INV_COMP_* estimate of each
+INV_COMP_FROM_PLANT = (("dead_time_s", Param.INV_COMP_DEAD_TIME_S),
+                       ("v_switch_drop_v", Param.INV_COMP_V_SWITCH_V),
+                       ("r_switch_ohm", Param.INV_COMP_R_SWITCH_OHM),
+                       ("v_diode_drop_v", Param.INV_COMP_V_DIODE_V),
+                       ("r_diode_ohm", Param.INV_COMP_R_DIODE_OHM))
+#: the drive's zero-crossing current when the plant's leg has a hard sign (i_cap_band_a = 0)
+INV_COMP_MIN_BAND_A = 1e-3
+
+
+def inverter_comp_settings(comp, plant_params: dict) -> tuple[dict[Param, float], dict]:
+    """CONFIG parameters and recording metadata of ``[controller.inverter_comp]``: the drive's
+    estimate = (1 - residual) x the plant's dead time and drops (zero when the plant's inverter is
+    ideal: nothing to compensate). ``comp`` None: off, ({}, {"on": False}).
+    """
+    if comp is None:
+        return {}, {"on": False}
+    on = bool(plant_params.get("inverter_nonlinear", False))
+    truth = {k: (float(plant_params[k]) if on else 0.0) for k, _ in INV_COMP_FROM_PLANT}
+    plant_band = float(plant_params.get("i_cap_band_a", 0.0))
+    band = comp.band_a if comp.band_a is not None else max(plant_band, INV_COMP_MIN_BAND_A)
+    params = {Param.INV_COMP_ENABLE: float(INV_COMP_CURRENTS[comp.current]),
+              Param.INV_COMP_SHAPE: float(INV_COMP_SHAPES[comp.shape]),
+              Param.INV_COMP_BAND_A: band}
+    if comp.current_bw_rad_s is not None:
+        params[Param.INV_COMP_I_BW_RAD_S] = comp.current_bw_rad_s
+    estimate = {}
+    for key, param in INV_COMP_FROM_PLANT:
+        estimate[key] = (1.0 - comp.residual) * truth[key]
+        params[param] = estimate[key]
+    meta = {"on": True, "residual": comp.residual, "current": comp.current, "shape": comp.shape,
+            "plant_inverter_nonlinear": on, "plant": dict(truth, i_cap_band_a=plant_band),
+            "drive": dict(estimate, band_a=band)}
+    return params, meta
 
 
 def git_revision() -> str:
@@ -328,8 +364,24 @@ class Runner:
             # below: 40 LSB of a 12-bit ADC, far above its noise (docs/claims.md, finding 1).
             trip = 0.98 * float(pp.adc_full_scale_a)
             params[Param.I_MAX_TRIP_A] = min(params.get(Param.I_MAX_TRIP_A, trip), trip)
+        params.update(inverter_comp_settings(self.scn.inverter_comp, self.plant.params.as_dict())[0])
         params.update(self.scn.controller_params)
         return params
+
+    def inverter_comp_metadata(self) -> dict:
+        """What the recording says about the drive's inverter-error feed-forward: from the
+        scenario's residual (truth, estimate, residual), from explicit INV_COMP_* parameters (the
+        estimate and the plant's values beside it), or off."""
+        _, meta = inverter_comp_settings(self.scn.inverter_comp, self.plant.params.as_dict())
+        given = {p.name: v for p, v in self.scn.controller_params.items()
+                 if p.name.startswith("INV_COMP_")}
+        if self.scn.inverter_comp is None and given.get("INV_COMP_ENABLE", 0.0) > 0.0:
+            pp = self.plant.params.as_dict()
+            on = bool(pp.get("inverter_nonlinear", False))
+            meta = {"on": True, "residual": None, "source": "controller.params", "drive": given,
+                    "plant_inverter_nonlinear": on,
+                    "plant": {k: (float(pp[k]) if on else 0.0) for k, _ in INV_COMP_FROM_PLANT}}
+        return meta
 
     def hello_flags(self) -> int:
         return self.scn.hello_flags(bool(self.plant.params.dual_sampling))
@@ -533,6 +585,7 @@ class Runner:
             "plant_params": json.dumps(self.plant.params.as_dict()),
             "controller_params": json.dumps({p.name: v for p, v in
                                              self.controller_params().items()}),
+            "inverter_comp": json.dumps(self.inverter_comp_metadata()),
             "estimator": scn.estimator.name,
             "encoder_angle_sent": str(scn.encoder_angle_sent).lower(),
             "reference_estimators": json.dumps({n: scn.reference_config.get(n, {})

@@ -16,6 +16,16 @@ comes from, instead of failing mid-run.
 to a recording with it); ``load_scenario`` also checks the scenario against its motor profile (control
 period, pole pairs, plant overrides: ``check_against_profile``).
 
+``[controller.inverter_comp]`` switches the drive's inverter-error feed-forward on
+(firmware_stub/src/inv_comp.h, docs/inverter_comp.md) with the drive's estimate of the plant's
+inverter set by a residual: ``residual`` = the fraction of the plant's dead time and device drops
+the estimate leaves (estimate = (1 - residual) x the plant's values; 0 exact, 0.03 = 3 % under,
+negative = over-compensation); ``current = "vector" (default: the current-vector method) | "predicted" | "sampled" |
+"reference"``, ``shape = "capacitive" |
+"linear"``, ``band_a`` (default: the plant's i_cap_band_a), ``current_bw_rad_s`` (the
+current-vector filter of ``current = "vector"``). The runner turns it into the CONFIG
+parameters INV_COMP_* and writes truth, estimate and residual into the recording's metadata.
+
 Keys for the protocol-1.0 link behaviour (docs/protocol.md 6.4, 6.5, 6.8, 6.9), read by the host's cycle
 engine: ``[scenario] mode = "lockstep" | "realtime"``; ``[realtime] duty_update = "on_arrival" |
 "next_period"``, ``max_consecutive_misses`` (10), ``cpu``; ``[link] retry_timeout_s`` (0.05),
@@ -128,6 +138,24 @@ class LinkSettings:
     allow: dict[str, int] = field(default_factory=dict)   # link counter -> allowed count
 
 
+#: [controller.inverter_comp] current = ... -> INV_COMP_ENABLE value
+INV_COMP_CURRENTS = {"predicted": 1, "sampled": 2, "reference": 3, "vector": 4}
+#: [controller.inverter_comp] shape = ... -> INV_COMP_SHAPE value
+INV_COMP_SHAPES = {"linear": 0, "capacitive": 1}
+
+
+@dataclass(frozen=True)
+class InverterComp:
+    """``[controller.inverter_comp]``: the drive's inverter-error feed-forward, its estimate of
+    the plant's inverter given as a residual (docs/inverter_comp.md)."""
+
+    residual: float                 # estimate = (1 - residual) x the plant's dead time and drops
+    current: str = "vector"         # INV_COMP_CURRENTS
+    shape: str = "capacitive"       # INV_COMP_SHAPES
+    band_a: float | None = None     # zero-crossing current; None: the plant's i_cap_band_a
+    current_bw_rad_s: float | None = None   # current = "vector": the filter (None: the drive's)
+
+
 @dataclass(frozen=True)
 class Scenario:
     path: Path
@@ -157,6 +185,7 @@ class Scenario:
     faults: tuple = ()                      # hil_bench.scenario.faults.FaultSpec, [[faults]] (docs/faults.md)
     recording: Any = None                   # hil_bench.scenario.faults.RecordingSettings ([recording])
     post_trip_s: float = 0.0                # a FAULT_CTRL ends the run this long after it
+    inverter_comp: InverterComp | None = None   # [controller.inverter_comp]
 
     @property
     def display_path(self) -> str:
@@ -219,6 +248,36 @@ def _estimator(fields: Fields, key: str) -> Estimator:
     except KeyError:
         raise fields.fail(key, f"unknown estimator {name!r}; known: "
                                f"{', '.join(e.name for e in Estimator)}") from None
+
+
+def _inverter_comp(c: Fields, params: dict[Param, float]) -> InverterComp | None:
+    """[controller.inverter_comp], or None if absent. Refused beside explicit INV_COMP_* CONFIG
+    parameters: one scenario, one statement of the drive's estimate."""
+    if "inverter_comp" not in c.table:
+        return None
+    t = c.table_of("inverter_comp")
+    given = sorted(p.name for p in params if p.name.startswith("INV_COMP_"))
+    if given:
+        raise t.fail("residual", f"the drive's estimate is given twice: here and as "
+                                 f"controller.params {', '.join(given)}; keep one")
+    residual = t.number("residual")
+    t.within("residual", residual, -1.0, 1.0, "",
+             "the fraction of the plant's dead time and drops the drive's estimate leaves "
+             "(-1 .. 1: 0 exact, 1 no compensation, < 0 over-compensation)")
+    current = t.string("current", "vector")
+    if current not in INV_COMP_CURRENTS:
+        raise t.fail("current", f"must be one of {', '.join(INV_COMP_CURRENTS)}, got {current!r}")
+    shape = t.string("shape", "capacitive")
+    if shape not in INV_COMP_SHAPES:
+        raise t.fail("shape", f"must be one of {', '.join(INV_COMP_SHAPES)}, got {shape!r}")
+    band = t.number("band_a", min_value=1e-6) if "band_a" in t.table else None
+    bw = None
+    if "current_bw_rad_s" in t.table:
+        if current != "vector":
+            raise t.fail("current_bw_rad_s", 'filters the current vector: only with current = "vector"')
+        bw = t.number("current_bw_rad_s", min_value=1.0)
+    t.reject_unknown()
+    return InverterComp(residual, current, shape, band, bw)
 
 
 def _controller_params(fields: Fields) -> dict[Param, float]:
@@ -424,6 +483,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         raise c.fail("send_encoder_angle", "the ENCODER estimator needs the encoder angle: drop the key or "
                                            "set it to true (docs/protocol.md 6.8)")
     params = _controller_params(c.table_of("params"))
+    inverter_comp = _inverter_comp(c, params)
     c.reject_unknown()
 
     r = top.table_of("reference")
@@ -470,6 +530,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         telemetry_emf=telemetry_emf, raw=raw, text=text,
         send_encoder_angle=send_encoder, realtime=realtime, link=link,
         faults=faults, recording=recording, post_trip_s=post_trip_s,
+        inverter_comp=inverter_comp,
     )
 
 
