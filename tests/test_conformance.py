@@ -128,3 +128,70 @@ def test_an_encoder_drive_can_pass_the_kit():
     failed = [f"{i.section} {i.text}: {i.detail}" for i in result.items if i.ok is False]
     assert result.aborted is None and not failed, (result.aborted, failed)
     assert any("TELEM.estimator = ENCODER" in i.text and i.ok for i in result.items)
+
+
+def _proxy_dropping_duty(nth: int, delay_s: float = 0.0):
+    """The stub behind a proxy that loses its nth DUTY on the way to the host (``delay_s`` = 0), or
+    holds it back that long (the pump waits: everything behind it is as late)."""
+    import time
+
+    from hil_bench.protocol.messages import MESSAGES as M
+    from tests.pty_proxy import PtyProxy, decode
+
+    seen = {"duties": 0}
+
+    def to_host(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is not None and frame[0] == M["DUTY"].frame_id:
+            seen["duties"] += 1
+            if seen["duties"] == nth:
+                if not delay_s:
+                    return []
+                time.sleep(delay_s)
+        return [chunk]
+
+    return PtyProxy(to_host=to_host)
+
+
+def test_after_the_cycles_stop_the_stop_probe_is_a_new_cycle_and_what_was_never_reached_is_na():
+    """Issue 19, point 8: one DUTY lost for good (the kit does not retry) stops the session's cycles at
+    that seq. The STOP probe then sends the next seq (the same one again would be a retry, answered
+    from the cache: a controller that did stop looked as if it had not), and the items the session
+    never got to (the repeat, the bad CRC, the reference session) are n/a, not a FAIL each: the one
+    FAIL is the item whose rule broke."""
+    proxy = _proxy_dropping_duty(100)
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    by = {i.text.split(":")[0]: i for i in result.items}
+    assert by["every SENSE answered with a DUTY of its seq"].ok is False
+    assert by["after CMD STOP"].ok, result.text()
+    na = [i for i in result.items if i.ok is None]
+    assert {i.section for i in na} == {"2.4", "6.5"} and len(na) == 3, result.text()
+    assert all("not reached: no answer since cycle 99" in i.detail for i in na), result.text()
+    assert [i.text for i in result.items if i.ok is False] == ["every SENSE answered with a DUTY of its seq"]
+
+
+def test_an_answer_after_the_lockstep_deadline_fails_the_deadline_item():
+    """docs/protocol.md 6 (timing): DUTY(k) is due LOCKSTEP_ANSWER_S (50 ms) after SENSE(k), when the
+    bench retries; the kit waits exactly as long as the bench (then up to its give-up time, 0.2 s,
+    to see whether the answer comes at all) and names the late cycle."""
+    from hil_bench.protocol.timing import LOCKSTEP_ANSWER_S, LOCKSTEP_GIVE_UP_S
+
+    proxy = _proxy_dropping_duty(50, delay_s=(LOCKSTEP_ANSWER_S + LOCKSTEP_GIVE_UP_S) / 2)
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    failed = [i for i in result.items if i.ok is False]
+    assert len(failed) == 1 and "within the lockstep answer deadline, 50 ms" in failed[0].text, result.text()
+    assert "1 late: seq 49 " in failed[0].detail
+    assert any(i.text.startswith("every SENSE answered") and i.ok for i in result.items)
+
+
+def test_too_few_cycles_to_reach_the_repeat_is_refused(capsys):
+    from hil_bench.conformance import MIN_CYCLES
+
+    assert cli_main(["conformance", "--link", "stub", "--cycles", str(MIN_CYCLES - 1)]) == 2
+    assert f"at least {MIN_CYCLES} cycles" in capsys.readouterr().out
