@@ -33,7 +33,7 @@ from hil_bench.firmware_stub.est_smo import (
 )
 from hil_bench.plant_rt.profile import load_profile
 from tests.est_data import RPM, trajectory, wrap_pi
-from tests.models.smo_sigmoid import SmoSigmoidModel, dir_state, min_gain_v, sigmoid, zoh_first_order
+from tests.models.smo_sigmoid import SmoSigmoidModel, min_gain_v, sigmoid, zoh_first_order
 
 P = dict(rs_ohm=0.6383, ls_h=2e-3, psi_f_wb=0.085, ts_s=1e-4)
 K_V = 320.0   # 1.5 x eq. 18 at 3000 rpm (2 * 0.085 * 1256.6 = 213.6 V)
@@ -76,7 +76,7 @@ def test_one_step_equations_match(trajs, rpm, lag_comp):
     worst = dict(i=0.0, e=0.0, th=0.0, w=0.0)
     for k in range(len(traj)):
         m.load_state((s.i_hat_a.x, s.i_hat_a.y), (s.z_v.x, s.z_v.y), (s.h_v.x, s.h_v.y),
-                     s.pll.theta_rad, s.pll.omega_rad_s, s.out.omega_e_rad_s, dir_state(s.dir))
+                     s.pll.theta_rad, s.pll.omega_rad_s, s.out.omega_e_rad_s, (s.dir.dir, s.dir.disagree_n))
         i_ab, v_ab = _inputs(traj, k)
         th_m, w_m, ea_m, eb_m = m.step(i_ab, v_ab)
         o = c.step(*i_ab, *v_ab)

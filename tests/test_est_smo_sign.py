@@ -14,7 +14,6 @@ import pytest
 
 from hil_bench.firmware_stub.estimators import SmoSign
 from tests.est_data import trajectory, wrap_pi
-from tests.models.smo_sigmoid import dir_state
 from tests.models.smo_sign import SmoSignModel
 
 P = dict(rs_ohm=0.6383, ls_h=2e-3, psi_f_wb=0.085, ts_s=1e-4)
@@ -33,7 +32,7 @@ def test_one_step_equations_match(traj):
     worst = dict(e=0.0, th=0.0, i=0.0)
     for k in range(len(traj)):
         m.load_state((s.i_hat_a.x, s.i_hat_a.y), (s.z_v.x, s.z_v.y), (s.e_hat_v.x, s.e_hat_v.y),
-                     s.pll.theta_rad, s.pll.omega_rad_s, dir_state(s.dir))
+                     s.pll.theta_rad, s.pll.omega_rad_s, (s.dir.dir, s.dir.disagree_n))
         i_ab = (traj.i_alpha_a[k], traj.i_beta_a[k])
         v_ab = (traj.v_alpha_prev_v[k], traj.v_beta_prev_v[k])
         th_m, w_m, ea_m, eb_m = m.step(i_ab, v_ab)

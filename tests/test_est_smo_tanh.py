@@ -29,7 +29,6 @@ from hil_bench.firmware_stub.est_smo import (
 from hil_bench.plant_rt.profile import load_profile
 from tests.est_data import trajectory, wrap_pi
 from tests.models import smo_tanh as model
-from tests.models.smo_sigmoid import dir_state
 from tests.models.smo_tanh import SmoTanhModel
 
 P = dict(rs_ohm=0.6383, ls_h=2e-3, psi_f_wb=0.085, ts_s=1e-4)
@@ -68,7 +67,7 @@ def test_one_step_equations_match(trajs, rpm):
     worst = dict(i=0.0, e=0.0, th=0.0, w=0.0)
     for k in range(len(traj)):
         m.load_state((s.i_hat_a.x, s.i_hat_a.y), (s.e_hat_v.x, s.e_hat_v.y), s.pll.theta_rad,
-                     s.pll.omega_rad_s, dir_state(s.dir))
+                     s.pll.omega_rad_s, (s.dir.dir, s.dir.disagree_n))
         i_ab, v_ab = _inputs(traj, k)
         th_m, w_m, ea_m, eb_m = m.step(i_ab, v_ab)
         o = c.step(*i_ab, *v_ab)

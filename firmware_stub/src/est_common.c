@@ -35,47 +35,6 @@ void est_emf_dir_reset(est_emf_dir_t *d)
 {
     d->dir = 1;
     d->disagree_n = 0;
-    d->have_prev = 0;
-    d->acquiring = 0;
-    d->theta_prev_rad = 0.0f;
-    d->inc_rad = 0.0f;
-    d->inc_cos = 0.0f;
-    d->inc_sin = 0.0f;
-}
-
-void est_emf_acquire(est_pll_t *pll, est_emf_dir_t *d, float theta_emf_rad, int emf_real, float ts_s)
-{
-    float a = EST_EMF_FLL_WF_RAD_S * ts_s;
-    float inc, w_fd, off, rho2;
-    const float rho_min = EST_EMF_FLL_COHERENCE;
-    if (!d->have_prev) {
-        d->have_prev = 1;
-        d->theta_prev_rad = theta_emf_rad;
-        return;
-    }
-    inc = fw_wrap_pi(theta_emf_rad - d->theta_prev_rad);
-    d->theta_prev_rad = theta_emf_rad;
-    if (fabsf(inc) > FW_HALF_PI_F) {
-        inc = fw_wrap_pi(inc + FW_PI_F); /* modulo pi, as the PLL: a reversal's EMF flip is no turn */
-    }
-    a = a < 1.0f ? a : 1.0f;
-    d->inc_rad += a * (inc - d->inc_rad);
-    d->inc_cos += a * (cosf(inc) - d->inc_cos);
-    d->inc_sin += a * (sinf(inc) - d->inc_sin);
-    rho2 = d->inc_cos * d->inc_cos + d->inc_sin * d->inc_sin;
-    w_fd = d->inc_rad / ts_s;
-    off = fabsf(w_fd - pll->omega_rad_s);
-    if (!emf_real || rho2 < rho_min * rho_min) {
-        d->acquiring = 0;
-    } else if (off > pll->kp) {
-        d->acquiring = 1;
-    } else if (off < 0.5f * pll->kp) {
-        d->acquiring = 0;
-    }
-    if (d->acquiring) {
-        float g = EST_EMF_FLL_GAIN_1_S * ts_s;
-        pll->omega_rad_s += (g < 1.0f ? g : 1.0f) * (w_fd - pll->omega_rad_s);
-    }
 }
 
 float est_emf_angle_step(est_pll_t *pll, est_emf_dir_t *d, float theta_emf_rad,

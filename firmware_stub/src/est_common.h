@@ -34,25 +34,10 @@ void est_pll_gains(float wn_rad_s, float *kp, float *ki);
 /** How long the speed must contradict the PLL angle's polarity before it is re-aligned [s]. */
 #define EST_EMF_RESYNC_S 0.01f
 
-/** Frequency-aided acquisition (est_emf_acquire): the cut-off of the filter that averages
- * the EMF angle's step-to-step increment (the frequency discriminator) [rad/s] ... */
-#define EST_EMF_FLL_WF_RAD_S 250.0f
-/** ... the mean resultant length of those increments (1: the EMF vector turns steadily, 0: its
- * angle wanders) at which the discriminator is trusted ... */
-#define EST_EMF_FLL_COHERENCE 0.9f
-/** ... and the rate at which it steers the PLL's speed while acquiring [1/s]. */
-#define EST_EMF_FLL_GAIN_1_S 1000.0f
-
-/** Direction-of-rotation state of est_emf_angle_step and acquisition state of est_emf_acquire. */
+/** Direction-of-rotation state of est_emf_angle_step. */
 typedef struct {
     int dir;        /**< +1 / -1: the EMF's polarity relative to the PLL angle (= direction) */
     int disagree_n; /**< evidence against the PLL angle's polarity, in steps */
-    int have_prev;  /**< theta_prev_rad holds the last step's EMF angle */
-    int acquiring;  /**< the frequency discriminator steers the PLL's speed */
-    float theta_prev_rad; /**< the last step's EMF angle */
-    float inc_rad;  /**< low-passed EMF angle increment per step (/ Ts: its frequency) */
-    float inc_cos;  /**< low-passed cos and sin of the increment (their magnitude: coherence) */
-    float inc_sin;
 } est_emf_dir_t;
 
 void est_emf_dir_reset(est_emf_dir_t *d);
@@ -80,23 +65,5 @@ void est_emf_dir_reset(est_emf_dir_t *d);
  */
 float est_emf_angle_step(est_pll_t *pll, est_emf_dir_t *d, float theta_emf_rad,
                          float dir_speed_rad_s, float ts_s);
-
-/**
- * Frequency-aided acquisition of the PLL, called every step before est_emf_angle_step by an
- * observer whose PLL speed sets its own gain (the sign SMO's adaptive gain: at a cold start at
- * speed the gain sits at its floor until the PLL has pulled in, and the folded detector's pull-in
- * beyond its lock-in range is slow). The EMF angle's increment per step, folded modulo pi into
- * +-pi/2 like the PLL's error (the EMF's flip at a reversal is no turn), is low-passed
- * (a = EST_EMF_FLL_WF_RAD_S Ts), and so are its cos and sin (their magnitude rho is the
- * increments' coherence: 1 for an EMF vector turning steadily). While emf_real (the caller's
- * evidence that the EMF vector is a real one, not the ripple of its chattering), rho >=
- * EST_EMF_FLL_COHERENCE and the discriminator's frequency w_fd = inc / Ts is more than kp (the
- * loop's lock-in range, 2 zeta wn) away from the PLL speed, the speed is steered towards w_fd by
- * EST_EMF_FLL_GAIN_1_S Ts (w_fd - w) per step, until the two are within kp / 2 (or a condition
- * fails). The sign is the EMF vector's own sense of rotation, the rotor's whatever the polarity;
- * a locked PLL never engages it, nor does a reversal (its EMF flip is folded away; near zero speed
- * the EMF is the chattering's). w_fd is d->inc_rad / ts_s.
- */
-void est_emf_acquire(est_pll_t *pll, est_emf_dir_t *d, float theta_emf_rad, int emf_real, float ts_s);
 
 #endif

@@ -4,11 +4,6 @@
 
 /** The adaptive gain's |e| may exceed the observed |E^| (LPF undone) by this factor at most. */
 #define EST_SMO_SIGN_EMF_CAP 2.0f
-/** The observed EMF (LPF undone at the discriminator's frequency) is a real one, for the PLL's
- * frequency-aided acquisition, from this fraction of the switching gain on: an observer out of
- * sliding mode (|e| > k) sees about 0.8 k, one tracking at speed k / k_factor = 0.67 k; the
- * filtered ripple of the chattering near zero speed a few per cent of k. */
-#define EST_SMO_SIGN_EMF_REAL 0.5f
 
 void est_smo_sign_default_config(est_smo_sign_config_t *cfg, float rs_ohm, float ls_h,
                                  float psi_f_wb, float ts_s)
@@ -82,20 +77,10 @@ const est_output_t *est_smo_sign_step(est_smo_sign_t *s, fw_vec2_t i_ab_a, fw_ve
     /* position (eq. 8) with the LPF phase-lag compensation (eq. 9 / Gong 7) */
     theta_raw = atan2f(-s->e_hat_v.x, s->e_hat_v.y);
     theta_raw += atanf(s->out.omega_e_rad_s / c->wc_rad_s);
-    e_mag = sqrtf(s->e_hat_v.x * s->e_hat_v.x + s->e_hat_v.y * s->e_hat_v.y);
-
-    /* frequency-aided acquisition: the gain waits for the PLL speed, so at a cold start at speed
-     * the PLL must not wait for the gain (est_common.h); the EMF is real when, its LPF
-     * attenuation at the discriminator's frequency undone, it is a good part of the gain */
-    {
-        const float w_fd_over_wc = s->dir.inc_rad / (c->ts_s * c->wc_rad_s);
-        const int emf_real = e_mag * sqrtf(1.0f + w_fd_over_wc * w_fd_over_wc) >=
-                             EST_SMO_SIGN_EMF_REAL * s->k_now_v;
-        est_emf_acquire(&s->pll, &s->dir, theta_raw, emf_real, c->ts_s);
-    }
 
     /* direction of rotation (+pi for w < 0) and speed: est_common */
     theta_raw = est_emf_angle_step(&s->pll, &s->dir, theta_raw, c->dir_speed_rad_s, c->ts_s);
+    e_mag = sqrtf(s->e_hat_v.x * s->e_hat_v.x + s->e_hat_v.y * s->e_hat_v.y);
     omega = s->pll.omega_rad_s;
     if (c->speed_from_emf && c->psi_f_wb > 0.0f) {
         /* eq. 10 gives the magnitude; the direction is the PLL's */

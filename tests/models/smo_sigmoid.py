@@ -72,55 +72,6 @@ DIR_SPEED_RAD_S = 1.0
 #: how long the speed must contradict the PLL angle's polarity before it is re-aligned [s]
 RESYNC_S = 0.01
 
-#: frequency-aided acquisition (docs/estimators_smo.md, "The cold start at high speed"): the
-#: discriminator's filter [rad/s], the coherence it needs, the rate it steers the PLL at [1/s]
-FLL_WF_RAD_S, FLL_COHERENCE, FLL_GAIN_1_S = 250.0, 0.9, 1000.0
-
-
-class Acquisition:
-    """Frequency-aided acquisition of the angle PLL, float64, from its specification: the EMF
-    angle's step-to-step turn, folded modulo pi into [-pi/2, pi/2], is averaged by a first-order
-    filter of coefficient min(1, wf Ts) as a number (its frequency) and as a unit phasor (the
-    phasor mean's length is the turns' coherence). While coherent and further than kp from the
-    PLL speed, the speed is pulled towards the discriminator's by min(1, g Ts) of the gap,
-    until within kp / 2."""
-
-    def __init__(self, ts_s: float):
-        self.ts = ts_s
-        self.a = min(1.0, FLL_WF_RAD_S * ts_s)
-        self.g = min(1.0, FLL_GAIN_1_S * ts_s)
-        self.prev: float | None = None
-        self.turn = 0.0
-        self.phasor = 0j
-        self.on = False
-
-    def state(self) -> tuple:
-        return (self.prev is not None, self.on, self.prev or 0.0, self.turn, self.phasor.real,
-                self.phasor.imag)
-
-    def load(self, have_prev, on, prev, turn, c, s) -> None:
-        self.prev = float(prev) if have_prev else None
-        self.on, self.turn, self.phasor = bool(on), float(turn), complex(c, s)
-
-    def step(self, pll: "Pll", theta_emf: float) -> None:
-        if self.prev is None:
-            self.prev = theta_emf
-            return
-        turn = math.remainder(theta_emf - self.prev, math.pi)     # modulo pi, in [-pi/2, pi/2]
-        self.prev = theta_emf
-        self.turn += self.a * (turn - self.turn)
-        self.phasor += self.a * (complex(math.cos(turn), math.sin(turn)) - self.phasor)
-        w_fd = self.turn / self.ts
-        gap = abs(w_fd - pll.omega)
-        if abs(self.phasor) < FLL_COHERENCE:
-            self.on = False
-        elif gap > pll.kp:
-            self.on = True
-        elif gap < 0.5 * pll.kp:
-            self.on = False
-        if self.on:
-            pll.omega += self.g * (w_fd - pll.omega)
-
 
 class EmfAngle:
     """The rotor angle from a back-EMF angle for both directions of rotation, float64.
@@ -132,8 +83,7 @@ class EmfAngle:
     PLL speed w and w + kp err agree in sign and both reach dir_speed, a counter rises when the
     speed's sign contradicts dir and falls when it confirms it; at RESYNC_S worth of steps the
     PLL angle is moved by pi. Output: EMF angle (+ pi for dir < 0) where
-    |w| >= dir_speed, the PLL angle below (dir_speed <= 0: never). Before all that, the
-    frequency-aided acquisition (``Acquisition``) may steer the PLL speed.
+    |w| >= dir_speed, the PLL angle below (dir_speed <= 0: never).
     """
 
     def __init__(self, kp: float, ki: float, ts_s: float, dir_speed_rad_s: float = DIR_SPEED_RAD_S):
@@ -142,17 +92,8 @@ class EmfAngle:
         self.disagree_n = 0
         self.dir_speed = dir_speed_rad_s
         self.ts = ts_s
-        self.acq = Acquisition(ts_s)
-
-    def load(self, direction) -> None:
-        """The C's est_emf_dir_t as a tuple: (dir, disagree_n[, have_prev, acquiring,
-        theta_prev, inc, inc_cos, inc_sin])."""
-        self.dir, self.disagree_n = direction[:2]
-        if len(direction) > 2:
-            self.acq.load(*direction[2:])
 
     def step(self, theta_emf: float) -> float:
-        self.acq.step(self.pll, theta_emf)
         w = self.pll.omega
         err = wrap_pi(theta_emf - self.pll.theta)
         flipped = abs(err) > math.pi / 2
@@ -175,12 +116,6 @@ class EmfAngle:
         return self.pll.theta
 
 
-def dir_state(d) -> tuple:
-    """The C's est_emf_dir_t (a cffi struct) as the tuple ``EmfAngle.load`` takes."""
-    return (d.dir, d.disagree_n, d.have_prev, d.acquiring, d.theta_prev_rad, d.inc_rad, d.inc_cos,
-            d.inc_sin)
-
-
 class SmoSigmoidModel:
     def __init__(self, rs_ohm, ls_h, psi_f_wb, ts_s, k_v, a_per_a, wc_rad_s, lag_comp,
                  pll_kp, pll_ki, dir_speed_rad_s=DIR_SPEED_RAD_S):
@@ -201,7 +136,7 @@ class SmoSigmoidModel:
                                       np.array(h, float))
         self.pll.theta, self.pll.omega = float(pll_theta), float(pll_omega)
         self.omega = float(omega_out)
-        self.angle.load(direction)
+        self.angle.dir, self.angle.disagree_n = direction
 
     def lag_rad(self, omega: float) -> float:
         if self.lag_comp == 1:

@@ -39,7 +39,7 @@ class SmoSignModel:
         """Start the next step from a given state (one-step comparisons)."""
         self.i_hat, self.z, self.e = np.array(i_hat, float), np.array(z, float), np.array(e, float)
         self.angle.pll.theta, self.angle.pll.omega = float(pll_theta), float(omega)
-        self.angle.load(direction)
+        self.angle.dir, self.angle.disagree_n = direction
 
     def step(self, i_ab, v_ab_prev):
         self.i_hat = self.f * self.i_hat + self.g * (np.asarray(v_ab_prev) - self.z)   # eq. 4

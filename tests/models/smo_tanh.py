@@ -69,7 +69,7 @@ class SmoTanhModel:
     def load_state(self, i_hat, e, pll_theta, pll_omega, direction=(1, 0)):
         self.i_hat, self.e = np.array(i_hat, float), np.array(e, float)
         self.pll.theta, self.pll.omega = float(pll_theta), float(pll_omega)
-        self.angle.load(direction)
+        self.angle.dir, self.angle.disagree_n = direction
 
     def step(self, i_ab, v_ab_prev):
         """Returns (theta, omega, e^alpha, e^beta) for the measured i_ab at t_k."""
