@@ -195,3 +195,69 @@ def test_too_few_cycles_to_reach_the_repeat_is_refused(capsys):
 
     assert cli_main(["conformance", "--link", "stub", "--cycles", str(MIN_CYCLES - 1)]) == 2
     assert f"at least {MIN_CYCLES} cycles" in capsys.readouterr().out
+
+
+def _proxy(to_controller=None, to_host=None):
+    from tests.pty_proxy import PtyProxy
+
+    return PtyProxy(to_controller=to_controller, to_host=to_host)
+
+
+def test_a_drive_silent_after_fault_plant_fails_the_fault_plant_items():
+    """Issue 19, point 8: the old 6.4 sentence ("sends nothing after FAULT_PLANT until a new HELLO")
+    contradicted 6.0/6.7 (idle heartbeats). The spec now says: stop as on CMD STOP, keep answering
+    SENSE, keep the heartbeat. A drive that follows the old sentence (the stub behind a proxy that
+    swallows everything it sends from FAULT_PLANT until the next HELLO) fails both 6.7 items that
+    state it, and only those."""
+    from hil_bench.protocol.messages import MESSAGES as M
+    from tests.pty_proxy import decode
+
+    st = {"mute": False}
+
+    def to_controller(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is not None and frame[0] == M["FAULT_PLANT"].frame_id:
+            st["mute"] = True
+        elif frame is not None and frame[0] == M["HELLO"].frame_id:
+            st["mute"] = False
+        return [chunk]
+
+    proxy = _proxy(to_controller, lambda chunk: [] if st["mute"] else [chunk])
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    failed = [i.text for i in result.items if i.ok is False]
+    assert len(failed) == 2, result.text()
+    assert failed[0].startswith("FAULT_PLANT: the controller stops as on CMD STOP"), failed
+    assert failed[1].startswith("HEARTBEAT_CTRL again once cycles stop"), failed
+
+
+def test_a_drive_whose_run_clears_a_fault_fails_the_fault_item():
+    """Issue 19, point 8 (the state after CLEAR_FAULT was unstated): 6.3 says a controller stays in
+    FAULT, RUN ignored, until CLEAR_FAULT, which returns it to IDLE with its configuration kept. A drive
+    whose RUN clears a fault by itself (the stub behind a proxy that puts a CLEAR_FAULT before every
+    RUN) fails that item; the incomplete-configuration item before it still passes."""
+    from hil_bench.protocol.messages import MESSAGES as M
+    from hil_bench.protocol.messages import Command
+    from tests.pty_proxy import decode, encode
+
+    cmd = M["CMD"]
+
+    def to_controller(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is not None and frame[0] == cmd.frame_id and cmd.unpack(frame[1])["command"] == Command.RUN:
+            seq = int(cmd.unpack(frame[1])["seq"])
+            return [encode(cmd.frame_id, cmd.pack(command=int(Command.CLEAR_FAULT), seq=seq, value=0.0)), chunk]
+        return [chunk]
+
+    proxy = _proxy(to_controller)
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    by = {i.text.split(":")[0].split(" (")[0]: i for i in result.items if i.section == "6.3"}
+    assert by["RUN with an incomplete configuration"].ok, result.text()
+    stays = by["in FAULT, CONFIG is accepted and RUN ignored"]
+    assert stays.ok is False and "state FAULT" not in stays.detail, result.text()
+    assert not result.passed

@@ -244,14 +244,15 @@ def test_an_incomplete_configuration_is_what_the_spec_says(estimator, given, sta
     assert c.state == (4 if not starts else c.state)     # FAULT (HIL_STATE_FAULT) when refused
 
 
-@pytest.mark.parametrize("name, count", [("gong_g2_500rpm", 20), ("yuan_y2_improved", 23)])
+@pytest.mark.parametrize("name, count", [("gong_g2_500rpm", 20), ("yuan_y2_improved", 31)])
 def test_the_host_sends_exactly_the_parameters_the_spec_lists(tmp_path, name, count):
     """Issue 19, point 8: 6.2 said "the host sends every parameter it knows" while it sent 20 of 62.
     It now says which: the motor's 8, CTRL_DELAY_S, the reference observer's settings (sigmoid and
-    tanh SMOs), the trip below an ADC's full scale, the scenario's [controller.params]; nothing else.
+    tanh SMOs), the trip below an ADC's full scale, [controller.inverter_comp]'s INV_COMP_* estimate,
+    the scenario's [controller.params]; nothing else.
     The CONFIG frames a run records are exactly that set."""
     from hil_bench.firmware_stub.est_smo import smo_sigmoid_for, smo_tanh_for
-    from hil_bench.loop.runner import SMO_CONFIG_PARAMS, run_scenario
+    from hil_bench.loop.runner import SMO_CONFIG_PARAMS, inverter_comp_settings, run_scenario
     from hil_bench.plant_rt.profile import load_profile
     from hil_bench.protocol.messages import MESSAGES, Estimator
     from hil_bench.record import channels as ch
@@ -272,6 +273,7 @@ def test_the_host_sends_exactly_the_parameters_the_spec_lists(tmp_path, name, co
     profile = load_profile(scn.profile)
     factory = smo_tanh_for if scn.estimator is Estimator.SMO_TANH else smo_sigmoid_for
     observer = {p.name for f, p in SMO_CONFIG_PARAMS.items() if f in factory(profile, 1e-4).config}
-    expected = ({*params.MOTOR, "B_NMS", "CTRL_DELAY_S"} | observer
+    inv_comp = {p.name for p in inverter_comp_settings(scn.inverter_comp, {})[0]}   # its keys only
+    expected = ({*params.MOTOR, "B_NMS", "CTRL_DELAY_S"} | observer | inv_comp
                 | {p.name for p in scn.controller_params})
     assert sent == expected and len(sent) == count, (sorted(sent ^ expected), len(sent))
