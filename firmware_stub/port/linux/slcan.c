@@ -29,7 +29,8 @@
  *   anything else, a malformed frame, a line longer than 160     -> BEL (counted in rx_errors)
  *
  * Adapter -> host: every frame the drive sends while the channel is open, as tiiiL<data> CR (or as
- * b/d when the host last addressed the drive in CAN FD), hex digits upper case. Nothing is sent
+ * b/d when the host last addressed the drive in CAN FD; from the channel's opening as b when a
+ * data bit rate was set with Yn), hex digits upper case. Nothing is sent
  * while the channel is closed (the adapter is off the bus then), nor after a bus-off.
  */
 #define _DEFAULT_SOURCE
@@ -217,6 +218,9 @@ static void on_line(slcan_t *s, const char *line, size_t n, transport_rx_fn deli
         } else {
             s->base.open = 1;
             s->listen_only = (line[0] == 'L');
+            /* a data bit rate set (Yn): the bus is CAN FD with bit rate switch, so the drive's
+             * frames before the host's first one (an idle HEARTBEAT_CTRL) are too */
+            s->fd_mode = s->brs = s->data_bitrate_mbit > 0;
             reply(s, k_ok);
         }
         break;
