@@ -32,7 +32,9 @@ class HfiOutput(NamedTuple):
     dtheta_est_rad: float     # IPD only
     ipd_state: str            # IPD_STATES value
     polarity: str             # POLARITY value
-    pol_metric: float
+    pol_metric: float         # r of the last polarity test
+    pol_se: float             # its standard error (pure method's sequential test)
+    pol_time_s: float         # how long that test ran
 
 
 class Hfi:
@@ -91,7 +93,8 @@ class Hfi:
         return HfiOutput(o.est.theta_e_rad, o.est.omega_e_rad_s, o.est.e_alpha_v, o.est.e_beta_v,
                          o.v_inj_ab_v.x, o.v_inj_ab_v.y, o.i_fund_ab_a.x, o.i_fund_ab_a.y,
                          o.i_d_req_a, o.amp_d_a, o.amp_q_a, o.err, o.dtheta_est_rad,
-                         IPD_STATES[o.ipd_state], POLARITY[o.polarity], o.pol_metric)
+                         IPD_STATES[o.ipd_state], POLARITY[o.polarity], o.pol_metric,
+                         o.pol_se, o.pol_time_s)
 
 
 def hfi_for(profile, ts_s: float, **config) -> Hfi:

@@ -11,7 +11,10 @@ from hil_bench.loop.runner import run_scenario
 from hil_bench.papers.metrics import wrap_pi
 from hil_bench.record import channels as ch
 from hil_bench.record.recording import load_recording
-from hil_bench.scenario import derive_scenario
+from hil_bench.scenario import derive_scenario, load_scenario
+
+#: the metrics window of hou_h3_ipd: after the initial-position procedure has ended
+WINDOW_START_S = load_scenario("hou_h3_ipd").metrics_window_s[0]
 
 
 def h3(angle_deg, dead_time, bias_a=0.0, residual=None):
@@ -34,12 +37,34 @@ def test_initial_position_and_polarity_from_standstill(tmp_path, angle_deg, bias
     assert result.ok, result.error
     rec = load_recording(out)
     telem, state = rec.topic(ch.CONTROLLER_TELEMETRY), rec.topic(ch.PLANT_STATE)
-    late = state["t_s"] >= 0.17
+    late = state["t_s"] >= WINDOW_START_S
     assert np.all(telem["state"][late] == 3)                 # procedure done, loop closed
     err = np.abs(wrap_pi(telem["theta_hat_rad"][late] - state["theta_e_rad"][late]))
     # polarity right (a wrong one reads pi) and the angle within 2 deg (Hou: 1 deg for the
     # estimate; here every sample of the window, ADC noise included: docs/claims.md H3)
     assert err.max() < math.radians(2.0), math.degrees(err.max())
+    assert np.all(np.abs(state["speed_rpm"][late]) < 10.0)   # the rotor stayed put
+
+
+@pytest.mark.parametrize("angle_deg", [0, 135, 180])
+def test_hous_polarity_test_with_the_scenarios_compensation(tmp_path, angle_deg):
+    """Issue 16's done-when for H3: with Hou's set-up (dead time and drops, the drive's
+    feed-forward at the scenario's 5 % residual) Hou's HF-only test finds the polarity at 0, 135
+    and 180 deg. Before the sequential test (est_hfi.h) it did at 0 deg only: one 20 ms look at
+    the per-period peaks, whose ADC noise (sd 0.011 per period) buried the 0.0016 signal
+    (135, 180 deg: STARTUP_FAILED, undecided)."""
+    out = tmp_path / "h3.mcap"
+    result = run_scenario(h3(angle_deg, True), out_path=out, progress=False)
+    assert result.ok, result.error
+    rec = load_recording(out)
+    telem, state = rec.topic(ch.CONTROLLER_TELEMETRY), rec.topic(ch.PLANT_STATE)
+    late = state["t_s"] >= WINDOW_START_S
+    assert np.all(telem["state"][late] == 3)                 # procedure done, loop closed
+    err = wrap_pi(telem["theta_hat_rad"][late] - state["theta_e_rad"][late])
+    assert abs(np.mean(err)) < math.pi / 2, math.degrees(np.mean(err))   # polarity right
+    # the angle: the compensation's residual at the injection frequency tilts the ellipse
+    # (measured +1.1 .. +2.4 deg at 5 %, Hou's +-1 deg is not met: docs/claims.md, H3)
+    assert abs(np.mean(err)) < math.radians(5.0), math.degrees(np.mean(err))
     assert np.all(np.abs(state["speed_rpm"][late]) < 10.0)   # the rotor stayed put
 
 
@@ -58,7 +83,7 @@ def test_dead_time_defeats_hous_polarity_test_and_tilts_the_ellipse(tmp_path):
     assert result.ok, result.error
     rec = load_recording(out)
     telem, state = rec.topic(ch.CONTROLLER_TELEMETRY), rec.topic(ch.PLANT_STATE)
-    late = state["t_s"] >= 0.17
+    late = state["t_s"] >= WINDOW_START_S
     err = wrap_pi(telem["theta_hat_rad"][late] - state["theta_e_rad"][late])
     assert abs(np.mean(err)) < math.pi / 2                    # polarity right
     assert math.radians(8.0) < abs(np.mean(err)) < math.radians(20.0)

@@ -197,7 +197,7 @@ def evaluate(pl: Plan, rep) -> dict:
                 if rec is not None:
                     te = rec.topic(ch.CONTROLLER_TELEMETRY)
                     t = np.asarray(te["t_s"], float)
-                    m = t >= 0.17
+                    m = t >= metrics.window_start_s(rec)
                     if np.any(m) and not rep.outcomes[rid].error:
                         # the claims' initial-position error (H3): the circular mean of PEE
                         err = math.degrees(metrics.mean_angle_rad(np.asarray(te["pee_rad"])[m]))

@@ -300,3 +300,9 @@ def delay_estimates_s(i1: np.ndarray, i2: np.ndarray, ts_s: float, min_step: flo
 def percent_change(before: float, after: float) -> float:
     """100 (after - before) / |before| (e.g. the iq change of Gong's G6: negative = falls)."""
     return 100.0 * (after - before) / abs(before) if before else math.nan
+
+
+def window_start_s(rec) -> float:
+    """Start of the metrics window of the scenario attached to a recording ([metrics] window_s)."""
+    from hil_bench.scenario import scenario_of
+    return float(scenario_of(rec).metrics_window_s[0])

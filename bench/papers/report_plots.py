@@ -326,7 +326,8 @@ def plot_h3(rep):
             out = rep.outcomes.get(rid)
             if rec is not None and out is not None and not out.error:   # a fault: no point
                 te = rec.topic(ch.CONTROLLER_TELEMETRY)
-                e = metrics.wrap_pi(np.asarray(te["pee_rad"])[np.asarray(te["t_s"]) >= 0.17])
+                e = metrics.wrap_pi(np.asarray(te["pee_rad"])[np.asarray(te["t_s"])
+                                                                 >= metrics.window_start_s(rec)])
                 if e.size:
                     v = math.degrees(math.atan2(np.mean(np.sin(e)), np.mean(np.cos(e))))
             errs.append(v)

@@ -49,6 +49,7 @@ void est_hfi_default_config(est_hfi_config_t *cfg, float rs_ohm, float ld_h, flo
     cfg->ipd_timeout_s = 0.5f;
     cfg->pol_time_s = 0.02f;
     cfg->pol_margin = 0.001f;
+    cfg->pol_z = EST_HFI_POL_Z_DEFAULT;
     cfg->pol_bias_a = 0.0f;
     est_hfi_set_bandwidth(cfg, 150.0f);
 }
@@ -104,8 +105,9 @@ int est_hfi_init(est_hfi_t *s, const est_hfi_config_t *cfg)
 static void clear_polarity_test(est_hfi_t *s)
 {
     s->pol_period = 0;
-    s->pk_max_a = s->pk_min_a = 0.0f;
-    s->sum_pos_a = s->sum_neg_a = 0.0f;
+    s->x1.re = s->x1.im = s->x2.re = s->x2.im = 0.0f;
+    s->r_mean = s->r_m2 = 0.0f;
+    s->pol_look = s->pol_periods;
     s->amp_sum_a[0] = s->amp_sum_a[1] = 0.0f;
     s->amp_cnt[0] = s->amp_cnt[1] = 0;
 }
@@ -132,6 +134,8 @@ void est_hfi_start_ipd(est_hfi_t *s)
 {
     s->out.polarity = EST_HFI_POL_UNKNOWN;
     s->out.pol_metric = 0.0f;
+    s->out.pol_se = 0.0f;
+    s->out.pol_time_s = 0.0f;
     enter_ipd_state(s, EST_HFI_IPD_CONVERGE);
 }
 
@@ -147,6 +151,8 @@ void est_hfi_reset(est_hfi_t *s)
     s->out.est.e_alpha_v = s->out.est.e_beta_v = 0.0f;
     s->out.polarity = EST_HFI_POL_UNKNOWN;
     s->out.pol_metric = 0.0f;
+    s->out.pol_se = 0.0f;
+    s->out.pol_time_s = 0.0f;
     est_hfi_set_angle(s, s->cfg.theta0_rad, 0.0f);
     if (s->cfg.ipd_on_reset) {
         est_hfi_start_ipd(s);
@@ -195,56 +201,91 @@ static void flip_polarity(est_hfi_t *s)
     }
 }
 
-static void decide_polarity(est_hfi_t *s)
+/* The polarity decision at a look of the test. final: no later look; undecided -> FAILED.
+ * Returns 1 if the test ended. */
+static int decide_polarity(est_hfi_t *s, int final)
 {
-    float r;
+    float r, se = 0.0f;
+    int decided;
     if (s->cfg.pol_bias_a > 0.0f) {
         float ap = s->amp_cnt[0] > 0 ? s->amp_sum_a[0] / (float)s->amp_cnt[0] : 0.0f;
         float an = s->amp_cnt[1] > 0 ? s->amp_sum_a[1] / (float)s->amp_cnt[1] : 0.0f;
         r = (ap + an) > 0.0f ? (ap - an) / (ap + an) : 0.0f;
     } else {
-        float t = s->sum_pos_a + s->sum_neg_a;
-        r = t > 0.0f ? (s->sum_pos_a - s->sum_neg_a) / t : 0.0f;
+        float n = (float)s->pol_period;
+        r = s->r_mean;
+        se = n > 1.0f ? sqrtf(s->r_m2 / ((n - 1.0f) * n)) : 0.0f;   /* s / sqrt(n) */
     }
     s->out.pol_metric = r;
-    if (r > s->cfg.pol_margin) {
+    s->out.pol_se = se;
+    s->out.pol_time_s = (float)(s->pol_period * s->m) * s->cfg.ts_s;
+    decided = fabsf(r) > s->cfg.pol_margin &&
+              (s->cfg.pol_bias_a > 0.0f || !(s->cfg.pol_z > 0.0f) || fabsf(r) > s->cfg.pol_z * se);
+    if (decided && r > 0.0f) {
         s->out.polarity = EST_HFI_POL_KEPT;
         enter_ipd_state(s, EST_HFI_TRACKING);
-    } else if (r < -s->cfg.pol_margin) {
+    } else if (decided) {
         flip_polarity(s);
         s->out.polarity = EST_HFI_POL_FLIPPED;
         enter_ipd_state(s, EST_HFI_TRACKING);
-    } else {
+    } else if (final || fabsf(r) + fmaxf(s->cfg.pol_z, 0.0f) * se < s->cfg.pol_margin) {
+        /* no later look, or no decision possible: the whole confidence interval inside the
+         * margin (no saturation signal to find; more periods only shrink se) */
         enter_ipd_state(s, EST_HFI_IPD_FAILED);
+    } else {
+        return 0;
     }
+    return 1;
 }
 
 /* Polarity test, one sample. s_ac: AC current projected on theta^; amp_theta: HF amplitude along
- * theta^; period_end: this sample closes an HF period. */
+ * theta^; period_end: this sample closes an HF period. The pure method's per-period ratio
+ *   r_i = (max - |min|) / (max + |min|) of x = A cos(phi) + B cos(2 phi + b):  B cos(b) / A
+ *       = Re(X2 conj(X1)^2) / |X1|^3   (X1, X2: the period's DFT bins 1 and 2 of x)
+ * to first order in B / A: Hou's amplitude towards theta^ against towards theta^ + pi, read by a
+ * DFT of the period's M samples ("which also can be realized by SDFT", section 3) instead of
+ * two peak samples: all M samples average the noise, and no sample has to fall on a peak. */
 static void polarity_sample(est_hfi_t *s, float s_ac, float amp_theta, int period_end)
 {
     int half = s->pol_periods / 2;
     int second = s->pol_period >= half;
-    if (s_ac > s->pk_max_a) {
-        s->pk_max_a = s_ac;
-    }
-    if (s_ac < s->pk_min_a) {
-        s->pk_min_a = s_ac;
-    }
+    const est_cplx_t *tw = s->sd_d.tw; /* tw[i] = e^{-j 2 pi i / m} */
+    int k1 = s->inj_idx, k2 = (2 * s->inj_idx) % s->m;
+    s->x1.re += s_ac * tw[k1].re;
+    s->x1.im += s_ac * tw[k1].im;
+    s->x2.re += s_ac * tw[k2].re;
+    s->x2.im += s_ac * tw[k2].im;
     s->out.i_d_req_a = s->cfg.pol_bias_a > 0.0f ? (second ? -s->cfg.pol_bias_a : s->cfg.pol_bias_a)
                                                  : 0.0f;
     if (!period_end) {
         return;
     }
-    s->sum_pos_a += s->pk_max_a;
-    s->sum_neg_a -= s->pk_min_a;
-    s->pk_max_a = s->pk_min_a = 0.0f;
+    {   /* this period's ratio into the running mean and spread (Welford) */
+        const est_cplx_t a = s->x1, b = s->x2;
+        float m1 = est_cabs2(a);
+        /* Re(b conj(a)^2) = b.re (a.re^2 - a.im^2) + 2 b.im a.re a.im */
+        float num = b.re * (a.re * a.re - a.im * a.im) + 2.0f * b.im * a.re * a.im;
+        float ri = m1 > 0.0f ? num / (m1 * sqrtf(m1)) : 0.0f;
+        float d = ri - s->r_mean;
+        s->r_mean += d / (float)(s->pol_period + 1);
+        s->r_m2 += d * (ri - s->r_mean);
+    }
+    s->x1.re = s->x1.im = s->x2.re = s->x2.im = 0.0f;
     if ((s->pol_period % half) >= half / 2) { /* settled half of each half-window (bias method) */
         s->amp_sum_a[second] += amp_theta;
         s->amp_cnt[second] += 1;
     }
-    if (++s->pol_period >= s->pol_periods) {
-        decide_polarity(s);
+    ++s->pol_period;
+    if (s->cfg.pol_bias_a > 0.0f) {
+        if (s->pol_period >= s->pol_periods) {
+            (void)decide_polarity(s, 1);
+        }
+    } else if (s->pol_period >= s->pol_look) {
+        /* sequential test: looks at pol_time_s x 1, 2, 4, ... while within ipd_timeout_s */
+        long next_n = 2L * (long)s->pol_look * (long)s->m;
+        if (decide_polarity(s, next_n > s->timeout_n) == 0) {
+            s->pol_look *= 2;
+        }
     }
 }
 

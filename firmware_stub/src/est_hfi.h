@@ -34,8 +34,16 @@
  * Polarity (section 3): with saturation the HF current is larger when its vector points along the
  * N pole. Pure method (pol_bias_a = 0): the AC current (minus its one-HF-period mean) is projected
  * on theta^; over pol_time_s the per-HF-period maxima (towards theta^) and minima (towards
- * theta^ + pi) are summed: r = (sum max - sum |min|) / (sum max + sum |min|). r > pol_margin: theta^
- * is N; r < -pol_margin: theta^ += pi; otherwise undecided (IPD_FAILED). Optional bias method
+ * theta^ + pi) are summed: r = (sum max - sum |min|) / (sum max + sum |min|). The saturation's
+ * asymmetry is ~1e-3 of a 0.3 A current, the ADC's noise a few mA per sample: the test is
+ * sequential. At pol_time_s and at every doubling of it (while it fits in ipd_timeout_s) r is
+ * compared with its standard error se = s / sqrt(n), s the spread of the per-HF-period ratios
+ * r_i = (max_i - |min_i|) / (max_i + |min_i|) over the n periods (independent: the noise is
+ * white, the injection periodic). |r| > pol_margin and |r| > pol_z se: theta^ is N (r > 0) or
+ * theta^ += pi (r < 0); neither at the last look, or |r| + pol_z se < pol_margin at any look (no
+ * decision possible: more periods only shrink se): undecided (IPD_FAILED). A wrong decision needs
+ * the mean beyond pol_z se on the wrong side at one of K looks: probability <= K Phi(-pol_z).
+ * Optional bias method
  * (pol_bias_a > 0, needs the current loop): i_d_req_a = +bias then -bias along theta^, and r
  * compares the HF amplitude along theta^ in the second half of each half-window.
  *
@@ -57,6 +65,10 @@
 #include "est_common.h"
 #include "est_sdft.h"
 #include "fw_math.h"
+
+/** Default pol_z: a wrong polarity at one of the (at most 5 with the defaults) looks needs the
+ *  mean 4 standard errors on the wrong side, P <= 5 Phi(-4) = 1.6e-4 per start. */
+#define EST_HFI_POL_Z_DEFAULT 4.0f
 
 typedef enum {
     EST_HFI_TRACKING = 0,      /**< normal tracking (no IPD, or IPD finished) */
@@ -88,7 +100,9 @@ typedef struct {
     float lock_time_s;      /**< IPD: ... for this long */
     float ipd_timeout_s;    /**< IPD: no lock within this time -> FAILED */
     float pol_time_s;       /**< polarity test length (whole HF periods) */
-    float pol_margin;       /**< |r| needed to decide */
+    float pol_margin;       /**< |r| needed to decide (a floor for systematic bias) */
+    float pol_z;            /**< pure method: |r| must also exceed pol_z standard errors of the
+                             *   per-HF-period r (sequential test, est_hfi.c); <= 0: not used */
     float pol_bias_a;       /**< > 0: bias method (asks the current loop for +-bias on d) */
 } est_hfi_config_t;
 
@@ -104,6 +118,8 @@ typedef struct {
     int ipd_state;           /**< est_hfi_ipd_t */
     int polarity;            /**< est_hfi_pol_t */
     float pol_metric;        /**< r of the last polarity test */
+    float pol_se;            /**< its standard error from the per-HF-period spread (pure method) */
+    float pol_time_s;        /**< how long the last polarity test ran */
 } est_hfi_output_t;
 
 typedef struct {
@@ -126,8 +142,10 @@ typedef struct {
     long t_n;              /**< steps in the present IPD phase */
     long lock_count;
     int pol_period;        /**< HF periods into the polarity test */
-    float pk_max_a, pk_min_a;
-    float sum_pos_a, sum_neg_a;
+    est_cplx_t x1, x2;     /**< pure method: this HF period's DFT bins 1, 2 of the projection */
+    float r_mean, r_m2;    /**< pure method: running mean and sum of squared deviations of the
+                            *   per-HF-period r (Welford) */
+    int pol_look;          /**< HF periods at the next look of the sequential test */
     float amp_sum_a[2];
     int amp_cnt[2];
     est_hfi_output_t out;

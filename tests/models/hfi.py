@@ -3,7 +3,9 @@
 * :class:`HfiModel` -- the estimator in float64: eq. 8 injection in the estimated frame, the
   projections on theta^ + pi/4 and theta^ + 3 pi/4, the bin-1 amplitudes as explicit window sums
   over one HF period (no recursion), eq. 15 normalised, PI tracking, IPD (lock, polarity, pi
-  correction). Same decisions as est_hfi.c, independent arithmetic.
+  correction). Polarity (pure method): per HF period r_i = Re(X2 conj(X1)^2) / |X1|^3 from the
+  period's DFT bins 1, 2 as explicit sums, their mean and standard error (numpy, ddof = 1) at the
+  sequential test's looks. Same decisions as est_hfi.c, independent arithmetic.
 * :class:`StandstillMotor` -- a synthetic machine held at a fixed rotor angle, flux as state,
   with optional d-axis saturation: psi_d = psi_s tanh((psi_f + L_d0 i_d) / psi_s), so the
   incremental d inductance falls when the current points towards N (i_d > 0). L_d0 is chosen so
@@ -38,15 +40,17 @@ class HfiModel:
     def __init__(self, ts_s, kp_rad_s, ki_rad_s2, *, f_inj_hz=1250.0, u_inj_v=6.0,
                  speed_lpf_rad_s=100.0, theta0_rad=0.0, ipd_on_reset=True, lock_tol_rad=0.01,
                  lock_time_s=0.01, ipd_timeout_s=0.5, pol_time_s=0.02, pol_margin=0.001,
-                 pol_bias_a=0.0):
+                 pol_z=4.0, pol_bias_a=0.0):
         self.ts, self.kp, self.ki = ts_s, kp_rad_s, ki_rad_s2
         self.m = int(round(1.0 / (f_inj_hz * ts_s)))
         self.u = u_inj_v
         self.a_speed = 1 - math.exp(-speed_lpf_rad_s * ts_s) if speed_lpf_rad_s > 0 else 1.0
         self.lock_tol, self.margin, self.bias = lock_tol_rad, pol_margin, pol_bias_a
+        self.z = pol_z
         self.lock_n = int(round(lock_time_s / ts_s))
         self.timeout_n = int(round(ipd_timeout_s / ts_s))
-        self.pol_periods = max(4, 2 * int(round(0.5 * pol_time_s * f_inj_hz)))
+        # half up, as the C (Python round() is half-even: 12.5 -> 12)
+        self.pol_periods = max(4, 2 * int(math.floor(0.5 * pol_time_s * f_inj_hz + 0.5)))
         m = self.m
         self.w_hf = np.exp(1j * 2 * math.pi * np.arange(m) / m)  # e^{j w_i i}, newest first
         self.win_d = deque([0.0] * m, maxlen=m)   # newest at index 0
@@ -59,7 +63,7 @@ class HfiModel:
         self.omega = 0.0
         self.state = "IPD_CONVERGE" if ipd_on_reset else "TRACKING"
         self.polarity = "UNKNOWN"
-        self.pol_metric = 0.0
+        self.pol_metric = self.pol_se = 0.0
         self._enter(self.state)
 
     def _enter(self, state):
@@ -68,8 +72,9 @@ class HfiModel:
         self.lock_count = 0
         self.i_d_req = 0.0
         self.pol_period = 0
-        self.pk_max = self.pk_min = 0.0
-        self.sum_pos = self.sum_neg = 0.0
+        self.period_x = []            # the projection's samples of this HF period
+        self.ratios = []              # per-period r_i (pure method)
+        self.look = self.pol_periods  # HF periods at the next look (sequential test)
         self.amp_sum = [0.0, 0.0]
         self.amp_cnt = [0, 0]
 
@@ -106,7 +111,8 @@ class HfiModel:
         self.theta = (self.theta + w * self.ts) % (2 * math.pi)
         self.omega += self.a_speed * (self.integ - self.omega)
         out.update(err=s2, v_inj=v_inj, omega=self.omega, state=self.state,
-                   polarity=self.polarity, pol_metric=self.pol_metric, i_d_req=self.i_d_req)
+                   polarity=self.polarity, pol_metric=self.pol_metric, pol_se=self.pol_se,
+                   i_d_req=self.i_d_req)
         return out
 
     def _ipd(self, i_ab, th, p_d, p_q, s2, c2, period_end) -> bool:
@@ -125,29 +131,42 @@ class HfiModel:
         amp_theta = abs(p_d - p_q) / math.sqrt(2)
         half = self.pol_periods // 2
         second = int(self.pol_period >= half)
-        self.pk_max, self.pk_min = max(self.pk_max, s_ac), min(self.pk_min, s_ac)
+        self.period_x.append((self.inj_idx, s_ac))
         self.i_d_req = (-self.bias if second else self.bias) if self.bias > 0 else 0.0
         if not period_end:
             return False
-        self.sum_pos += self.pk_max
-        self.sum_neg -= self.pk_min
-        self.pk_max = self.pk_min = 0.0
+        # r_i = B cos(b) / A of x = A cos(phi) + B cos(2 phi + b): the DFT bins 1 and 2 of the
+        # period (explicit sums over its samples at their injection phase)
+        idx = np.array([k for k, _ in self.period_x])
+        x = np.array([v for _, v in self.period_x])
+        x1 = complex(np.sum(x * np.exp(-2j * math.pi * idx / self.m)))
+        x2 = complex(np.sum(x * np.exp(-4j * math.pi * idx / self.m)))
+        self.ratios.append((x2 * x1.conjugate() ** 2).real / abs(x1) ** 3 if abs(x1) > 0 else 0.0)
+        self.period_x = []
         if self.pol_period % half >= half // 2:
             self.amp_sum[second] += amp_theta
             self.amp_cnt[second] += 1
         self.pol_period += 1
-        if self.pol_period < self.pol_periods:
-            return False
+        final = True
         if self.bias > 0:
+            if self.pol_period < self.pol_periods:
+                return False
             ap, an = (self.amp_sum[i] / max(self.amp_cnt[i], 1) for i in (0, 1))
-            r = (ap - an) / (ap + an)
+            r, se = (ap - an) / (ap + an), 0.0
+            decided = abs(r) > self.margin
         else:
-            r = (self.sum_pos - self.sum_neg) / (self.sum_pos + self.sum_neg)
-        self.pol_metric = r
-        if r > self.margin:
+            if self.pol_period < self.look:
+                return False
+            final = 2 * self.look * self.m > self.timeout_n
+            rs = np.array(self.ratios)
+            r = float(np.mean(rs))
+            se = float(np.std(rs, ddof=1) / math.sqrt(len(rs))) if len(rs) > 1 else 0.0
+            decided = abs(r) > self.margin and (self.z <= 0 or abs(r) > self.z * se)
+        self.pol_metric, self.pol_se = r, se
+        if decided and r > 0:
             self.polarity = "KEPT"
             self._enter("TRACKING")
-        elif r < -self.margin:
+        elif decided:
             self.polarity = "FLIPPED"
             self.theta = (self.theta + math.pi) % (2 * math.pi)
             self.win_d = deque([-x for x in self.win_d], maxlen=self.m)
@@ -155,8 +174,10 @@ class HfiModel:
             self.inj_idx = (self.inj_idx + self.m // 2) % self.m
             self._enter("TRACKING")
             return True
-        else:
+        elif final or abs(r) + max(self.z, 0.0) * se < self.margin:   # futility: stop undecided
             self._enter("IPD_FAILED")
+        else:
+            self.look *= 2
         return False
 
 
