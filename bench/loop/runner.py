@@ -261,14 +261,16 @@ class Runner:
     def controller_params(self) -> dict[Param, float]:
         params = motor_params(self.profile)
         # The delay from sampling to the new duties acting, which the controller compensates
-        # (angle advance, the voltage its observer is fed). Lockstep: the computation delay the
-        # plant emulates. Real time with a shadow-loaded PWM (next_period): one whole period.
-        # Real time on arrival: the link's real round trip, unknown before the run; the profile's
-        # delay stands for it (a scenario can set CTRL_DELAY_S in [controller.params]).
+        # (angle advance, the voltage its observer is fed). Lockstep: the delay the plant
+        # emulates (its computation delay; with the switching inverter, the instant the compare
+        # values it writes then are loaded: Plant.actuation_delay_s). Real time with a
+        # shadow-loaded PWM (next_period): one whole period. Real time on arrival: the link's
+        # real round trip, unknown before the run; the profile's delay stands for it (a
+        # scenario can set CTRL_DELAY_S in [controller.params]).
         if self.mode == "realtime" and self.scn.realtime.duty_update == "next_period":
             params[Param.CTRL_DELAY_S] = self.ts_s
         else:
-            params[Param.CTRL_DELAY_S] = float(self.plant.params.t_delay_s)
+            params[Param.CTRL_DELAY_S] = self.plant.actuation_delay_s
         params.update(estimator_defaults(self.scn.estimator, self.profile, self.ts_s,
                                          self.scn.controller_params))
         pp = self.plant.params
