@@ -348,3 +348,34 @@ def test_bad_values_name_the_key():
     # names and their codes (a bench [plant] table may carry either)
     p = Plant(GONG, inverter=1.0, pwm_load=2, carrier_at_start="peak")
     assert (p.params.inverter, p.params.pwm_load, p.params.carrier_at_start) == ("switching", "immediate", "peak")
+
+
+# ------------------------------------------------------------------------------------------------
+# in the closed loop: `bench run --set plant.inverter=switching`
+
+def test_bench_run_set_switches_the_plant(tmp_path):
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from hil_bench.record.recording import read_header
+
+    repo = Path(__file__).resolve().parents[1]
+    out = tmp_path / "g2sw.mcap"
+    cmd = [sys.executable, "-m", "hil_bench", "run", "gong_g2_500rpm", "--out", str(out),
+           "--no-progress", "--set", "plant.inverter=switching", "--set", "scenario.duration_s=0.3",
+           "--set", "metrics.window_s=[0.2, 0.3]"]
+    proc = subprocess.run(cmd, cwd=repo, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rec = read_header(out)
+    params = json.loads(rec.metadata["run"]["plant_params"])
+    assert params["inverter"] == "switching"
+    assert json.loads(rec.metadata["run"]["controller_params"])["CTRL_DELAY_S"] == 0.0  # t_d = 0
+    _, text = rec.attachment_text("scenario/")
+    assert 'inverter = "switching"' in text and "bench run --set" in text
+    assert rec.metadata["run_result"]["cycles_done"] == "3000"
+    bad = subprocess.run(cmd[:-6] + ["--set", "plant.inverter=pwm"], cwd=repo, capture_output=True,
+                         text=True, timeout=120)
+    assert bad.returncode == 2
+    assert "inverter.inverter: must be one of averaged, switching" in " ".join(bad.stderr.split())

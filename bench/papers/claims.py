@@ -1704,7 +1704,148 @@ def _g67_window(rpm: float) -> tuple[float, float]:
     return (dur - 0.5, dur)
 
 
-CLAIMS: dict[str, Claim] = {c.id: c for c in _claims()}
+# -- the switching inverter: rows beside the averaged plant's ----------------------------------------
+# A claim whose number depends on the PWM ripple or on the sampling instants gets, beside its
+# rows on the averaged plant, the same rows on the switching plant (plant_rt/README.md "Switching
+# mode"): the same runs with SWITCHING_OVERRIDES (run id + ".sw"), the same quantities and
+# relations (key + ".sw"). Mechanical, so the table ports to a data registry as it stands.
+
+#: pwm_load = immediate: the duties act at t_k + t_d, as in the averaged runs and in Gong's
+#: premise (IV, Fig. 1: "the real actuation moment will always lag behind the measurement
+#: (sampling) point by t_d"); only the ripple and the sample timing change
+SWITCHING_OVERRIDES = (("plant.inverter", "switching"), ("plant.pwm_load", "immediate"))
+SWITCHING_TAG = " [switching inverter]"
+SWITCHING_SETUP = ("switching inverter (centre-aligned PWM, carrier valley at the sampling instant, "
+                   "dead time and drops at each edge by the current's sign, duties acting at "
+                   "t_k + t_d)")
+
+
+@dataclass(frozen=True)
+class SwitchingRows:
+    """Which runs of a claim get a switching twin; ``diagnostic``: the twins are shown beside
+    the averaged rows without deciding the claim (the averaged plant tests the claim there);
+    ``lifts``: not-reproducible reasons that are the averaged plant's and do not hold for the
+    switching plant."""
+
+    claim: str
+    runs: tuple[str, ...]
+    diagnostic: bool
+    lifts: tuple[str, ...] = ()
+
+
+SWITCHING_ROWS = (
+    SwitchingRows("G1", ("G1",), True),          # the 10 kHz references: still unstable at m >= 0.1
+    SwitchingRows("G2", ("G2",), True),
+    SwitchingRows("G3", ("G3",), True),
+    SwitchingRows("G5", ("G5", "G5.exact"), False, (G5_PLANT,)),
+    SwitchingRows("G7", ("G67.500.off", "G67.500.on", "G67.2000.off", "G67.2000.on",
+                         "G67.500.naive", "G67.2000.naive"), True),
+    SwitchingRows("Y3", ("Y3",), True),
+)
+
+
+def _sw_run(run: Run) -> Run:
+    return Run(run.id + ".sw", run.scenario, run.overrides + SWITCHING_OVERRIDES,
+               (run.label + ", " if run.label else "") + "switching inverter")
+
+
+def _with_switching(claim: Claim, spec: SwitchingRows) -> Claim:
+    """The claim with the switching twins of spec.runs' runs, quantities and relations."""
+    twin_runs = tuple(_sw_run(claim.run(rid)) for rid in spec.runs)
+    keys = set()
+    quantities = list(claim.quantities)
+    for q in claim.quantities:
+        if q.study or not q.runs or not set(q.runs) <= set(spec.runs):
+            continue
+        keys.add(q.key)
+        quantities.append(dataclasses.replace(
+            q, key=q.key + ".sw", what=q.what + SWITCHING_TAG,
+            run=tuple(r + ".sw" for r in q.runs) if len(q.runs) > 1 else q.runs[0] + ".sw",
+            diagnostic=q.diagnostic or spec.diagnostic,
+            not_reproducible="" if q.not_reproducible in spec.lifts else q.not_reproducible))
+    relations = list(claim.relations)
+    for rel in claim.relations:
+        if all(k in keys for k in rel.keys if not k.startswith("#")):
+            relations.append(dataclasses.replace(
+                rel, key=rel.key + ".sw", what=rel.what + SWITCHING_TAG,
+                keys=tuple(k if k.startswith("#") else k + ".sw" for k in rel.keys),
+                diagnostic=rel.diagnostic or spec.diagnostic))
+    setup = claim.setup + "; rows marked [switching inverter]: the same runs on the " + SWITCHING_SETUP
+    return dataclasses.replace(claim, quantities=tuple(quantities), runs=claim.runs + twin_runs,
+                               relations=tuple(relations), setup=setup)
+
+
+def _switching_extras(claim: Claim) -> Claim:
+    """Rows of the switching plant that have no averaged twin: G1's observers at fine steps on
+    the switching trajectory (bench/papers/studies.py g1_switching), G5 with the C2000's shadow
+    load."""
+    if claim.id == "G1":
+        src = "Gong V-A-a (no bound)"
+        q, rel = [], []
+        # (step, voltage, what: thd / thd50 / amp, diagnostic); the first is the test
+        rows = ((1.0, "cmd", ("thd", "amp"), False), (1.0, "cmd", ("thd_h50",), True),
+                (1.0, "sw", ("thd",), True), (10.0, "cmd", ("thd",), True))
+        for step_us, volt, whats, d in rows:
+            vtag = {"cmd": "commanded voltage", "sw": "switched voltage"}[volt]
+            tag = (f"host observer at {step_us:g} us on the switching plant's 500 rpm "
+                   f"trajectory, {vtag}" + (" [diagnostic]" if d else ""))
+            base = f"G1.sw{step_us:g}us.{volt}"
+            for what in whats:
+                for m, thd in G1_MS:
+                    label, unit, paper, psrc = {
+                        "thd": ("THD+N of the estimated EMF", "%", thd, src),
+                        "thd_h50": ("THD (harmonics 2-50) of the estimated EMF", "%", thd, src),
+                        "amp": ("EMF amplitude", "V", "(falls as m falls)", "Gong V-A-a, Fig. 7(e)"),
+                    }[what]
+                    q.append(_q(f"{base}.m{m:g}.{what}", f"m = {m:g}: {label}, {tag}", "study",
+                                paper, compared(psrc), study="G1.sw", diagnostic=d,
+                                params=(("key", f"sw{step_us:g}.{volt}.m{m:g}.{what}"),
+                                        ("unit", unit))))
+                if what == "thd":
+                    rel.append(Relation(f"G1.thd.sw{step_us:g}us.{volt}", f"THD falls as m falls, {tag}",
+                                        tuple(f"{base}.m{m:g}.thd" for m, _ in G1_MS), ">",
+                                        "41.5 > 18.6 > 9.5 > 1.7 %", "Gong V-A-a", d))
+                if what == "amp":
+                    rel.append(Relation(f"G1.amp.sw{step_us:g}us.{volt}",
+                                        f"EMF amplitude falls as m falls, {tag}",
+                                        tuple(f"{base}.m{m:g}.amp" for m, _ in G1_MS), ">",
+                                        "'goes down'", "Gong V-A-a", d))
+        return dataclasses.replace(
+            claim, quantities=claim.quantities + tuple(q), relations=claim.relations + tuple(rel),
+            studies=claim.studies + ("G1.sw",),
+            notes=(claim.notes + " " if claim.notes else "") + G1_SWITCHING_NOTE)
+    if claim.id == "G5":
+        run = Run("G5.sw.shadow", "gong_g5_delay",
+                  (("plant.inverter", "switching"), ("plant.pwm_load", "extremum")),
+                  "switching inverter, compare values shadow-loaded at the next carrier extremum "
+                  "(C2000 CTR_ZERO_PRD): the duties act at Ts/2 (diagnostic)")
+        q = _q("G5.td.sw.shadow", "eq. 20 delay estimate, switching inverter, duties shadow-loaded "
+               "at Ts/2 (the second sample still at t_k + t_d) [diagnostic]", "delay_estimate_us",
+               34.1, within(33.2, 35.3 + 1e-9, "Gong Table II"), "G5.sw.shadow",
+               at_speed_rpm=500.0, diagnostic=True)
+        return dataclasses.replace(claim, quantities=claim.quantities + (q,), runs=claim.runs + (run,))
+    return claim
+
+
+G1_SWITCHING_NOTE = (
+    "The G1.sw rows test the PWM ripple as the source of Gong's THDs (docs/claims.md finding 5): "
+    "the four observers at 1 us (10 us: diagnostic) on the switching plant's ideal-inverter "
+    "trajectory, fed the instantaneous currents with their ripple and the period's commanded "
+    "voltage, as a controller's observer is; THD+N counts the PWM content (10 kHz and up), which "
+    "the harmonics 2-50 do not reach.")
+
+
+def _all_claims() -> tuple[Claim, ...]:
+    spec = {s.claim: s for s in SWITCHING_ROWS}
+    out = []
+    for c in _claims():
+        if c.id in spec:
+            c = _switching_extras(_with_switching(c, spec[c.id]))
+        out.append(c)
+    return tuple(out)
+
+
+CLAIMS: dict[str, Claim] = {c.id: c for c in _all_claims()}
 
 
 def all_runs(claim_ids=None) -> dict[str, Run]:

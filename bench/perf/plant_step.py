@@ -1,6 +1,8 @@
-"""Measure the per-call cost of Plant.step and its Python overhead.
+"""Measure the per-call cost of Plant.step and its Python overhead, and the cost of a period in
+each inverter mode.
 
     .venv/bin/python -m hil_bench.perf.plant_step [profile] [--n N]
+    .venv/bin/python -m hil_bench.perf.plant_step [profile] --modes [--n N]
 
 Prints (best of 5 repeats, microseconds per period):
   c_loop      plant_step inside one C loop (plant_run, no snapshots): the C work alone
@@ -9,10 +11,19 @@ Prints (best of 5 repeats, microseconds per period):
   overhead    plant_step - c_loop: what the Python API adds per period
   snapshot    Plant.snapshot() + reading 3 fields
   snapshot_to Plant.snapshot_to(buf, k) into a numpy structured array
+
+--modes: CPU time (getrusage, user + system) per period of plant_run in a C loop for the averaged
+and the switching inverter, ideal and with dead time + drops, on a rotating voltage (SVPWM duties
+of a 20 V vector at 33 Hz, rotor held at 500 rpm by the dynamometer: edges every period, currents
+of a few A crossing zero); best of 5 repeats, the four set-ups interleaved in each repeat so that
+the (shared) machine's load hits them alike; ratio = switching / averaged of the same inverter
+non-linearity.
 """
 from __future__ import annotations
 
 import argparse
+import math
+import resource
 import time
 import timeit
 
@@ -45,6 +56,38 @@ def measure(profile: str = "gong2020", n: int = 200_000, repeat: int = 5) -> dic
     return res
 
 
+MODES = (("averaged", False), ("switching", False), ("averaged", True), ("switching", True))
+
+
+def _cpu_s() -> float:
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    return ru.ru_utime + ru.ru_stime
+
+
+def measure_modes(profile: str = "gong2020", n: int = 50_000, repeat: int = 5) -> dict[tuple[str, bool], float]:
+    """CPU microseconds per period of each (inverter, inverter_nonlinear) set-up (module doc)."""
+    from hil_bench.plant_rt.verify import openloop
+
+    probe = Plant.from_profile(profile)
+    w_e = 2.0 * math.pi * 33.3
+    th = w_e * probe.params.ts_s * np.arange(n)
+    duties = np.ascontiguousarray(openloop.duties_from_alphabeta(20.0 * np.cos(th), 20.0 * np.sin(th),
+                                                                 probe.params.v_dc_v))
+    dptr = ffi.cast("const double *", ffi.from_buffer(duties))
+    plants = {m: Plant.from_profile(profile, inverter=m[0], inverter_nonlinear=m[1], dyno=True,
+                                    dyno_speed_rad_s=w_e / probe.params.pole_pairs) for m in MODES}
+    best = {m: math.inf for m in MODES}
+    for _ in range(repeat):
+        for m, plant in plants.items():
+            plant.reset()
+            t0 = _cpu_s()
+            lib.plant_run(plant._pl, dptr, n, ffi.NULL)
+            best[m] = min(best[m], _cpu_s() - t0)
+    for m, plant in plants.items():
+        assert plant.sw_periods == (n if m[0] == "switching" else 0)
+    return {m: t / n * 1e6 for m, t in best.items()}
+
+
 def _time(fn) -> float:
     t0 = time.perf_counter()
     fn()
@@ -54,8 +97,25 @@ def _time(fn) -> float:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("profile", nargs="?", default="gong2020")
-    ap.add_argument("--n", type=int, default=200_000)
+    ap.add_argument("--n", type=int, default=None, help="periods per repeat (default 200 000; "
+                    "50 000 with --modes)")
+    ap.add_argument("--modes", action="store_true", help="averaged vs switching inverter, CPU time")
     args = ap.parse_args()
+    if args.modes:
+        n = args.n or 50_000
+        cost = measure_modes(args.profile, n)
+        plant = Plant.from_profile(args.profile)
+        ts_us = plant.params.ts_s * 1e6
+        print(f"profile {args.profile}, substeps {plant.params.substeps}, n {n}, best of 5, "
+              f"CPU time (getrusage) per period of plant_run [us]")
+        print(f"  {'inverter':<10} {'dead time+drops':<16} {'us/period':>9} {'vs averaged':>11} "
+              f"{'of Ts':>7}")
+        for (inv, nl), us in cost.items():
+            ratio = us / cost[("averaged", nl)]
+            print(f"  {inv:<10} {'on' if nl else 'off':<16} {us:9.3f} {ratio:10.2f}x "
+                  f"{us / ts_us * 100.0:6.2f}%")
+        return 0
+    args.n = args.n or 200_000
     res = measure(args.profile, args.n)
     plant = Plant.from_profile(args.profile)
     print(f"profile {args.profile}, substeps {plant.params.substeps}, n {args.n}, best of 5 [us/call]")
