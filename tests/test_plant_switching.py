@@ -14,11 +14,12 @@ Tolerances (C vs reference, max |current difference|):
 * ideal inverter: 1e-6 A (1e-7 of the gong2020 rated 9.8 A). Inside a segment the inputs are
   constant and RK4 keeps its order; measured 7e-10 A over 100 periods (the reference's own
   rtol 1e-10 is below that).
-* with dead time and drops: 2e-4 A (2e-5 of rated). The drops' thresholds switch on over the
-  band tanh(|i| / i_c), so the right-hand side has kinks at i = 0 and RK4 loses its order at the
-  current's zero crossings, as the averaged plant's (its reference tests allow 1e-5 of rated
-  for the same reason); measured 2.1e-5 .. 4.6e-5 A at substeps 4, and the test checks that the
-  difference shrinks with substeps (it is integration error, not a model difference).
+* with dead time and drops: 1e-4 A (1e-5 of rated, the bound the averaged plant's reference
+  tests use for its inverter non-linearity). The drops' thresholds switch on over the band
+  tanh(|i| / i_c) and the slope resistances act on |i|, so the right-hand side bends inside the
+  band and has a kink at i = 0, where RK4 loses its order; the plant shortens its steps while a
+  conducting leg's current is near the band (plant.c sw_step_length), and the measured
+  difference is 4.3e-6 A at no load (the current always in the band) and 5e-7 .. 1.7e-5 A at 2-10 A.
 """
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ TS = GONG.ts_s
 VDC = GONG.v_dc_v
 W500 = 500.0 / 60.0 * 2.0 * math.pi       # mechanical rad/s
 TOL_IDEAL_A = 1e-6
-TOL_NL_A = 2e-4
+TOL_NL_A = 1e-4
 
 
 def _sync_duties(prof, n, rpm, i_q_a, theta0=0.3, v_extra_q=0.0):
@@ -107,12 +108,9 @@ def test_dead_time_and_drops_with_sign_changes_inside_periods_match_the_referenc
     current often has opposite signs at the two edges of its pulse (checked on the reference's
     record of the edges): each edge's dead interval goes its own way."""
     duties = _sync_duties(GONG, 30, 500.0, 2.0)
-    errs = {}
-    for sub in (4, 16):
-        err, got, ref = _compare(GONG, duties, inverter_nonlinear=True, substeps=sub)
-        errs[sub] = err
-    assert errs[4]["i"] < TOL_NL_A and errs[4]["i2"] < TOL_NL_A, errs[4]
-    assert errs[16]["i"] < errs[4]["i"] / 2.0, errs   # integration error: shrinks with the step
+    err, got, ref = _compare(GONG, duties, inverter_nonlinear=True)
+    assert err["i"] < TOL_NL_A and err["i2"] < TOL_NL_A, err
+    assert err["v"] < 1e-3, err      # the period's average voltages (measured 4e-5 V)
     # the edges of one pulse with opposite current signs, in how many periods
     by_period: dict[tuple[int, int], list[float]] = {}
     for leg, t_rel, _level, i_e, k in ref.edge_currents:

@@ -257,6 +257,7 @@ typedef struct plant {
     pwm_t pwm;                    /* carrier, compare loading; the command levels at t_k */
     inverter_sw_leg_t sw_leg[3];  /* each leg's gates and dead interval at t_k */
     double t2_offset_s;           /* instant of the last second sample after its period's start */
+    double sw_l_min_h;            /* smallest inductance (the current's fastest slope) [H] */
     unsigned long sw_periods;     /* periods integrated at switch level since reset (diagnostic) */
     const plant_trace_t *trace;   /* plant_step_trace: where the period's fine trace goes */
 } plant_t;
