@@ -104,9 +104,9 @@ def test_ipmsm_matches_the_reference():
 
 
 def test_dead_time_and_drops_with_sign_changes_inside_periods_match_the_reference():
-    """No load at 500 rpm: 0.1-0.3 A of fundamental under about 1 A of ripple, so a phase's
-    current often has opposite signs at the two edges of its pulse (checked on the reference's
-    record of the edges): each edge's dead interval goes its own way."""
+    """No load at 500 rpm: 0.1-0.3 A of fundamental and 0.3-0.4 A peak to peak of ripple, so a
+    phase's current often has opposite signs at the two edges of its pulse (checked on the
+    reference's record of the edges): each edge's dead interval goes its own way."""
     duties = _sync_duties(GONG, 30, 500.0, 2.0)
     err, got, ref = _compare(GONG, duties, inverter_nonlinear=True)
     assert err["i"] < TOL_NL_A and err["i2"] < TOL_NL_A, err

@@ -49,6 +49,7 @@
  *   delay      full_period_delay: the new duties act from the next period boundary
  *              (identical to t_delay_s = ts_s; the flag lets a scenario ask for it without
  *              knowing Ts)
+ *   switching  inverter.inverter = 1: the period integrated over its PWM segments (below)
  * Zero-initialise plant_params_t (= {0} or memset) before filling it in: every new field is
  * then off. Fields of a group that is off are not checked by plant_params_check.
  *
@@ -68,6 +69,19 @@
  * period there is no previous actuation instant: dual_valid = 0. The samples are drawn when
  * the plant reaches the sampling instant (inside plant_step / at init and reset), so reading
  * them never changes the random stream: a seed gives the same noise whoever reads what.
+ *
+ * Switching mode (inverter.inverter = 1; plant_rt/README.md "Switching mode"). Centre-aligned
+ * PWM with one carrier period per control period (pwm.h: the valley, or with carrier_at_start
+ * the peak, at t_k); the compare values written at t_k + t_d act from the load instant of
+ * pwm_load (next carrier extremum, next period, or at once: plant_actuation_delay); each leg at
+ * switch level (inverter.h inverter_sw_*: dead-band gates, the dead interval decided by the
+ * current's sign at its start, node slew, drops by the current's direction). The period is cut
+ * at every command transition, dead-interval end and node clamp, and at the second-sample
+ * instant (t_k + t_d, or t_k + Ts/2 with dual_sample_at); RK4 inside each segment in steps of
+ * at most Ts/substeps, shorter while a conducting leg's current is near the drops' threshold
+ * band. Measured against an independent solve_ivp model: 4.9e-7 (ideal switches) and 5.3e-7
+ * (dead time and drops) of rated current at substeps 4, 2x rated speed. A period whose old or
+ * new duties disable a leg, or with an open-phase / phase-short fault, takes the averaged path.
  */
 #ifndef PLANT_H
 #define PLANT_H
