@@ -11,17 +11,24 @@ flag, then a good one; CONFIG of an unknown parameter, of a fractional integer p
 every parameter of the Param table (protocol/params.py: each must be acknowledged, never UNKNOWN_PARAM);
 a new HELLO (back to the defaults), the parameters of a run (with a short alignment, so that the start-up
 moves within the cycles); RUN, then CONFIG while running; a few hundred cycles (TELEM, TELEM_EMF, DUTY in
-order, seq echoed, valid duties, the requested estimator); a repeated SENSE while the outputs change (I-f
-ramp or closed loop: the cached answer, byte for byte); a SENSE with a bad CRC (serial links: ignored,
-then the good one answered); STOP; a reference session that runs the same cycles without the repeat (the
-cycles after the repeat must answer exactly as there: the ISR did not run again); a session without
-TELEM_EMF; heartbeats again, counting the bad frame.
+order, seq echoed, valid duties, the requested estimator, each DUTY within the lockstep answer deadline);
+a repeated SENSE while the outputs change (I-f ramp or closed loop: the cached answer, byte for byte); a
+SENSE with a bad CRC (serial links: ignored, then the good one answered); STOP; a reference session that
+runs the same cycles without the repeat (the cycles after the repeat must answer exactly as there: the
+ISR did not run again); a session without TELEM_EMF, in which RUN without the motor's parameters faults
+(CONFIG_INVALID), RUN in FAULT is ignored, CLEAR_FAULT returns to IDLE with the configuration kept, and
+FAULT_PLANT stops the controller as STOP does; heartbeats again (state STOPPED), counting the bad frame.
+
+Every wait is the host's own (``hil_bench.protocol.timing``, the table of docs/protocol.md section 6):
+a controller passes the kit exactly when the bench would run it without retries. An item the session
+never got to (the controller stopped answering earlier: that item fails) is n/a, not a second FAIL.
 
 Exit status 0 if every applicable item passes, 1 otherwise, 2 if the session could not run at all.
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import struct
 import time
@@ -36,6 +43,7 @@ from hil_bench.protocol.messages import (
     Command,
     ConfigStatus,
     Estimator,
+    Fault,
     HelloFlag,
     HelloStatus,
     Mode,
@@ -43,13 +51,24 @@ from hil_bench.protocol.messages import (
     SenseAuxFlag,
     State,
 )
+from hil_bench.protocol.timing import (
+    CONFIG_TIMEOUT_S,
+    HEARTBEAT_GAP_MAX_S,
+    HEARTBEAT_GAP_MIN_S,
+    HEARTBEAT_PERIOD_S,
+    HELLO_TIMEOUT_S,
+    LOCKSTEP_ANSWER_S,
+    LOCKSTEP_GIVE_UP_S,
+)
 
-ANSWER_TIMEOUT_S = 0.5      # the host's patience for an answer (docs/protocol.md 6.1-6.5)
 AFTER_REPEAT = 8            # cycles after the repeated SENSE compared with the reference session
 ALIGN_SHARE = 0.25          # the alignment lasts at most this share of the cycles (the repeat comes later)
-SILENCE_S = 0.1             # how long a frame that must not be answered is given
+#: a frame that must not be answered is given as long as the host waits for an answer at all
+SILENCE_S = LOCKSTEP_GIVE_UP_S
 HEARTBEAT_WAIT_S = 1.5      # for three heartbeats (a drive may still be starting when the link opens)
 DUTY_RAW_FULL = 32768
+#: the fewest cycles whose session reaches the repeated SENSE (from cycles // 2 up to cycles - 20)
+MIN_CYCLES = 2 * (AFTER_REPEAT + 12)
 
 M = MESSAGES
 _IDS = {m.frame_id: m for m in MESSAGES.values()}
@@ -145,7 +164,7 @@ def _hello(s: _Session, *, version=PROTO_VERSION, mode=Mode.LOCKSTEP, estimator=
                                                         flags, s.session_id)))])
     sid = s.session_id
     match, _ = s.wait_for(lambda f, p: _ok(f, p, "HELLO_ACK") and M["HELLO_ACK"].unpack(p)["session"] == sid,
-                          ANSWER_TIMEOUT_S)
+                          HELLO_TIMEOUT_S)
     return None if match is None else M["HELLO_ACK"].unpack(match[1])
 
 
@@ -153,18 +172,19 @@ def _config(s: _Session, seq: int, param_id: int, value: float):
     # struct, not the codec: the codec refuses NaN, which the conformance kit sends on purpose
     s.send([(M["CONFIG"].frame_id, struct.pack("<HHf", param_id, seq, value))])
     match, _ = s.wait_for(lambda f, p: _ok(f, p, "CONFIG_ACK") and M["CONFIG_ACK"].unpack(p)["config_seq"] == seq,
-                          ANSWER_TIMEOUT_S)
+                          CONFIG_TIMEOUT_S)
     return None if match is None else M["CONFIG_ACK"].unpack(match[1])
 
 
 def run_params(profile, plant, scn, ts_s: float, cycles: int) -> dict[Param, float]:
-    """The parameters the kit runs with: the motor's, the plant's delay and the scenario's, with the
-    alignment shortened to at most ALIGN_SHARE of the cycles so that the outputs move (I-f ramp, then
-    closed loop) by the time the SENSE is repeated."""
-    from hil_bench.loop.runner import motor_params
+    """The parameters the kit runs with: what ``bench run`` sends for the scenario in lockstep
+    (docs/protocol.md 6.2, ``hil_bench.loop.runner.controller_params``), with the alignment shortened to
+    at most ALIGN_SHARE of the cycles so that the outputs move (I-f ramp, then closed loop) by the time
+    the SENSE is repeated."""
+    from hil_bench.loop.runner import controller_params
 
-    params = {**motor_params(profile), Param.CTRL_DELAY_S: float(plant.params.t_delay_s),
-              **scn.controller_params}
+    params = controller_params(scn, profile, plant.params, ts_s,
+                               actuation_delay_s=plant.actuation_delay_s)
     align_s = ALIGN_SHARE * cycles * ts_s
     if float(params.get(Param.ALIGN_TIME_S, math.inf)) > align_s:
         params[Param.ALIGN_TIME_S] = align_s
@@ -193,9 +213,12 @@ def run_conformance(link_spec: str = "stub", stub_args: tuple[str, ...] = (), cy
     from hil_bench.plant_rt.profile import load_profile
     from hil_bench.scenario import load_scenario
 
+    if cycles < MIN_CYCLES:
+        raise ValueError(f"--cycles {cycles}: the session needs at least {MIN_CYCLES} cycles to reach the "
+                         f"repeated SENSE (docs/protocol.md 6.5)")
     result = Result(link_spec)
-    scn = load_scenario(scenario)
     est = Estimator[estimator]
+    scn = dataclasses.replace(load_scenario(scenario), estimator=est)   # what the kit asks for
     profile = load_profile(scn.profile)
     def plant_factory():
         return Plant(profile, **scn.plant_overrides)
@@ -226,11 +249,13 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
     # -- idle heartbeats (6.7) ---------------------------------------------------------------------------
     beats = s.heartbeats(3, HEARTBEAT_WAIT_S)
     counters = [int(b["counter"]) for _, b in beats]
-    gaps = [round((b[0] - a[0]) * 1e3) for a, b in zip(beats, beats[1:])]
-    add(Item("6.7", "HEARTBEAT_CTRL every 100 ms while idle, counter +1 each",
+    gaps = [b[0] - a[0] for a, b in zip(beats, beats[1:])]
+    add(Item("6.7", f"HEARTBEAT_CTRL every {HEARTBEAT_PERIOD_S * 1e3:g} ms while idle (gaps above "
+                    f"{HEARTBEAT_GAP_MIN_S * 1e3:g} and below {HEARTBEAT_GAP_MAX_S * 1e3:g} ms), counter +1 each",
              len(beats) == 3 and all((b - a) & 0xFFFF == 1 for a, b in zip(counters, counters[1:]))
-             and all(50 <= g <= 250 for g in gaps),
-             f"{len(beats)} within {HEARTBEAT_WAIT_S:g} s, counters {counters}, {gaps} ms apart"))
+             and all(HEARTBEAT_GAP_MIN_S < g < HEARTBEAT_GAP_MAX_S for g in gaps),
+             f"{len(beats)} within {HEARTBEAT_WAIT_S:g} s, counters {counters}, "
+             f"{[round(g * 1e3) for g in gaps]} ms apart"))
 
     # -- handshake (6.1) -------------------------------------------------------------------------------
     ack = _hello(s, version=99, estimator=int(est), period_s=ts_s)
@@ -348,10 +373,25 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
         return [(M["SENSE_AUX"].frame_id, M["SENSE_AUX"].pack_values(aux)),
                 (M["SENSE"].frame_id, M["SENSE"].pack_values((k, smp.i_a_a, smp.i_b_a, smp.i_c_a), saturate=True))]
 
+    late: list[tuple[int, float]] = []          # (seq, s) of the DUTYs that came after the deadline
+    slowest = [0.0]
+    sent = {"seq": -1}                           # the last SENSE seq sent in this session
+
     def answer(k: int, frames) -> list[tuple[int, bytes]] | None:
+        """DUTY(k) and what came before it: due LOCKSTEP_ANSWER_S after the SENSE (the host would
+        retry then, and end the run LOCKSTEP_GIVE_UP_S after it: the kit waits as long, no longer)."""
+        t0 = time.monotonic()
         s.send(frames)
-        duty, seen = s.wait_for(lambda f, p: _ok(f, p, "DUTY") and M["DUTY"].unpack_raw(p)[0] == k, ANSWER_TIMEOUT_S)
-        return None if duty is None else seen + [duty]
+        sent["seq"] = k
+        duty, seen = s.wait_for(lambda f, p: _ok(f, p, "DUTY") and M["DUTY"].unpack_raw(p)[0] == k,
+                                LOCKSTEP_GIVE_UP_S)
+        if duty is None:
+            return None
+        dt = time.monotonic() - t0
+        slowest[0] = max(slowest[0], dt)
+        if dt > LOCKSTEP_ANSWER_S:
+            late.append((k, dt))
+        return seen + [duty]
 
     def step(pl, got) -> None:
         raw = M["DUTY"].unpack_raw(got[-1][1])
@@ -363,7 +403,7 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
         prepared = None
         got = answer(k, frames)
         if got is None:
-            problems.append(f"no DUTY for seq {k} within {ANSWER_TIMEOUT_S:g} s")
+            problems.append(f"no DUTY for seq {k} within {LOCKSTEP_GIVE_UP_S:g} s (the host gives up then)")
             break
         stats["answered"] += 1
         cyc = [(f, p) for f, p in got if f != M["HEARTBEAT_CTRL"].frame_id]
@@ -417,8 +457,17 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
                                    "is answered", stray is None, "" if stray is None else "a frame with a bad CRC "
                                                                                           "was answered")
     n = stats["answered"]
+    #: the controller stopped answering at this cycle (that item fails); what comes after and gets no
+    #: answer either was never really reached: n/a, not a second FAIL
+    silent_at = n if n < cycles else None
+    gone = (f"not reached: no answer since cycle {silent_at} (the item 'every SENSE answered')"
+            if silent_at is not None else "")
     add(Item("6.4", "every SENSE answered with a DUTY of its seq", n == cycles,
              f"{n}/{cycles} cycles" + (f"; {problems[0]}" if n < cycles and problems else "")))
+    add(Item("6.4", f"every DUTY within the lockstep answer deadline, {LOCKSTEP_ANSWER_S * 1e3:g} ms after its "
+                    f"SENSE (the host retries then: 6.5)", not late and n > 0,
+             f"slowest {slowest[0] * 1e3:.1f} ms" + (f"; {len(late)} late: " + ", ".join(
+                 f"seq {k} {dt * 1e3:.0f} ms" for k, dt in late[:5]) if late else "")))
     add(Item("6.4", "TELEM, then TELEM_EMF (asked for), then DUTY, nothing else, seq echoed",
              stats["order"] == n and stats["emf"] == n and n > 0,
              f"{stats['order']}/{n} in order, {stats['emf']}/{n} with every frame of the right seq and length"
@@ -431,26 +480,25 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
     add(Item("6.4", "TELEM.state in the State table; no FAULT_CTRL",
              all(x in {st.value for st in State} for x in states) and stats["fault"] == 0,
              f"states seen: {', '.join(seen_states)}" + (f"; {stats['fault']} FAULT_CTRL" if stats["fault"] else "")))
-    add(retry_item or Item("6.5", "a repeated SENSE is answered from the cache", False,
-                           f"not reached (cycles {n} < {repeat_from + 1})"))
-    add(crc_item or Item("2.4", "a SENSE with a bad CRC is dropped", None if not serial else False,
-                         "CAN link: the bus checks CRCs" if not serial else f"not reached (cycles {n})"))
+    # never reached: the cycles stopped before (MIN_CYCLES makes a session that runs them all reach both)
+    add(retry_item or Item("6.5", "a repeated SENSE is answered from the cache", None, gone))
+    add(crc_item or Item("2.4", "a SENSE with a bad CRC is dropped", None,
+                         "CAN link: the bus checks CRCs" if not serial else gone))
+
+    #: the verdict of a probe that gets no answer: FAIL, or n/a once the controller had gone silent
+    no_answer = None if silent_at is not None else False
 
     # -- STOP (6.3) ----------------------------------------------------------------------------------------
-    kk = n
+    kk = (sent["seq"] + 1) & 0xFFFF     # a new cycle: the last seq again would be a retry (6.5)
     s.send([(cmd.frame_id, cmd.pack(command=int(Command.STOP), seq=3, value=0.0))])
     got = answer(kk, cycle_frames(plant, kk))
-    telem = [M["TELEM"].unpack_raw(p) for f, p in (got or []) if _ok(f, p, "TELEM")]
-    off = got is not None and all(r == DUTY_RAW_OFF for r in M["DUTY"].unpack_raw(got[-1][1])[1:])
-    add(Item("6.3", "after CMD STOP: state STOPPED, all legs OFF",
-             bool(telem) and telem[0][3] == State.STOPPED and off,
-             "no answer" if got is None else f"state {telem[0][3] if telem else '?'}, legs OFF: {off}"))
+    add(_state_item("6.3", "after CMD STOP: state STOPPED, all legs OFF", got, {State.STOPPED}, no_answer, gone))
 
     # -- the same cycles again without the repeat: the ISR did not run twice (6.5) ------------------------------
     text = (f"the {AFTER_REPEAT} cycles after the repeated SENSE answer exactly as in a session without the "
             f"repeat (the controller's state advanced once for that cycle)")
     if repeat_at is None or len(answers) < repeat_at + 1 + AFTER_REPEAT:
-        add(Item("6.5", text, False, "the repeat was not reached"))
+        add(Item("6.5", text, None, gone or "the repeat was not reached"))
     else:
         ref_plant = plant_factory()
         ref_plant.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
@@ -486,12 +534,34 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
                      f"cycle {after[0]} differs from the session without the repeat: the repeated SENSE ran the "
                      f"ISR again"))
 
-    # -- a second session without TELEM_EMF (6.1, 6.4, 6.5) --------------------------------------------------
+    # -- a session without TELEM_EMF (6.1, 6.4, 6.5); RUN without the motor, RUN in FAULT, CLEAR_FAULT (6.3);
+    # -- FAULT_PLANT (6.7) -----------------------------------------------------------------------------------
+    fin = plant_factory()
+    fin.set_initial(scn.initial_theta_e_rad, scn.initial_speed_rad_s)
     ack = _hello(s, estimator=int(est), flags=enc_flag, period_s=ts_s)
     ok2 = ack is not None and ack["status"] == HelloStatus.OK
+    gone2 = gone or ("" if ok2 else "not reached: the HELLO of this session was not accepted")
+    no_answer2 = None if silent_at is not None or not ok2 else False
+    k2, cmd_seq = 0, 0
+
+    def command(c: Command, value: float = 0.0) -> None:
+        nonlocal cmd_seq
+        cmd_seq += 1
+        s.send([(cmd.frame_id, cmd.pack(command=int(c), seq=cmd_seq, value=value))])
+
+    def cycle2() -> list[tuple[int, bytes]] | None:
+        nonlocal k2
+        if not ok2:
+            return None
+        got = answer(k2, cycle_frames(fin, k2))
+        k2 += 1
+        if got is not None:
+            step(fin, got)
+        return got
+
     emf_seen, answered2 = 0, 0
-    for k2 in range(3):
-        got = answer(k2, cycle_frames(plant, k2)) if ok2 else None
+    for _ in range(3):
+        got = cycle2()
         if got is None:
             break
         answered2 += 1
@@ -500,13 +570,82 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
              ok2 and answered2 == 3 and emf_seen == 0,
              f"HELLO {'OK' if ok2 else 'refused'}, {answered2}/3 answered, {emf_seen} TELEM_EMF"))
 
-    # -- heartbeats again, counting the bad frame (6.7) ---------------------------------------------------------
+    command(Command.RUN)                     # nothing configured in this session: no motor parameters
+    got = cycle2()
+    st, off, faults = _answer_state(got)
+    add(Item("6.3", "RUN with an incomplete configuration (a new session, no CONFIG: no motor parameters): "
+                    "FAULT_CTRL CONFIG_INVALID, state FAULT, all legs OFF",
+             no_answer2 if got is None else (st == State.FAULT and off and int(Fault.CONFIG_INVALID) in faults),
+             (gone2 or "no answer") if got is None else
+             f"state {_state_name(st)}, legs OFF: {off}, FAULT_CTRL: "
+             f"{', '.join(_status(Fault, c) for c in faults) or 'none'}"))
+    seq = 0
+    refused = [pid.name for pid, value in params.items()
+               if ok2 and ((a := config(int(pid), float(value))) is None or a["status"] != ConfigStatus.OK)]
+    command(Command.SET_SPEED_REF, scn.speed_ref_rad_s)
+    command(Command.RUN)
+    got = cycle2()
+    st, off, _ = _answer_state(got)
+    add(Item("6.3", "in FAULT, CONFIG is accepted and RUN ignored (the controller stays in FAULT until "
+                    "CLEAR_FAULT): state FAULT, all legs OFF",
+             no_answer2 if got is None else (st == State.FAULT and off and not refused),
+             (gone2 or "no answer") if got is None else
+             f"state {_state_name(st)}, legs OFF: {off}" + (f"; CONFIG refused: {', '.join(refused)}"
+                                                             if refused else "")))
+    command(Command.CLEAR_FAULT)
+    add(_state_item("6.3", "CLEAR_FAULT: state IDLE, all legs OFF", cycle2(), {State.IDLE}, no_answer2, gone2))
+    command(Command.RUN)
+    run3 = [cycle2() for _ in range(3)]
+    started = [_answer_state(g) for g in run3 if g is not None]
+    moving_states = {State.ALIGN, State.INITIAL_POSITION, State.OPEN_LOOP, State.CLOSED_LOOP}
+    add(Item("6.3", "RUN after CLEAR_FAULT starts with the configuration sent before it (kept): a start-up or "
+                    "running state, no FAULT_CTRL",
+             no_answer2 if len(started) < 3 else all(x[0] in moving_states and not x[2] for x in started),
+             (gone2 or f"{len(started)}/3 answered") if len(started) < 3 else
+             "states " + ", ".join(_state_name(x[0]) for x in started)
+             + ("; FAULT_CTRL " + ", ".join(_status(Fault, c) for x in started for c in x[2])
+                if any(x[2] for x in started) else "")))
+    fp = M["FAULT_PLANT"]
+    s.send([(fp.frame_id, fp.pack(code=int(Fault.HOST_ABORT), seq=max(k2 - 1, 0) & 0xFFFF, detail=0))])
+    got = cycle2()
+    add(_state_item("6.7", "FAULT_PLANT: the controller stops as on CMD STOP: state STOPPED, all legs OFF", got,
+                    {State.STOPPED}, no_answer2, gone2))
+    stopped = got is not None
+
+    # -- heartbeats again, after FAULT_PLANT, counting the bad frame (6.7) ---------------------------------------
     beats = [b for _, b in s.heartbeats(2, HEARTBEAT_WAIT_S)]
     counted = bool(beats) and int(beats[-1]["rx_errors"]) >= 1
-    add(Item("6.7", "HEARTBEAT_CTRL again once cycles stop" + ("; rx_errors counts the bad-CRC frame" if serial
-                                                                 else ""),
-             bool(beats) and (counted or not serial),
-             f"{len(beats)} heartbeats" + (f", rx_errors {int(beats[-1]['rx_errors'])}" if beats else "")))
+    state_ok = not stopped or (bool(beats) and int(beats[-1]["state"]) == State.STOPPED)
+    bad_crc_sent = serial and crc_item is not None
+    add(Item("6.7", "HEARTBEAT_CTRL again once cycles stop" + (", after FAULT_PLANT too (state STOPPED)" if stopped
+                                                                else "")
+             + ("; rx_errors counts the bad-CRC frame" if bad_crc_sent else ""),
+             bool(beats) and state_ok and (counted or not bad_crc_sent),
+             f"{len(beats)} heartbeats" + (f", state {_state_name(int(beats[-1]['state']))}, rx_errors "
+                                           f"{int(beats[-1]['rx_errors'])}" if beats else "")))
+
+
+def _answer_state(got) -> tuple[int | None, bool, list[int]]:
+    """An answer's TELEM.state (None: no TELEM), whether its DUTY has every leg OFF, and the codes of the
+    FAULT_CTRL frames that came with it."""
+    if got is None:
+        return None, False, []
+    telem = [M["TELEM"].unpack_raw(p) for f, p in got if _ok(f, p, "TELEM")]
+    off = all(r == DUTY_RAW_OFF for r in M["DUTY"].unpack_raw(got[-1][1])[1:])
+    faults = [int(M["FAULT_CTRL"].unpack_raw(p)[0]) for f, p in got if _ok(f, p, "FAULT_CTRL")]
+    return (int(telem[0][3]) if telem else None), off, faults
+
+
+def _state_name(state: int | None) -> str:
+    return "? (no TELEM)" if state is None else _status(State, state)
+
+
+def _state_item(section: str, text: str, got, states: set[State], no_answer: bool | None, gone: str) -> Item:
+    """An item that a cycle's answer is in one of ``states`` with every leg OFF."""
+    if got is None:
+        return Item(section, text, no_answer, gone or "no answer")
+    st, off, _ = _answer_state(got)
+    return Item(section, text, st in states and off, f"state {_state_name(st)}, legs OFF: {off}")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -515,7 +654,7 @@ def main(args: argparse.Namespace) -> int:
 
     try:
         result = run_conformance(args.link, cycles=args.cycles, estimator=args.estimator.upper())
-    except (ScenarioError, KeyError) as exc:
+    except (ScenarioError, KeyError, ValueError) as exc:
         print(f"error: {exc}")
         return 2
     print(result.text())

@@ -245,6 +245,8 @@ def _header(msgs: tuple[MessageSpec, ...]) -> str:
             out.append(f"/* {c_string(msg.comment)} */")
         out.append(f"#define {name(mac + '_FRAME_ID')} 0x{msg.frame_id:03X}u")
         out.append(f"#define {name(mac + '_LENGTH')} {msg.length}u")
+        if msg.cycle_time_ms:
+            out.append(f"#define {name(mac + '_CYCLE_TIME_MS')} {msg.cycle_time_ms}u /* GenMsgCycleTime */")
         out.append("typedef struct {")
         for s in msg.signals:
             out.append(f"    {c_type(s)} {s.name}; /* {c_string(_signal_comment(s))} */")

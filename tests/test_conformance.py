@@ -128,3 +128,136 @@ def test_an_encoder_drive_can_pass_the_kit():
     failed = [f"{i.section} {i.text}: {i.detail}" for i in result.items if i.ok is False]
     assert result.aborted is None and not failed, (result.aborted, failed)
     assert any("TELEM.estimator = ENCODER" in i.text and i.ok for i in result.items)
+
+
+def _proxy_dropping_duty(nth: int, delay_s: float = 0.0):
+    """The stub behind a proxy that loses its nth DUTY on the way to the host (``delay_s`` = 0), or
+    holds it back that long (the pump waits: everything behind it is as late)."""
+    import time
+
+    from hil_bench.protocol.messages import MESSAGES as M
+    from tests.pty_proxy import PtyProxy, decode
+
+    seen = {"duties": 0}
+
+    def to_host(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is not None and frame[0] == M["DUTY"].frame_id:
+            seen["duties"] += 1
+            if seen["duties"] == nth:
+                if not delay_s:
+                    return []
+                time.sleep(delay_s)
+        return [chunk]
+
+    return PtyProxy(to_host=to_host)
+
+
+def test_after_the_cycles_stop_the_stop_probe_is_a_new_cycle_and_what_was_never_reached_is_na():
+    """Issue 19, point 8: one DUTY lost for good (the kit does not retry) stops the session's cycles at
+    that seq. The STOP probe then sends the next seq (the same one again would be a retry, answered
+    from the cache: a controller that did stop looked as if it had not), and the items the session
+    never got to (the repeat, the bad CRC, the reference session) are n/a, not a FAIL each: the one
+    FAIL is the item whose rule broke."""
+    proxy = _proxy_dropping_duty(100)
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    by = {i.text.split(":")[0]: i for i in result.items}
+    assert by["every SENSE answered with a DUTY of its seq"].ok is False
+    assert by["after CMD STOP"].ok, result.text()
+    na = [i for i in result.items if i.ok is None]
+    assert {i.section for i in na} == {"2.4", "6.5"} and len(na) == 3, result.text()
+    assert all("not reached: no answer since cycle 99" in i.detail for i in na), result.text()
+    assert [i.text for i in result.items if i.ok is False] == ["every SENSE answered with a DUTY of its seq"]
+
+
+def test_an_answer_after_the_lockstep_deadline_fails_the_deadline_item():
+    """docs/protocol.md 6 (timing): DUTY(k) is due LOCKSTEP_ANSWER_S (50 ms) after SENSE(k), when the
+    bench retries; the kit waits exactly as long as the bench (then up to its give-up time, 0.2 s,
+    to see whether the answer comes at all) and names the late cycle."""
+    from hil_bench.protocol.timing import LOCKSTEP_ANSWER_S, LOCKSTEP_GIVE_UP_S
+
+    proxy = _proxy_dropping_duty(50, delay_s=(LOCKSTEP_ANSWER_S + LOCKSTEP_GIVE_UP_S) / 2)
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    failed = [i for i in result.items if i.ok is False]
+    assert len(failed) == 1 and "within the lockstep answer deadline, 50 ms" in failed[0].text, result.text()
+    assert "1 late: seq 49 " in failed[0].detail
+    assert any(i.text.startswith("every SENSE answered") and i.ok for i in result.items)
+
+
+def test_too_few_cycles_to_reach_the_repeat_is_refused(capsys):
+    from hil_bench.conformance import MIN_CYCLES
+
+    assert cli_main(["conformance", "--link", "stub", "--cycles", str(MIN_CYCLES - 1)]) == 2
+    assert f"at least {MIN_CYCLES} cycles" in capsys.readouterr().out
+
+
+def _proxy(to_controller=None, to_host=None):
+    from tests.pty_proxy import PtyProxy
+
+    return PtyProxy(to_controller=to_controller, to_host=to_host)
+
+
+def test_a_drive_silent_after_fault_plant_fails_the_fault_plant_items():
+    """Issue 19, point 8: the old 6.4 sentence ("sends nothing after FAULT_PLANT until a new HELLO")
+    contradicted 6.0/6.7 (idle heartbeats). The spec now says: stop as on CMD STOP, keep answering
+    SENSE, keep the heartbeat. A drive that follows the old sentence (the stub behind a proxy that
+    swallows everything it sends from FAULT_PLANT until the next HELLO) fails both 6.7 items that
+    state it, and only those."""
+    from hil_bench.protocol.messages import MESSAGES as M
+    from tests.pty_proxy import decode
+
+    st = {"mute": False}
+
+    def to_controller(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is not None and frame[0] == M["FAULT_PLANT"].frame_id:
+            st["mute"] = True
+        elif frame is not None and frame[0] == M["HELLO"].frame_id:
+            st["mute"] = False
+        return [chunk]
+
+    proxy = _proxy(to_controller, lambda chunk: [] if st["mute"] else [chunk])
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    failed = [i.text for i in result.items if i.ok is False]
+    assert len(failed) == 2, result.text()
+    assert failed[0].startswith("FAULT_PLANT: the controller stops as on CMD STOP"), failed
+    assert failed[1].startswith("HEARTBEAT_CTRL again once cycles stop"), failed
+
+
+def test_a_drive_whose_run_clears_a_fault_fails_the_fault_item():
+    """Issue 19, point 8 (the state after CLEAR_FAULT was unstated): 6.3 says a controller stays in
+    FAULT, RUN ignored, until CLEAR_FAULT, which returns it to IDLE with its configuration kept. A drive
+    whose RUN clears a fault by itself (the stub behind a proxy that puts a CLEAR_FAULT before every
+    RUN) fails that item; the incomplete-configuration item before it still passes."""
+    from hil_bench.protocol.messages import MESSAGES as M
+    from hil_bench.protocol.messages import Command
+    from tests.pty_proxy import decode, encode
+
+    cmd = M["CMD"]
+
+    def to_controller(chunk: bytes) -> list[bytes]:
+        frame = decode(chunk)
+        if frame is not None and frame[0] == cmd.frame_id and cmd.unpack(frame[1])["command"] == Command.RUN:
+            seq = int(cmd.unpack(frame[1])["seq"])
+            return [encode(cmd.frame_id, cmd.pack(command=int(Command.CLEAR_FAULT), seq=seq, value=0.0)), chunk]
+        return [chunk]
+
+    proxy = _proxy(to_controller)
+    try:
+        result = run_conformance(f"serial:{proxy.path}")
+    finally:
+        proxy.close()
+    by = {i.text.split(":")[0].split(" (")[0]: i for i in result.items if i.section == "6.3"}
+    assert by["RUN with an incomplete configuration"].ok, result.text()
+    stays = by["in FAULT, CONFIG is accepted and RUN ignored"]
+    assert stays.ok is False and "state FAULT" not in stays.detail, result.text()
+    assert not result.passed

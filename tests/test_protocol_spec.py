@@ -25,7 +25,7 @@ def test_mechanical_start_up_parameters_say_so():
     assert "float w_target = k->handover_speed_rad_s;" in c_source
     for name in ("IF_ACCEL_RAD_S2", "HANDOVER_SPEED_RAD_S"):
         assert "mechanical" in params.BY_NAME[name].meaning
-        assert re.search(rf"\| {name} \| [^|]+ \| real \| [^|]*mechanical", DOC), name
+        assert re.search(rf"\| {name} \| [^|]+ \| real \| [^|]+ \| [^|]*mechanical", DOC), name
 
 
 @pytest.mark.parametrize("name, value, ok", [
@@ -73,9 +73,9 @@ window_s = [0.0, 0.05]
 """
 
 
-def _corrupting_proxy(corrupt_duty: int):
+def _corrupting_proxy(corrupt_duty: int, lose: bool = False):
     """The stub behind a proxy that sends the n-th DUTY frame from the controller on with its CRC
-    flipped (valid COBS, bad CRC: what line noise on a UART does)."""
+    flipped (valid COBS, bad CRC: what line noise on a UART does), or (``lose``) drops it."""
     from hil_bench.protocol.framing import cobs_decode, cobs_encode
     from hil_bench.protocol.messages import MESSAGES
     from tests.pty_proxy import PtyProxy, decode
@@ -87,9 +87,11 @@ def _corrupting_proxy(corrupt_duty: int):
         if frame is not None and frame[0] == MESSAGES["DUTY"].frame_id:
             seen["duties"] += 1
             if seen["duties"] == corrupt_duty:
+                seen["corrupted"] += 1
+                if lose:
+                    return []
                 raw = bytearray(cobs_decode(chunk))
                 raw[-1] ^= 0x01
-                seen["corrupted"] += 1
                 return [cobs_encode(bytes(raw))]
         return [chunk]
 
@@ -134,6 +136,42 @@ def test_one_recovered_bad_crc_duty_gives_the_counters_the_spec_lists(tmp_path, 
                                "SMO_SIGN").ok
 
 
+@pytest.mark.parametrize("emf", [True, False])
+def test_one_lost_duty_gives_the_counters_the_spec_lists(tmp_path, emf):
+    """Issue 19, point 8: 6.9's table has a row for a DUTY lost outright (its TELEM and TELEM_EMF
+    arrived): one retry recovers it, and the cache sends the telemetry again before it: retries 1,
+    duplicates 2 with TELEM_EMF (1 without), nothing else. A scenario allowance written from the row
+    passes; one short of it does not."""
+    from hil_bench.loop.runner import run_scenario
+    from hil_bench.papers.check import check_recording
+    from hil_bench.record.integrity import check_integrity
+    from hil_bench.scenario import parse_scenario
+
+    section = " ".join(DOC.split("### 6.9")[1].split("## 7.")[0].split())
+    assert ("| DUTY(k) lost outright (it never arrives; TELEM(k) and TELEM_EMF(k) did), recovered by one "
+            "re-send | `retries` = 1, `duplicates` = 1 per telemetry frame the cache sends again before its "
+            "DUTY(k): 2 with TELEM_EMF (TELEM, TELEM_EMF), 1 without |") in section
+    assert "one lost DUTY gives `retries` = 1 and `duplicates` = 2 (1 without TELEM_EMF)" in section
+    dup = 2 if emf else 1
+    allow = f"[link]\nallow = {{retries = 1, duplicates = {dup}}}"
+    emf_off = "" if emf else "\ntelemetry_emf = false"
+    text = RETRY_SCENARIO.format(link=allow).replace("speed_ref_rpm = 300", "speed_ref_rpm = 300" + emf_off)
+    proxy, seen = _corrupting_proxy(corrupt_duty=100, lose=True)
+    try:
+        result = run_scenario(parse_scenario(text, tmp_path / "lost.toml"), link_spec=f"serial:{proxy.path}",
+                              out_path=tmp_path / "lost.mcap", progress=False, allow_slow_link=True)
+    finally:
+        proxy.close()
+    assert seen["corrupted"] == 1 and result.ok, result.error
+    report = check_recording(tmp_path / "lost.mcap")
+    counters = {k: v for k, v in report.integrity.counters.items() if v}
+    assert counters == {"retries": 1, "duplicates": dup}, counters
+    assert report.integrity.ok and all(pr.is_allowed for pr in report.integrity.problems)
+    short = text.replace(f"duplicates = {dup}", f"duplicates = {dup - 1}")
+    assert not check_integrity(report.recording, parse_scenario(short, tmp_path / "s.toml").link.allow,
+                               "SMO_SIGN").ok
+
+
 def test_the_encoder_flag_is_per_cycle_in_the_dbc_and_the_spec():
     """A plant encoder fault clears THETA_ENC_VALID in the cycles it affects (engine.c sends the flag
     only with a valid sample): nothing may say it is set 'exactly when' the HELLO flag was."""
@@ -150,3 +188,92 @@ def test_the_spec_says_claims_are_invalid_when_the_true_angle_was_sent():
 
     section = " ".join(DOC.split("### 6.8")[1].split("### 6.9")[0].split())
     assert ENCODER_SENT_TEXT in section
+
+
+def test_the_stated_defaults_kinds_and_enum_values_are_the_stubs():
+    """Issue 19, point 8: docs/protocol.md 6.2 states every parameter's default (protocol/params.py, the
+    one definition; the table is generated from it). The stub's controller starts every session with
+    exactly those (read back with ctrl_param_get), has no value for the required ones (0: not set,
+    and CONFIG cannot set 0), takes only whole values for the integer, boolean and enum kinds and
+    exactly the listed enum values."""
+    import numpy as np
+
+    from hil_bench.firmware_stub._binding import ffi, lib
+
+    assert "| 1 | RS_OHM | ohm | real | **required** |" in DOC and "| 24 | IQ_MAX_A | A | real | 5 |" in DOC
+    c = ffi.new("controller_t *")
+    lib.ctrl_init(c)
+    cfg = ffi.addressof(c[0], "cfg")
+    got = ffi.new("float *")
+    for p in params.PARAMS:
+        pid = int(Param[p.name])
+        assert lib.ctrl_param_get(cfg, pid, got) == 0, p.name
+        if p.required:
+            assert got[0] == 0.0 and lib.ctrl_param_set(cfg, pid, 0.0) == 2, p.name
+            continue
+        assert got[0] == np.float32(p.default), (p.name, got[0], p.default)
+        if p.kind != "real":
+            assert lib.ctrl_param_set(cfg, pid, float(p.default) + 0.5) == 2, p.name
+        allowed = {0, 1} if p.kind == "boolean" else {v for v, _ in p.values} if p.kind == "enum" else None
+        if allowed is not None:
+            for v in range(-1, max(allowed) + 2):
+                assert (lib.ctrl_param_set(cfg, pid, float(v)) == 0) == (v in allowed), (p.name, v)
+            lib.ctrl_param_set(cfg, pid, float(p.default))
+
+
+@pytest.mark.parametrize("estimator, given, starts", [
+    ("SMO_SIGN", (), False), ("SMO_SIGN", params.MOTOR, True), ("SMO_SIGN", params.MOTOR[1:], False),
+    ("SMO_TANH", params.MOTOR, False), ("SMO_TANH", (*params.MOTOR, "SMO_K_V"), True),
+])
+def test_an_incomplete_configuration_is_what_the_spec_says(estimator, given, starts):
+    """docs/protocol.md 6.3: RUN with a required parameter unset (the motor's; SMO_K_V for the sigmoid
+    and tanh SMOs) is CONFIG_INVALID; with them set, the defaults run."""
+    from hil_bench.firmware_stub._binding import ffi, lib
+    from hil_bench.protocol.messages import Estimator
+
+    assert all(params.BY_NAME[n].required for n in params.MOTOR)
+    assert "**required**" in params.BY_NAME["SMO_K_V"].meaning
+    value = {"RS_OHM": 0.6383, "LD_H": 2e-3, "LQ_H": 2e-3, "PSI_F_WB": 0.085, "POLE_PAIRS": 4.0, "J_KGM2": 1e-4,
+             "V_DC_NOM_V": 310.0, "SMO_K_V": 500.0}
+    c = ffi.new("controller_t *")
+    lib.ctrl_init(c)
+    c.cfg.estimator = float(Estimator[estimator])
+    for name in given:
+        assert lib.ctrl_param_set(ffi.addressof(c[0], "cfg"), int(Param[name]), value[name]) == 0
+    assert (lib.ctrl_start(c) == 0) == starts
+    assert c.state == (4 if not starts else c.state)     # FAULT (HIL_STATE_FAULT) when refused
+
+
+@pytest.mark.parametrize("name, count", [("gong_g2_500rpm", 20), ("yuan_y2_improved", 31)])
+def test_the_host_sends_exactly_the_parameters_the_spec_lists(tmp_path, name, count):
+    """Issue 19, point 8: 6.2 said "the host sends every parameter it knows" while it sent 20 of 62.
+    It now says which: the motor's 8, CTRL_DELAY_S, the reference observer's settings (sigmoid and
+    tanh SMOs), the trip below an ADC's full scale, [controller.inverter_comp]'s INV_COMP_* estimate,
+    the scenario's [controller.params]; nothing else.
+    The CONFIG frames a run records are exactly that set."""
+    from hil_bench.firmware_stub.est_smo import smo_sigmoid_for, smo_tanh_for
+    from hil_bench.loop.runner import SMO_CONFIG_PARAMS, inverter_comp_settings, run_scenario
+    from hil_bench.plant_rt.profile import load_profile
+    from hil_bench.protocol.messages import MESSAGES, Estimator
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recording import load_recording
+    from hil_bench.scenario import derive_scenario
+
+    section = " ".join(DOC.split("### 6.2")[1].split("### 6.3")[0].split())
+    assert "sends every parameter it knows" not in DOC
+    assert f"{name} ({'SMO_TANH' if name.startswith('gong') else 'SMO_SIGMOID'}) sends {count}" in section \
+        or f"{name} (SMO_SIGMOID) {count}" in section, section[:2000]
+    scn = derive_scenario(name, f"{name}@params", (("scenario.duration_s", 0.002), ("events", []),
+                                                     ("metrics.window_s", [0.0, 0.002])))
+    res = run_scenario(scn, out_path=tmp_path / "p.mcap", progress=False)
+    assert res.ok, res.error
+    setup = load_recording(tmp_path / "p.mcap").topic(ch.LINK_FRAMES)["tx"][0].split()
+    sent = {Param(MESSAGES["CONFIG"].unpack(bytes.fromhex(f.split("#")[1]))["param_id"]).name
+            for f in setup if f.startswith("030#")}
+    profile = load_profile(scn.profile)
+    factory = smo_tanh_for if scn.estimator is Estimator.SMO_TANH else smo_sigmoid_for
+    observer = {p.name for f, p in SMO_CONFIG_PARAMS.items() if f in factory(profile, 1e-4).config}
+    inv_comp = {p.name for p in inverter_comp_settings(scn.inverter_comp, {})[0]}   # its keys only
+    expected = ({*params.MOTOR, "B_NMS", "CTRL_DELAY_S"} | observer | inv_comp
+                | {p.name for p in scn.controller_params})
+    assert sent == expected and len(sent) == count, (sorted(sent ^ expected), len(sent))

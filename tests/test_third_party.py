@@ -24,7 +24,7 @@ DRIVE = Path(__file__).resolve().with_name("third_party_drive.py")
 class DriveOnPty:
     """The drive on the master end of a pty; the bench gets the slave's path, as it would /dev/ttyUSB0."""
 
-    def __init__(self, tmp_path: Path, cheat: str | None = None):
+    def __init__(self, tmp_path: Path, cheat: str | None = None, extra: tuple[str, ...] = ()):
         self.master, self.slave = os.openpty()
         tty.setraw(self.master)
         tty.setraw(self.slave)
@@ -33,6 +33,7 @@ class DriveOnPty:
         args = [sys.executable, str(DRIVE), "--fd", str(self.master), "--report", str(self.report_path)]
         if cheat:
             args += ["--cheat", cheat]
+        args += list(extra)
         self.proc = subprocess.Popen(args, pass_fds=(self.master,))
         os.close(self.master)
 
@@ -91,6 +92,23 @@ def test_the_independent_drive_passes_the_conformance_kit(tmp_path):
         drive.close()
     assert result.passed, result.text()
     assert any(i.section == "2.4" and i.ok for i in result.items)   # serial: the bad-CRC item applies
+
+
+def test_a_heartbeat_period_off_the_spec_fails_the_heartbeat_item(tmp_path):
+    """Issue 19, point 8: the kit's window is the DBC's heartbeat period (GenMsgCycleTime, 100 ms):
+    a gap from half of it to two periods (exclusive). A drive beating every 220 ms skips one, and
+    fails the item (the old window, 50..250 ms, let it pass)."""
+    from hil_bench.protocol.timing import HEARTBEAT_GAP_MAX_S, HEARTBEAT_GAP_MIN_S, HEARTBEAT_PERIOD_S
+
+    assert (HEARTBEAT_PERIOD_S, HEARTBEAT_GAP_MIN_S, HEARTBEAT_GAP_MAX_S) == (0.1, 0.05, 0.2)
+    drive = DriveOnPty(tmp_path, extra=("--heartbeat-s", "0.22"))
+    try:
+        result = run_conformance(f"serial:{drive.path}")
+    finally:
+        drive.close()
+    first = result.items[0]
+    assert first.section == "6.7" and first.ok is False, result.text()
+    assert "gaps above 50 and below 200 ms" in first.text
 
 
 def test_a_drive_closing_its_loop_on_the_encoder_angle_is_not_a_pass(tmp_path):

@@ -7,11 +7,12 @@ sign sliding-mode observer with a low-pass filter and a PLL, an alignment and I-
 current PI, SVPWM (textbook; the parameters come over CONFIG, section 6.2). It follows the session rules
 of section 6: HELLO statuses (it runs lockstep only and answers MODE_UNSUPPORTED to real time), CONFIG
 acknowledged for every parameter of the table, TELEM + TELEM_EMF + DUTY per SENSE, the answer cache for
-a repeated SENSE, the encoder angle only with THETA_ENC_VALID, HEARTBEAT_CTRL while idle.
+a repeated SENSE, the encoder angle only with THETA_ENC_VALID, HEARTBEAT_CTRL while idle, RUN refused in FAULT until
+CLEAR_FAULT (back to IDLE), FAULT_PLANT answered by stopping.
 
     python tests/third_party_drive.py --fd N          # a pty master (or any byte stream) passed as fd N
     python tests/third_party_drive.py --port PATH     # a tty / pty slave
-        [--cheat encoder|lie] [--report FILE.json]
+        [--cheat encoder|lie] [--report FILE.json] [--heartbeat-s S]
 
 ``--cheat encoder``: closes its loop on SENSE_AUX.theta_enc whenever it gets one while asked for a
 sensorless estimator, and says so in TELEM.estimator (ENCODER). ``--cheat lie``: the same, but reports
@@ -260,7 +261,7 @@ class Drive:
         c = int(v["command"])
         if c == CMD_SET_SPEED_REF:
             self.speed_ref_m = float(v["value"])
-        elif c == CMD_RUN:
+        elif c == CMD_RUN and self.state != ST_FAULT:      # 6.3: a fault stands until CLEAR_FAULT
             self.start(int(v["seq"]))
         elif c == CMD_STOP and self.state != ST_FAULT:
             self.state = ST_STOPPED
@@ -269,6 +270,11 @@ class Drive:
 
     def on_sense_aux(self, v: dict) -> None:
         self.aux = v
+
+    def on_fault_plant(self, v: dict) -> None:
+        """6.7: the host ended the run; stop as on CMD STOP (SENSE still answered, heartbeats go on)."""
+        if self.state != ST_FAULT:
+            self.state = ST_STOPPED
 
     def fault(self, code: int, seq: int) -> None:
         self.state = ST_FAULT
@@ -430,6 +436,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cheat", choices=("encoder", "lie"), default=None)
     ap.add_argument("--report", type=Path, default=None)
     ap.add_argument("--idle-exit-s", type=float, default=30.0, help="exit after this long without a frame")
+    ap.add_argument("--heartbeat-s", type=float, default=0.1,
+                    help="HEARTBEAT_CTRL period (section 6.7: 0.1; another value makes a drive that breaks it)")
     args = ap.parse_args(argv)
     if args.fd is not None:
         fd = args.fd
@@ -464,7 +472,7 @@ def main(argv: list[str] | None = None) -> int:
                     drive.on_frame(fid, payload)
             if drive.report["cycles"] != cycles_seen:
                 cycles_seen, last_cycle = drive.report["cycles"], now
-            if now - last_cycle >= 0.1 and now - last_hb >= 0.1:   # section 6.7: while no cycles flow
+            if now - last_cycle >= 0.1 and now - last_hb >= args.heartbeat_s:   # 6.7: while no cycles flow
                 drive.heartbeat(deframer.errors, deframer.frames)
                 last_hb = now
             if now - last_rx > args.idle_exit_s:

@@ -29,12 +29,9 @@ from hil_bench.protocol.messages import (
     State,
 )
 
-from .links.base import Link, LinkError
+from hil_bench.protocol.timing import CONFIG_TIMEOUT_S, HEARTBEAT_PERIOD_S, HELLO_RETRY_S, HELLO_TIMEOUT_S
 
-HELLO_RETRY_S = 0.1
-HELLO_TIMEOUT_S = 2.0
-CONFIG_TIMEOUT_S = 1.0
-HEARTBEAT_PERIOD_S = 0.1
+from .links.base import Link, LinkError
 
 FrameLog = Callable[[str, int, bytes], None]
 

@@ -186,6 +186,42 @@ def inverter_comp_settings(comp, plant_params: dict) -> tuple[dict[Param, float]
     return params, meta
 
 
+def controller_params(scn, profile, plant_params, ts_s: float, mode: str = "lockstep",
+                      actuation_delay_s: float | None = None) -> dict[Param, float]:
+    """Every parameter the host sends the controller (docs/protocol.md 6.2, "What the host sends"; the
+    conformance kit sends the same), in this order, a later one replacing an earlier: the motor's,
+    CTRL_DELAY_S, the reference estimator's observer settings (SMO_SIGMOID, SMO_TANH), the trip below
+    the ADC's full scale, [controller.inverter_comp]'s INV_COMP_* estimate, the scenario's
+    [controller.params]. Nothing else."""
+    params = motor_params(profile)
+    # The delay from sampling to the new duties acting, which the controller compensates
+    # (angle advance, the voltage its observer is fed). Lockstep: the computation delay the
+    # plant emulates. Real time with a shadow-loaded PWM (next_period): one whole period.
+    # Real time on arrival: the link's real round trip, unknown before the run; the profile's
+    # delay stands for it (a scenario can set CTRL_DELAY_S in [controller.params]).
+    # actuation_delay_s: the plant's own (Plant.actuation_delay_s: its computation delay; with the
+    # switching inverter, the instant the compare values it writes then are loaded); default
+    # plant_params.t_delay_s.
+    if mode == "realtime" and scn.realtime.duty_update == "next_period":
+        params[Param.CTRL_DELAY_S] = ts_s
+    elif actuation_delay_s is not None:
+        params[Param.CTRL_DELAY_S] = float(actuation_delay_s)
+    else:
+        params[Param.CTRL_DELAY_S] = float(plant_params.t_delay_s)
+    params.update(estimator_defaults(scn.estimator, profile, ts_s,
+                                     scn.controller_params))
+    pp = plant_params
+    if bool(pp.adc_model) and float(pp.adc_full_scale_a) > 0.0:
+        # a drive's over-current trip sits below its ADC's full scale: a clipped reading is
+        # not a measurement (and the current-sum check would call it a sensor fault). 2 %
+        # below: 40 LSB of a 12-bit ADC, far above its noise (docs/claims.md, finding 1).
+        trip = 0.98 * float(pp.adc_full_scale_a)
+        params[Param.I_MAX_TRIP_A] = min(params.get(Param.I_MAX_TRIP_A, trip), trip)
+    params.update(inverter_comp_settings(scn.inverter_comp, plant_params.as_dict())[0])
+    params.update(scn.controller_params)
+    return params
+
+
 def git_revision() -> str:
     try:
         rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True,
@@ -345,30 +381,8 @@ class Runner:
 
     # -- what the controller is told ----------------------------------------------------------
     def controller_params(self) -> dict[Param, float]:
-        params = motor_params(self.profile)
-        # The delay from sampling to the new duties acting, which the controller compensates
-        # (angle advance, the voltage its observer is fed). Lockstep: the delay the plant
-        # emulates (its computation delay; with the switching inverter, the instant the compare
-        # values it writes then are loaded: Plant.actuation_delay_s). Real time with a
-        # shadow-loaded PWM (next_period): one whole period. Real time on arrival: the link's
-        # real round trip, unknown before the run; the profile's delay stands for it (a
-        # scenario can set CTRL_DELAY_S in [controller.params]).
-        if self.mode == "realtime" and self.scn.realtime.duty_update == "next_period":
-            params[Param.CTRL_DELAY_S] = self.ts_s
-        else:
-            params[Param.CTRL_DELAY_S] = self.plant.actuation_delay_s
-        params.update(estimator_defaults(self.scn.estimator, self.profile, self.ts_s,
-                                         self.scn.controller_params))
-        pp = self.plant.params
-        if bool(pp.adc_model) and float(pp.adc_full_scale_a) > 0.0:
-            # a drive's over-current trip sits below its ADC's full scale: a clipped reading is
-            # not a measurement (and the current-sum check would call it a sensor fault). 2 %
-            # below: 40 LSB of a 12-bit ADC, far above its noise (docs/claims.md, finding 1).
-            trip = 0.98 * float(pp.adc_full_scale_a)
-            params[Param.I_MAX_TRIP_A] = min(params.get(Param.I_MAX_TRIP_A, trip), trip)
-        params.update(inverter_comp_settings(self.scn.inverter_comp, self.plant.params.as_dict())[0])
-        params.update(self.scn.controller_params)
-        return params
+        return controller_params(self.scn, self.profile, self.plant.params, self.ts_s, self.mode,
+                                 actuation_delay_s=self.plant.actuation_delay_s)
 
     def inverter_comp_metadata(self) -> dict:
         """What the recording says about the drive's inverter-error feed-forward: from the

@@ -28,8 +28,8 @@ parameters INV_COMP_* and writes truth, estimate and residual into the recording
 
 Keys for the protocol-1.0 link behaviour (docs/protocol.md 6.4, 6.5, 6.8, 6.9), read by the host's cycle
 engine: ``[scenario] mode = "lockstep" | "realtime"``; ``[realtime] duty_update = "on_arrival" |
-"next_period"``, ``max_consecutive_misses`` (10), ``cpu``; ``[link] retry_timeout_s`` (0.05),
-``max_retries`` (3), ``allow = {counter = n, ...}``; ``[controller] send_encoder_angle`` (false).
+"next_period"``, ``max_consecutive_misses`` (10), ``cpu``; ``[link] retry_timeout_s`` (the lockstep
+answer deadline, 0.05: ``hil_bench.protocol.timing``), ``max_retries`` (3), ``allow = {counter = n, ...}``; ``[controller] send_encoder_angle`` (false).
 """
 from __future__ import annotations
 
@@ -42,6 +42,7 @@ from typing import Any
 
 from hil_bench.protocol import params as param_info
 from hil_bench.protocol.messages import MESSAGES, Estimator, HelloFlag, Param
+from hil_bench.protocol.timing import LOCKSTEP_ANSWER_S, LOCKSTEP_MAX_RETRIES
 
 from .faults import PLANT_KINDS, check_faults_can_act, parse_faults, parse_recording
 from .fields import Fields, ScenarioError, line_of
@@ -133,8 +134,8 @@ class RealtimeSettings:
 class LinkSettings:
     """``[link]``: lockstep retries (docs/protocol.md 6.5) and integrity allowances (6.9)."""
 
-    retry_timeout_s: float = 0.05           # re-send the cycle's SENSE frames after this long
-    max_retries: int = 3                    # then the run ends naming what arrived
+    retry_timeout_s: float = LOCKSTEP_ANSWER_S   # re-send the cycle's SENSE frames after this long
+    max_retries: int = LOCKSTEP_MAX_RETRIES      # then the run ends naming what arrived
     allow: dict[str, int] = field(default_factory=dict)   # link counter -> allowed count
 
 
@@ -413,9 +414,9 @@ def _link(top: Fields) -> LinkSettings:
     from hil_bench.record.integrity import ALLOWABLE_COUNTERS, LINK_COUNTERS
 
     k = top.table_of("link")
-    retry_timeout_s = k.number("retry_timeout_s", 0.05)
+    retry_timeout_s = k.number("retry_timeout_s", LOCKSTEP_ANSWER_S)
     k.within("retry_timeout_s", retry_timeout_s, 0.001, 10.0, "s", "docs/protocol.md 6.5")
-    max_retries = k.integer("max_retries", 3, 0, 100)
+    max_retries = k.integer("max_retries", LOCKSTEP_MAX_RETRIES, 0, 100)
     a = k.table_of("allow")
     allow = {}
     for counter in list(a.table):

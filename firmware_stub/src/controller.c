@@ -203,7 +203,8 @@ ctrl_fault_t ctrl_link_tick(controller_t *c, float dt_s)
 
 static int config_valid(const ctrl_config_t *k)
 {
-    return k->rs_ohm >= 0.0f && k->ld_h > 0.0f && k->lq_h > 0.0f && k->psi_f_wb > 0.0f &&
+    /* the motor's parameters have no default (docs/protocol.md 6.2: "required"): 0 = not set */
+    return k->rs_ohm > 0.0f && k->ld_h > 0.0f && k->lq_h > 0.0f && k->psi_f_wb > 0.0f &&
            k->pole_pairs >= 1.0f && k->j_kgm2 > 0.0f && k->b_nms >= 0.0f && k->v_dc_nom_v > 0.0f &&
            k->ts_s > 0.0f && k->iq_max_a > 0.0f && k->i_trip_a > 0.0f && k->speed_loop_div >= 1.0f &&
            k->if_accel_rad_s2 > 0.0f && k->handover_speed_rad_s > 0.0f;

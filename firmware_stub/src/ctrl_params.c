@@ -18,7 +18,7 @@ typedef struct {
 #define W(ID, FIELD, MIN, MAX) { (unsigned)(ID), offsetof(ctrl_config_t, FIELD), (MIN), (MAX), 1 }
 
 static const param_entry_t k_params[] = {
-    P(HIL_PARAM_RS_OHM, rs_ohm, 0.0f, 100.0f),
+    P(HIL_PARAM_RS_OHM, rs_ohm, 1e-6f, 100.0f),
     P(HIL_PARAM_LD_H, ld_h, 1e-7f, 10.0f),
     P(HIL_PARAM_LQ_H, lq_h, 1e-7f, 10.0f),
     P(HIL_PARAM_PSI_F_WB, psi_f_wb, 1e-6f, 100.0f),
@@ -95,6 +95,27 @@ static const param_entry_t k_params[] = {
     W(HIL_PARAM_INV_COMP_SHAPE, inv_comp_shape, 0.0f, 1.0f),
     P(HIL_PARAM_INV_COMP_I_BW_RAD_S, inv_comp_i_bw_rad_s, 1.0f, 1e5f),
 };
+
+static const param_entry_t *find(unsigned param_id)
+{
+    size_t i;
+    for (i = 0u; i < sizeof k_params / sizeof k_params[0]; ++i) {
+        if (k_params[i].id == param_id) {
+            return &k_params[i];
+        }
+    }
+    return NULL;
+}
+
+int ctrl_param_get(const ctrl_config_t *cfg, unsigned param_id, float *value)
+{
+    const param_entry_t *e = find(param_id);
+    if (e == NULL) {
+        return HIL_CONFIG_STATUS_UNKNOWN_PARAM;
+    }
+    *value = *(const float *)(const void *)((const char *)cfg + e->offset);
+    return HIL_CONFIG_STATUS_OK;
+}
 
 int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value)
 {

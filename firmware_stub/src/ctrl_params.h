@@ -9,5 +9,7 @@
 
 /** Store one parameter; returns the protocol's CONFIG_ACK status (0 = OK, 1 = unknown, 2 = out of range). */
 int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value);
+/** Read one parameter back (its value now: the default until CONFIG set it); 0 = OK, 1 = unknown. */
+int ctrl_param_get(const ctrl_config_t *cfg, unsigned param_id, float *value);
 
 #endif

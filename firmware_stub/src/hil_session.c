@@ -182,7 +182,8 @@ static void on_cmd(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
     s->last_cmd_seq = c.seq;
     switch (c.command) {
     case HIL_CMD_RUN:
-        if (ctrl_start(&s->ctrl) != 0) {
+        /* a fault stands until CLEAR_FAULT: RUN does not restart from it (6.3) */
+        if (s->ctrl.state != CTRL_STATE_FAULT && ctrl_start(&s->ctrl) != 0) {
             send_fault(s, HIL_FAULT_CONFIG_INVALID, c.seq, 0);
         }
         break;
@@ -381,6 +382,8 @@ void hil_session_on_frame(hil_session_t *s, const hil_frame_t *f)
     case HIL_HEARTBEAT_PLANT_FRAME_ID:
         break;
     case HIL_FAULT_PLANT_FRAME_ID:
+        /* the host ended the run: stop as on CMD STOP (state STOPPED, all legs OFF; a FAULT stays);
+         * SENSE is still answered and the heartbeat goes on while no cycles flow (6.7) */
         ctrl_stop(&s->ctrl);
         break;
     default:

@@ -420,6 +420,7 @@ int hil_cmd_value_is_in_range(float raw);
 /* Host heartbeat: every 100 ms while no control cycles flow (handshake, configuration). A controller may ignore it. */
 #define HIL_HEARTBEAT_PLANT_FRAME_ID 0x050u
 #define HIL_HEARTBEAT_PLANT_LENGTH 8u
+#define HIL_HEARTBEAT_PLANT_CYCLE_TIME_MS 100u /* GenMsgCycleTime */
 typedef struct {
     uint16_t counter; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     uint16_t state; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = IDLE, 1 = ALIGN, 2 = OPEN_LOOP, 3 = CLOSED_LOOP, 4 = FAULT, 5 = INITIAL_POSITION, 6 = STOPPED */
@@ -453,6 +454,7 @@ int hil_heartbeat_plant_rx_frames_is_in_range(uint16_t raw);
 /* Controller heartbeat: every 100 ms while no control cycles flow. */
 #define HIL_HEARTBEAT_CTRL_FRAME_ID 0x051u
 #define HIL_HEARTBEAT_CTRL_LENGTH 8u
+#define HIL_HEARTBEAT_CTRL_CYCLE_TIME_MS 100u /* GenMsgCycleTime */
 typedef struct {
     uint16_t counter; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     uint16_t state; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = IDLE, 1 = ALIGN, 2 = OPEN_LOOP, 3 = CLOSED_LOOP, 4 = FAULT, 5 = INITIAL_POSITION, 6 = STOPPED */

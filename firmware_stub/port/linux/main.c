@@ -75,7 +75,7 @@
 #include "hil_session.h"
 #include "transport.h"
 
-#define HEARTBEAT_PERIOD_MS 100
+#define HEARTBEAT_PERIOD_MS ((long long)HIL_HEARTBEAT_CTRL_CYCLE_TIME_MS) /* the DBC's GenMsgCycleTime */
 #define JUNK_FRAME_ID 0x7E5u
 #define SHORT_TELEM_DLC 6u
 

@@ -1,0 +1,75 @@
+"""The session's timing (docs/protocol.md section 6): one place for the host, the conformance kit and
+the spec.
+
+The host (``hil_bench.loop.host_session``, the scenario defaults of ``[link]``) waits this long, the
+conformance kit (``hil_bench.conformance``) gives a controller exactly the same time, and
+``python protocol/gen_docs.py`` writes the table of docs/protocol.md section 6 from ``TIMING``.
+The heartbeat period is the DBC's (``GenMsgCycleTime`` of HEARTBEAT_CTRL and HEARTBEAT_PLANT).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .dbc import message_specs
+
+
+def _heartbeat_period_s() -> float:
+    periods = {m.name: m.cycle_time_ms for m in message_specs() if m.name.startswith("HEARTBEAT_")}
+    if len(set(periods.values())) != 1 or not all(periods.values()):
+        raise RuntimeError(f"protocol/hil.dbc: the heartbeats' GenMsgCycleTime differ or are missing: {periods}")
+    return next(iter(periods.values())) / 1000.0
+
+
+#: HEARTBEAT_CTRL / HEARTBEAT_PLANT period while no cycles flow (DBC GenMsgCycleTime) [s]
+HEARTBEAT_PERIOD_S = _heartbeat_period_s()
+#: a gap between two HEARTBEAT_CTRL below half the period is a controller sending at twice the rate
+HEARTBEAT_GAP_MIN_S = 0.5 * HEARTBEAT_PERIOD_S
+#: a gap of two periods or more is a heartbeat that was not sent
+HEARTBEAT_GAP_MAX_S = 2.0 * HEARTBEAT_PERIOD_S
+#: the host repeats HELLO this often until the HELLO_ACK of its session arrives [s]
+HELLO_RETRY_S = 0.1
+#: ... and gives up this long after the first HELLO ("no controller answering") [s]
+HELLO_TIMEOUT_S = 2.0
+#: the host waits this long for each CONFIG_ACK [s]
+CONFIG_TIMEOUT_S = 1.0
+#: lockstep answer deadline: DUTY(k) is due this long after the host sent SENSE(k); then the host
+#: re-sends the cycle's SENSE frames (a retry). The default of ``[link] retry_timeout_s`` [s]
+LOCKSTEP_ANSWER_S = 0.05
+#: re-sends of one cycle before the host gives up (the default of ``[link] max_retries``)
+LOCKSTEP_MAX_RETRIES = 3
+#: a cycle without a valid DUTY this long after its SENSE ends the run [s]
+LOCKSTEP_GIVE_UP_S = (LOCKSTEP_MAX_RETRIES + 1) * LOCKSTEP_ANSWER_S
+
+
+@dataclass(frozen=True)
+class Timing:
+    what: str
+    value: str
+    name: str
+
+
+TIMING: tuple[Timing, ...] = (
+    Timing("HEARTBEAT_CTRL and HEARTBEAT_PLANT period while no cycles flow (DBC `GenMsgCycleTime`)",
+           f"{HEARTBEAT_PERIOD_S * 1e3:g} ms", "HEARTBEAT_PERIOD_S"),
+    Timing("gap between two HEARTBEAT_CTRL the conformance kit accepts: above half the period (not "
+           "twice the rate), below two periods (none missed)",
+           f"{HEARTBEAT_GAP_MIN_S * 1e3:g} .. {HEARTBEAT_GAP_MAX_S * 1e3:g} ms, exclusive",
+           "HEARTBEAT_GAP_MIN_S, HEARTBEAT_GAP_MAX_S"),
+    Timing("HELLO repeated until the HELLO_ACK of its session arrives", f"every {HELLO_RETRY_S * 1e3:g} ms",
+           "HELLO_RETRY_S"),
+    Timing("no HELLO_ACK of the session: the host gives up", f"{HELLO_TIMEOUT_S:g} s", "HELLO_TIMEOUT_S"),
+    Timing("wait for each CONFIG_ACK", f"{CONFIG_TIMEOUT_S:g} s", "CONFIG_TIMEOUT_S"),
+    Timing("**lockstep answer deadline**: DUTY(k) due after the host sent SENSE(k); then a retry (6.5)",
+           f"{LOCKSTEP_ANSWER_S * 1e3:g} ms (`[link] retry_timeout_s`)", "LOCKSTEP_ANSWER_S"),
+    Timing("retries of one cycle before the host ends the run", f"{LOCKSTEP_MAX_RETRIES} (`[link] max_retries`)",
+           "LOCKSTEP_MAX_RETRIES"),
+    Timing("a cycle without a valid DUTY this long after SENSE(k) ends the run (defaults)",
+           f"{LOCKSTEP_GIVE_UP_S * 1e3:g} ms", "LOCKSTEP_GIVE_UP_S"),
+)
+
+
+def markdown_table() -> str:
+    """The timing table of docs/protocol.md section 6 (written by protocol/gen_docs.py)."""
+    out = ["| what | value | `hil_bench.protocol.timing` |", "|---|---|---|"]
+    out += [f"| {t.what} | {t.value} | `{t.name}` |" for t in TIMING]
+    return "\n".join(out) + "\n"
