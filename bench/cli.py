@@ -11,6 +11,23 @@ from rich.console import Console
 from rich.markup import escape
 
 
+def _parse_set(item: str) -> tuple[str, object]:
+    """``KEY=VALUE`` of ``bench run --set``: the value as TOML (number, true/false, "text", list),
+    a bare word as a string (``plant.inverter=switching``)."""
+    import tomllib
+
+    from hil_bench.scenario import ScenarioError
+
+    key, sep, text = item.partition("=")
+    if not sep or not key.strip():
+        raise ScenarioError(f"--set {item!r}: expected KEY=VALUE, e.g. plant.inverter=switching")
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text.strip()
+    return key.strip(), value
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from hil_bench.loop.links import LinkError
     from hil_bench.loop.runner import RunAborted, run_scenario
@@ -23,6 +40,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     err = Console(stderr=True)
     try:
         scn = load_scenario(args.scenario)
+        if args.set:
+            from hil_bench.scenario import derive_scenario
+            overrides = tuple(_parse_set(item) for item in args.set)
+            scn = derive_scenario(args.scenario, f"{scn.name}@set", overrides,
+                                  note="bench run --set")
         result = run_scenario(scn, link_spec=args.link, out_path=args.out,
                               progress=not args.no_progress, allow_slow_link=args.allow_slow_link,
                               force=args.force, realtime=True if args.realtime else None,
@@ -276,6 +298,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "real time (the run is then slower than real time, results unchanged)")
     r.add_argument("--strict", action="store_true",
                    help="exit 1 if any paper claim does not reproduce")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scenario value by its dotted key (repeatable), e.g. "
+                        "--set plant.inverter=switching --set controller.speed_ref_rpm=800; "
+                        "the recording attaches the derived scenario")
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser("check", help="recompute metrics and paper claims from a recording")

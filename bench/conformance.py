@@ -183,7 +183,8 @@ def run_params(profile, plant, scn, ts_s: float, cycles: int) -> dict[Param, flo
     the SENSE is repeated."""
     from hil_bench.loop.runner import controller_params
 
-    params = controller_params(scn, profile, plant.params, ts_s)
+    params = controller_params(scn, profile, plant.params, ts_s,
+                               actuation_delay_s=plant.actuation_delay_s)
     align_s = ALIGN_SHARE * cycles * ts_s
     if float(params.get(Param.ALIGN_TIME_S, math.inf)) > align_s:
         params[Param.ALIGN_TIME_S] = align_s

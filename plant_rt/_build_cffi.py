@@ -15,7 +15,7 @@ from pathlib import Path
 from cffi import FFI
 
 C_DIR = Path(__file__).resolve().parent / "c"
-SOURCES = ("pmsm_machine.c", "inverter.c", "mechanics.c", "sensor.c", "plant.c", "plant_fault.c",
+SOURCES = ("pmsm_machine.c", "inverter.c", "pwm.c", "mechanics.c", "sensor.c", "plant.c", "plant_fault.c",
            # the cycle engine and the recording ring / schema (engine.h, rec_ring.h, rec_schema.h)
            "engine.c", "engine_faults.c", "engine_link.c", "engine_refs.c", "engine_sil.c",
            "rec_ring.c", "rec_schema.c", "rec_mcap.c")
@@ -30,6 +30,9 @@ CDEF = """
 typedef struct plant_inverter_params {
     int inverter_nonlinear;
     double dead_time_s, v_switch_drop_v, r_switch_ohm, v_diode_drop_v, r_diode_ohm, i_cap_band_a;
+    int inverter;
+    int carrier_at_start;
+    int pwm_load;
 } plant_inverter_params_t;
 
 typedef struct plant_magnetics_params {
@@ -48,6 +51,7 @@ typedef struct plant_sensor_params {
     double adc_vdc_gain_err, adc_vdc_offset_v, adc_vdc_noise_v_rms;
     uint64_t adc_seed;
     int dual_sampling;
+    int dual_sample_at;
 } plant_sensor_params_t;
 
 typedef struct plant_mechanics_params {
@@ -119,7 +123,15 @@ typedef struct plant_fault_status {
     unsigned long short_fallbacks;
 } plant_fault_status_t;
 
-typedef struct plant { double t_s; unsigned long events; ...; } plant_t;  /* read-only: time, diode events */
+typedef struct plant_trace {
+    int n;
+    double *i_alpha_a, *i_beta_a;
+    double *v_alpha_v, *v_beta_v;
+    double *theta_e_rad;
+} plant_trace_t;
+typedef struct plant { double t_s; unsigned long events; unsigned long sw_periods; ...; } plant_t;
+int plant_step_trace(plant_t *pl, const double duty_abc[3], const plant_trace_t *tr);
+/* read-only: time, diode events, periods integrated at switch level */
 
 const char *plant_params_check(const plant_params_t *p);
 int  plant_init(plant_t *pl, const plant_params_t *p);
@@ -134,6 +146,7 @@ void plant_run(plant_t *pl, const double *duties_abc, size_t n, plant_snapshot_t
 void plant_energy(const plant_t *pl, plant_energy_t *out);
 void plant_sample(const plant_t *pl, plant_sample_t *out);
 void plant_set_dyno_speed(plant_t *pl, double omega_m_rad_s);
+double plant_actuation_delay(const plant_t *pl);
 double plant_load_torque_at(const plant_t *pl, double t_s);
 const char *plant_fault_check(const plant_t *pl, const plant_fault_t *f);
 int plant_set_fault(plant_t *pl, const plant_fault_t *f);
@@ -164,6 +177,29 @@ int inverter_init(inverter_t *inv, const inverter_config_t *cfg);
 int inverter_set_nonlinear(inverter_t *inv, const inverter_nl_config_t *cfg);
 double inverter_smooth_sign(const inverter_t *inv, double i_a);
 double inverter_leg_voltage(const inverter_t *inv, double duty, double i_a, double *f_hi);
+typedef struct inverter_sw_leg {
+    int state; int command; double dead_end_s, t0_s, v0_v, rate_v_s, t_clamp_s, v_clamp_v, f_clamp;
+} inverter_sw_leg_t;
+void inverter_sw_leg_reset(inverter_sw_leg_t *leg, int command);
+void inverter_sw_command(const inverter_t *inv, inverter_sw_leg_t *leg, double t_s, int command,
+                         double i_a);
+void inverter_sw_advance(inverter_sw_leg_t *leg, double t_s);
+double inverter_sw_next_change(const inverter_sw_leg_t *leg, double t_s);
+double inverter_sw_pole_voltage(const inverter_t *inv, const inverter_sw_leg_t *leg, double t_s,
+                                double i_a, double *f_hi);
+void inverter_sw_shift(inverter_sw_leg_t *leg, double ts_s);
+
+typedef struct pwm_config { double ts_s; int carrier_at_start; int load; } pwm_config_t;
+typedef struct pwm_leg_plan { int n; double t_s[6]; int level[6]; int level_end; } pwm_leg_plan_t;
+typedef struct pwm_plan { double t_load_s; pwm_leg_plan_t leg[3]; } pwm_plan_t;
+typedef struct pwm { pwm_config_t cfg; int level[3]; } pwm_t;
+int pwm_init(pwm_t *pwm, const pwm_config_t *cfg);
+void pwm_reset(pwm_t *pwm, const double duty[3]);
+double pwm_load_instant(const pwm_t *pwm, double t_write_s);
+double pwm_carrier(const pwm_t *pwm, double t_s);
+void pwm_plan(const pwm_t *pwm, const double duty_old[3], const double duty_new[3],
+              double t_write_s, pwm_plan_t *out);
+void pwm_commit(pwm_t *pwm, const pwm_plan_t *plan);
 
 typedef struct pmsm_machine_config {
     double rs_ohm, ld_h, lq_h, psi_f_wb; int pole_pairs;

@@ -188,6 +188,35 @@ class Plant:
         return self._pl.t_s
 
     @property
+    def actuation_delay_s(self) -> float:
+        """From a period's start until the duties commanded for it act [s]: t_delay_s (ts_s with
+        full_period_delay); in the switching mode the load instant of the compare values
+        (plant_rt/c/pwm.h: the next carrier extremum, the next period, or at once)."""
+        return float(lib.plant_actuation_delay(self._pl))
+
+    def step_trace(self, duty_a: float, duty_b: float, duty_c: float, n: int) -> dict[str, np.ndarray] | None:
+        """One period, recorded at n equally spaced instants t_k + (j + 1) Ts / n (switching mode):
+        ``i_alpha_a, i_beta_a, theta_e_rad`` there and ``v_alpha_v, v_beta_v`` averaged over the
+        Ts / n before each. None if the period was not integrated at switch level (averaged
+        mode, a disabled leg, a topology fault); the step is taken either way."""
+        if n < 1:
+            raise ValueError(f"n: must be >= 1, got {n}")
+        arrays = {k: np.empty(n) for k in ("i_alpha_a", "i_beta_a", "v_alpha_v", "v_beta_v", "theta_e_rad")}
+        tr = ffi.new("plant_trace_t *")
+        tr.n = n
+        for k, a in arrays.items():
+            setattr(tr, k, ffi.from_buffer("double[]", a))
+        duty = ffi.new("double[3]", [duty_a, duty_b, duty_c])
+        ok = lib.plant_step_trace(self._pl, duty, tr) == 0
+        return arrays if ok else None
+
+    @property
+    def sw_periods(self) -> int:
+        """Periods integrated at switch level since the last reset (0 in the averaged mode; a
+        period with a disabled leg or a topology fault takes the averaged path)."""
+        return int(self._pl.sw_periods)
+
+    @property
     def events(self) -> int:
         """Diode events located since the last reset (diagnostic)."""
         return self._pl.events

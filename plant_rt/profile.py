@@ -12,12 +12,14 @@ File layout (every key is required unless marked optional; unknown keys are erro
     [drive]       v_dc_v [V], ts_s [s] (PWM = control period), t_delay_s [s] (sampling -> new duties),
                   full_period_delay (bool: the new duties act from the next period boundary)
     [inverter]    inverter_nonlinear (bool), dead_time_s [s], v_switch_drop_v [V], r_switch_ohm [ohm],
-                  v_diode_drop_v [V], r_diode_ohm [ohm], i_cap_band_a [A]
+                  v_diode_drop_v [V], r_diode_ohm [ohm], i_cap_band_a [A],
+                  inverter ("averaged" | "switching"), carrier_at_start ("valley" | "peak"),
+                  pwm_load ("extremum" | "period" | "immediate")
     [magnetics]   saturation (bool), sat_l_inf_ratio [-], sat_i_scale_a [A], sat_i_knee_a [A]
     [sensors]     adc_model (bool), adc_bits, adc_full_scale_a [A], adc_gain_err_ia/_ib/_ic [-],
                   adc_offset_ia_a/_ib_a/_ic_a [A], adc_noise_a_rms [A], adc_vdc_full_scale_v [V],
                   adc_vdc_gain_err [-], adc_vdc_offset_v [V], adc_vdc_noise_v_rms [V], adc_seed,
-                  dual_sampling (bool)
+                  dual_sampling (bool), dual_sample_at ("delay" | "half_period")
     [simulation]  substeps [-] (RK4 steps per period)
     [rated]       speed_rad_s [rad/s, mechanical], torque_nm [N m], current_a [A, peak phase];
                   optional: power_w, speed_rpm, bus_current_a, corner_speed_rad_s, voltage_constant_ce
@@ -27,7 +29,7 @@ File layout (every key is required unless marked optional; unknown keys are erro
 
 The keys are flat and unique across sections: ``Plant(profile, **overrides)`` takes any of them
 (a scenario's [plant] table). Booleans also accept 0/1 (numbers), load_profile also accepts its
-code 0..3. Each non-ideality group has a switch (inverter_nonlinear, saturation, adc_model,
+code 0..3, and the other named choices (CHOICES) their index. Each non-ideality group has a switch (inverter_nonlinear, saturation, adc_model,
 dual_sampling, full_period_delay, dyno; Coulomb friction and the load profile are off at 0 /
 "none"); the shipped profiles keep every switch off, so a scenario turns on what it needs and
 gets the profile's values. Every value is also checked as if its switch were on (a physically
@@ -56,6 +58,14 @@ LOAD_KIND = "load_kind"  # "none" | "step" | "ramp" | "table" (or 0..3); C int
 FLOAT_LIST = "float_list"  # list of numbers; C array + count
 LOAD_KINDS = ("none", "step", "ramp", "table")
 LOAD_TABLE_MAX = 32      # MECH_LOAD_TABLE_MAX in mechanics.h
+CHOICE = "choice"        # one of the names in CHOICES[key] (or its index); C int = the index
+#: The names of the CHOICE keys, in the order of their C codes (the first is the "off" value).
+CHOICES: dict[str, tuple[str, ...]] = {
+    "inverter": ("averaged", "switching"),            # plant.h "Switching mode"
+    "carrier_at_start": ("valley", "peak"),           # pwm_carrier_t
+    "pwm_load": ("extremum", "period", "immediate"),  # pwm_load_t
+    "dual_sample_at": ("delay", "half_period"),       # second sample at t_k + t_d or t_k + Ts/2
+}
 
 #: The 11 base plant_params_t fields, in C order -> (section in the TOML file, python type)
 BASE_FIELDS: dict[str, tuple[str, Any]] = {
@@ -83,6 +93,9 @@ NONIDEAL_FIELDS: dict[str, tuple[str, Any, str | None]] = {
     "v_diode_drop_v": ("inverter", float, "inverter"),
     "r_diode_ohm": ("inverter", float, "inverter"),
     "i_cap_band_a": ("inverter", float, "inverter"),
+    "inverter": ("inverter", CHOICE, "inverter"),
+    "carrier_at_start": ("inverter", CHOICE, "inverter"),
+    "pwm_load": ("inverter", CHOICE, "inverter"),
     "saturation": ("magnetics", BOOL, "magnetics"),
     "sat_l_inf_ratio": ("magnetics", float, "magnetics"),
     "sat_i_scale_a": ("magnetics", float, "magnetics"),
@@ -103,6 +116,7 @@ NONIDEAL_FIELDS: dict[str, tuple[str, Any, str | None]] = {
     "adc_vdc_noise_v_rms": ("sensors", float, "sensors"),
     "adc_seed": ("sensors", int, "sensors"),
     "dual_sampling": ("sensors", BOOL, "sensors"),
+    "dual_sample_at": ("sensors", CHOICE, "sensors"),
     "coulomb_nm": ("mechanics", float, "mechanics"),
     "coulomb_band_rad_s": ("mechanics", float, "mechanics"),
     "load_profile": ("mechanics", LOAD_KIND, "mechanics"),
@@ -253,6 +267,22 @@ def _load_code(p: Mapping[str, Any]) -> int:
     return LOAD_KINDS.index(v) if isinstance(v, str) and v in LOAD_KINDS else v
 
 
+def _choice_code(p: Mapping[str, Any], key: str) -> int:
+    """C code of a CHOICE value (a name or its index); -1 for anything else."""
+    v = p[key]
+    if isinstance(v, str):
+        return CHOICES[key].index(v) if v in CHOICES[key] else -1
+    if isinstance(v, (int, float)) and not isinstance(v, bool) and float(v).is_integer():
+        return int(v)
+    return -1
+
+
+def _choice_rule(key: str):
+    names = CHOICES[key]
+    said = " or ".join(names) if len(names) == 2 else ", ".join(names[:-1]) + " or " + names[-1]
+    return (key, lambda p: 0 <= _choice_code(p, key) < len(names), f"must be {said}")
+
+
 def _kind_is(*codes: int):
     return lambda p: _load_code(p) in codes
 
@@ -282,6 +312,9 @@ _NONIDEAL_RULES: list[tuple[str, Callable[[Mapping[str, Any]], bool], str]] = [
     _when(_sat, "sat_i_knee_a", lambda p: p["sat_i_knee_a"] <= 0.0, "must be <= 0"),
     _when(_sat, "sat_i_knee_a", lambda p: p["sat_i_knee_a"] >= -3.0 * p["sat_i_scale_a"],
           "must be >= -3 sat_i_scale_a"),
+    _choice_rule("inverter"),
+    _choice_rule("carrier_at_start"),
+    _choice_rule("pwm_load"),
     _flag("inverter_nonlinear"),
     _when(_inv, "dead_time_s", lambda p: _finite(p["dead_time_s"]), "must be finite"),
     _when(_inv, "dead_time_s", lambda p: p["dead_time_s"] >= 0.0, "must be >= 0"),
@@ -294,6 +327,9 @@ _NONIDEAL_RULES: list[tuple[str, Callable[[Mapping[str, Any]], bool], str]] = [
     _when(_inv, "i_cap_band_a", _band_ok, "too small for the RK4 step (raise it or substeps)"),
     _flag("adc_model"),
     _flag("dual_sampling"),
+    _choice_rule("dual_sample_at"),
+    ("dual_sample_at", lambda p: _choice_code(p, "dual_sample_at") != 1 or _choice_code(p, "inverter") == 1,
+     "half_period needs inverter = switching"),
     _when(_adc, "adc_bits", lambda p: 1 <= p["adc_bits"] <= 24, "must be 1 .. 24"),
     _when(_adc, "adc_full_scale_a", lambda p: _finite(p["adc_full_scale_a"]), "must be finite"),
     _when(_adc, "adc_full_scale_a", lambda p: p["adc_full_scale_a"] > 0.0, "must be > 0"),
@@ -368,7 +404,7 @@ def check_params(params: Mapping[str, Any], *, step_limits: bool = True) -> tupl
 #: "Off" values of the non-ideality fields = a zero-initialised plant_params_t.
 NONIDEAL_DEFAULTS: dict[str, Any] = {
     k: (False if kind == BOOL else "none" if kind == LOAD_KIND else () if kind == FLOAT_LIST
-        else 0 if kind is int else 0.0)
+        else CHOICES[k][0] if kind == CHOICE else 0 if kind is int else 0.0)
     for k, (_, kind, _) in NONIDEAL_FIELDS.items()
 }
 
@@ -392,6 +428,8 @@ def c_struct(params: Mapping[str, Any]) -> dict[str, Any]:
             value = value if isinstance(value, int) else -1
         elif kind == FLOAT_LIST:
             value = [float(x) for x in list(value)[:LOAD_TABLE_MAX]]
+        elif kind == CHOICE:
+            value = _choice_code(p, key)
         if group is None:
             out[key] = value
         else:
@@ -499,6 +537,15 @@ def coerce_value(where: str, dotted: str, value: Any, kind: Any) -> Any:
             return LOAD_KINDS[int(value)]
         raise ProfileError(f"{where}: {dotted}: must be one of {', '.join(LOAD_KINDS)} (or 0..3), "
                            f"got {value!r}")
+    if kind == CHOICE:
+        names = CHOICES[dotted.rpartition(".")[2]]
+        if isinstance(value, str) and value in names:
+            return value
+        if (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and float(value).is_integer() and 0 <= value < len(names)):
+            return names[int(value)]
+        raise ProfileError(f"{where}: {dotted}: must be one of {', '.join(names)} "
+                           f"(or 0..{len(names) - 1}), got {value!r}")
     if kind == FLOAT_LIST:
         if not isinstance(value, (list, tuple)):
             raise ProfileError(f"{where}: {dotted}: must be a list of numbers, got {value!r}")

@@ -52,6 +52,9 @@ def _file(tmp_path: Path, old: str, new: str) -> Path:
     # types
     ("adc_model = false", 'adc_model = "no"', r"sensors\.adc_model: must be a boolean"),
     ('load_profile = "none"', 'load_profile = "sine"', r"mechanics\.load_profile: must be one of none, step, ramp, table"),
+    ('inverter = "averaged"', 'inverter = "pwm"', r"inverter\.inverter: must be one of averaged, switching"),
+    ('dual_sample_at = "delay"', 'dual_sample_at = "half_period"',
+     r"sensors\.dual_sample_at: half_period needs inverter = switching"),
     ("load_table_t_s = []", 'load_table_t_s = "0, 1"', r"mechanics\.load_table_t_s: must be a list of numbers"),
     ("adc_seed = 1", "adc_seed = 1.5", r"sensors\.adc_seed: must be an integer"),
     ("dead_time_s = 1.78e-6", "dead_time_s = nan", r"inverter\.dead_time_s: must be finite"),
@@ -135,6 +138,8 @@ MUTATIONS = [
     ("coulomb_nm", -0.1), ("coulomb_nm", 0.0), ("coulomb_band_rad_s", 0.0), ("coulomb_band_rad_s", 1e-5),
     ("load_profile", 5), ("load_profile", "ramp"), ("load_profile", "step"), ("load_profile", "table"),
     ("dyno", 2), ("dyno_speed_rad_s", math.inf), ("dyno_accel_rad_s2", -1.0),
+    ("inverter", 2), ("inverter", "switching"), ("carrier_at_start", 2), ("carrier_at_start", "peak"),
+    ("pwm_load", 3), ("pwm_load", "immediate"), ("dual_sample_at", 2), ("dual_sample_at", "half_period"),
 ]
 
 

@@ -11,7 +11,11 @@ Two kinds:
   (``vary_quantity``: key and label say which copy, the row is diagnostic, it keeps the paper's
   value and rule but not the paper row's ``not_reproducible`` / ``calibration``);
 * **tables** (``TABLES``): a claim's table named after the rule (``[Y8.speed_table]``) expands to
-  runs, quantities and relations, appended after the claim's plain ones.
+  runs, quantities and relations, appended after the claim's plain ones;
+* **the switching inverter** (``switching``): a claim's ``[ID.switching]`` table names the runs
+  (plain or from a table) that run again on the plant's switching inverter; each such run, each
+  row on it and each relation over such rows gets a twin (``<id>.sw``, ``<key>.sw``, marked
+  [switching inverter]), appended after everything else.
 
 Every rule's output is pinned by tests/golden/claims_registry.json (``python -m
 hil_bench.claims.registry --dump``): a change of a rule shows up as a reviewed diff of that file.
@@ -291,11 +295,58 @@ def angle_table(spec: Spec) -> Expansion:
     return runs, qs, []
 
 
+#: the rows of the G1 study on the switching trajectory: (label, unit, the paper's value's field)
+_G1_SW_ROWS = {"thd": ("THD+N of the estimated EMF", "%"),
+               "thd_h50": ("THD (harmonics 2-50) of the estimated EMF", "%"),
+               "amp": ("EMF amplitude", "V")}
+_G1_SW_VOLTAGE = {"cmd": "commanded voltage", "sw": "switched voltage"}
+
+
+def _g1_switching_study(spec: Spec, rows: list[dict]) -> tuple[list[Quantity], list[Relation]]:
+    """G1 on the switching plant's ripple (study G1.sw, bench/papers/studies.py g1_switching):
+    per entry of ``switching_study`` (step_us, voltage: cmd | sw, rows: thd | thd_h50 | amp,
+    diagnostic) a row per m, and per thd / amp entry the relation 'falls as m falls'."""
+    amp, rel = spec.get("amp"), spec.get("switching_relation")
+    qs, rels = [], []
+    for i, e in enumerate(spec.get("switching_study")):
+        where = f"{spec.where}.switching_study[{i}]"
+        left = sorted(set(e) - {"step_us", "voltage", "rows", "diagnostic"})
+        if left or e.get("voltage") not in _G1_SW_VOLTAGE or set(e.get("rows", ())) - set(_G1_SW_ROWS):
+            raise ValueError(f"{where}: needs step_us, voltage ({' | '.join(_G1_SW_VOLTAGE)}), rows "
+                             f"({' | '.join(_G1_SW_ROWS)}), optional diagnostic")
+        step_us, volt, d = e["step_us"], e["voltage"], bool(e.get("diagnostic", False))
+        tag = (f"host observer at {step_us:g} us on the switching plant's 500 rpm trajectory, "
+               f"{_G1_SW_VOLTAGE[volt]}" + (" [diagnostic]" if d else ""))
+        base = f"G1.sw{step_us:g}us.{volt}"
+        for what in e["rows"]:
+            label, unit = _G1_SW_ROWS[what]
+            for r in rows:
+                m = r["m"]
+                paper = amp["paper_value"] if what == "amp" else r["thd_percent"]
+                qs.append(Quantity(f"{base}.m{m:g}.{what}", f"m = {m:g}: {label}, {tag}", "study",
+                                   paper, spec.rule("amp" if what == "amp" else "thd", paper),
+                                   study="G1.sw", diagnostic=d,
+                                   params=(("key", f"sw{step_us:g}.{volt}.m{m:g}.{what}"),
+                                           ("unit", unit))))
+            if what == "thd":
+                rels.append(Relation(f"G1.thd.sw{step_us:g}us.{volt}", f"THD falls as m falls, {tag}",
+                                     tuple(f"{base}.m{r['m']:g}.thd" for r in rows), ">",
+                                     " > ".join(f"{r['thd_percent']:g}" for r in rows) + " %",
+                                     rel["source"], d))
+            if what == "amp":
+                rels.append(Relation(f"G1.amp.sw{step_us:g}us.{volt}",
+                                     f"EMF amplitude falls as m falls, {tag}",
+                                     tuple(f"{base}.m{r['m']:g}.amp" for r in rows), ">",
+                                     rel["amp_paper"], rel["source"], d))
+    return qs, rels
+
+
 def boundary_layer_table(spec: Spec) -> Expansion:
     """Gong G1 (Fig. 7): per boundary layer m the THD and the amplitude of the estimated EMF of
     the host reference observer ``SMO_TANH:m<m>`` in run G1, then the same observers at finer
-    steps on the host (study G1), per step and m."""
-    spec.unknown(("rows", "thd", "amp", "study_steps_us"))
+    steps on the host (study G1), per step and m; then (``switching_study``) the same observers
+    on the switching plant's trajectory (study G1.sw)."""
+    spec.unknown(("rows", "thd", "amp", "study_steps_us", "switching_study", "switching_relation"))
     amp = spec.get("amp")
     rows = spec.get("rows")
     qs = []
@@ -325,7 +376,11 @@ def boundary_layer_table(spec: Spec) -> Expansion:
                                "study", amp["paper_value"], spec.rule("amp", amp["paper_value"]),
                                study="G1", params=(("key", f"ts{ts_us:g}.m{m:g}.amp"), ("unit", "V")),
                                diagnostic=True))
-    return [], qs, []
+    rels: list[Relation] = []
+    if "switching_study" in spec.table:
+        more_qs, rels = _g1_switching_study(spec, rows)
+        qs += more_qs
+    return [], qs, rels
 
 
 #: Gong G6/G7: each speed's run length (s), its last 0.5 s the window (gong_g67_delay_comp)
@@ -467,3 +522,84 @@ TABLES: dict[str, Callable[[Spec], Expansion]] = {
     "delay_comp_runs": delay_comp_runs, "lag_and_iq_table": lag_and_iq_table,
     "table_iii": table_iii,
 }
+
+
+# -- the switching inverter: the same runs on the switching plant ---------------------------------
+
+#: the overrides of a run's switching twin. pwm_load = immediate: the duties act at t_k + t_d, as in
+#: the averaged runs and in Gong's premise (IV, Fig. 1: "the real actuation moment will always lag
+#: behind the measurement (sampling) point by t_d"); only the ripple and the sample timing change
+SWITCHING_OVERRIDES: tuple = (("plant.inverter", "switching"), ("plant.pwm_load", "immediate"))
+SWITCHING_TAG = " [switching inverter]"
+SWITCHING_SETUP = ("switching inverter (centre-aligned PWM, carrier valley at the sampling instant, "
+                   "dead time and drops at each edge by the current's sign, duties acting at "
+                   "t_k + t_d)")
+#: a shadow twin: the compare values loaded at the next carrier extremum (the C2000's
+#: CTR_ZERO_PRD shadow load), so the duties act at Ts/2 instead of t_k + t_d
+SHADOW_OVERRIDES: tuple = (("plant.inverter", "switching"), ("plant.pwm_load", "extremum"))
+SHADOW_LABEL = ("switching inverter, compare values shadow-loaded at the next carrier extremum "
+                "(C2000 CTR_ZERO_PRD): the duties act at Ts/2 (diagnostic)")
+SHADOW_TAG = (" [switching inverter, duties shadow-loaded at Ts/2 (the second sample still at "
+              "t_k + t_d): diagnostic]")
+
+
+def _twin_runs(q: Quantity, suffix: str) -> str | tuple[str, ...]:
+    return tuple(r + suffix for r in q.runs) if len(q.runs) > 1 else q.runs[0] + suffix
+
+
+def switching(spec: Spec, runs: list[Run], quantities: list[Quantity],
+              relations: list[Relation]) -> tuple[Expansion, str]:
+    """``[ID.switching]``: ``runs`` (ids of the claim's runs, plain or from its tables) run again
+    on the switching inverter (run ``<id>.sw``, SWITCHING_OVERRIDES after the run's own); every
+    row whose runs are all among them (no study row) is measured on the twins too (key
+    ``<key>.sw``, label + " [switching inverter]", the same metric, value, rule, window and
+    source); every relation whose rows all have twins holds between the twins too.
+    ``diagnostic``: the twins are shown beside the averaged rows without deciding the claim (the
+    averaged plant tests the claim there), else they decide it with the rows they twin.
+    ``lifts``: keys of rows whose ``not_reproducible`` reason is the averaged plant's and does not
+    hold on the switching plant (their twins are judged). ``shadow``: runs among ``runs`` that
+    also run with the duties shadow-loaded at the next carrier extremum (run ``<id>.sw.shadow``,
+    rows ``<key>.sw.shadow``, diagnostic). Returns the added runs, rows and relations, and the
+    setup's addition."""
+    spec.unknown(("runs", "diagnostic", "lifts", "shadow"))
+    ids = list(spec.get("runs"))
+    diagnostic = spec.get("diagnostic")
+    lifts, shadow = list(spec.get("lifts", [])), list(spec.get("shadow", []))
+    if not isinstance(diagnostic, bool):
+        raise ValueError(f"{spec.where}.diagnostic: true or false")
+    by_id = {r.id: r for r in runs}
+    missing = [r for r in ids if r not in by_id]
+    if missing:
+        raise ValueError(f"{spec.where}.runs: no run {', '.join(missing)} in the claim")
+    if set(shadow) - set(ids):
+        raise ValueError(f"{spec.where}.shadow: {', '.join(sorted(set(shadow) - set(ids)))} "
+                         "not among its runs")
+
+    def rows_on(run_ids: list[str]) -> list[Quantity]:
+        return [q for q in quantities if not q.study and q.runs and set(q.runs) <= set(run_ids)]
+
+    twinned = rows_on(ids)
+    reasons = {q.key: q.not_reproducible for q in twinned}
+    bad = [k for k in lifts if not reasons.get(k)]
+    if bad:
+        raise ValueError(f"{spec.where}.lifts: {', '.join(bad)} is no not-reproducible row on "
+                         "the switching runs")
+
+    def twin(q: Quantity, suffix: str, tag: str, diag: bool) -> Quantity:
+        return dataclasses.replace(q, key=q.key + suffix, what=q.what + tag,
+                                   run=_twin_runs(q, suffix), diagnostic=q.diagnostic or diag,
+                                   not_reproducible="" if q.key in lifts else q.not_reproducible)
+
+    out_runs = [_then(by_id[r], ".sw", SWITCHING_OVERRIDES, "switching inverter") for r in ids]
+    out_qs = [twin(q, ".sw", SWITCHING_TAG, diagnostic) for q in twinned]
+    keys = {q.key for q in twinned}
+    out_rels = [dataclasses.replace(rel, key=rel.key + ".sw", what=rel.what + SWITCHING_TAG,
+                                    keys=tuple(k if k.startswith("#") else k + ".sw"
+                                               for k in rel.keys),
+                                    diagnostic=rel.diagnostic or diagnostic)
+                for rel in relations
+                if all(k in keys for k in rel.keys if not k.startswith("#"))]
+    out_runs += [_then(by_id[r], ".sw.shadow", SHADOW_OVERRIDES, SHADOW_LABEL) for r in shadow]
+    out_qs += [twin(q, ".sw.shadow", SHADOW_TAG, True) for q in rows_on(shadow)]
+    setup = "rows marked [switching inverter]: the same runs on the " + SWITCHING_SETUP
+    return (out_runs, out_qs, out_rels), setup

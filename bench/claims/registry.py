@@ -28,7 +28,7 @@ FILES = ("common.toml", "yuan2020.toml", "hou2021.toml", "gong2020.toml")
 
 _TEXT_REF = re.compile(r"\{([A-Z][A-Z0-9_]*)\}")
 _CLAIM_FIELDS = ("paper", "text", "setup", "notes", "studies", "variants", "runs", "quantities",
-                 "relations")
+                 "relations", "switching")
 _RUN_FIELDS = ("id", "scenario", "overrides", "label", "sign_smo")
 _TUPLE_FIELDS = ("window_s", "at_speed_window_s")
 _QUANTITY_FIELDS = tuple(f.name for f in dataclasses.fields(Quantity)
@@ -109,8 +109,8 @@ def _relation(t: dict, where: str) -> Relation:
 
 def _claim(cid: str, t: dict, where: str) -> Claim:
     """One claim: its plain runs and their variants, its plain rows (each row on a run measured
-    on the run's variants too, run by run), its relations, then its expansion tables in file
-    order."""
+    on the run's variants too, run by run), its relations, then its expansion tables, then the
+    switching-inverter twins of the runs its ``[ID.switching]`` names (expand.switching)."""
     _check(t, _CLAIM_FIELDS + tuple(expand.TABLES), where)
     variants = tuple(t.get("variants", ()))
     for v in variants:
@@ -145,9 +145,22 @@ def _claim(cid: str, t: dict, where: str) -> Claim:
             runs += more[0]
             quantities += more[1]
             relations += more[2]
+    setup = t.get("setup", "")
+    if "switching" in t:
+        try:
+            more, also = expand.switching(expand.Spec(t["switching"], f"{where}.switching", variants),
+                                          runs, quantities, relations)
+        except ValueError as exc:               # names the field itself
+            raise RegistryError(str(exc)) from None
+        except (KeyError, TypeError) as exc:
+            raise RegistryError(f"{where}.switching: {exc}") from None
+        runs += more[0]
+        quantities += more[1]
+        relations += more[2]
+        setup = f"{setup}; {also}" if setup else also
     try:
         return Claim(cid, t["paper"], t["text"], tuple(quantities), tuple(runs), tuple(relations),
-                     tuple(t.get("studies", ())), t.get("setup", ""), t.get("notes", ""))
+                     tuple(t.get("studies", ())), setup, t.get("notes", ""))
     except KeyError as exc:
         raise RegistryError(f"{where}: {exc.args[0]} missing") from None
 

@@ -186,7 +186,8 @@ def inverter_comp_settings(comp, plant_params: dict) -> tuple[dict[Param, float]
     return params, meta
 
 
-def controller_params(scn, profile, plant_params, ts_s: float, mode: str = "lockstep") -> dict[Param, float]:
+def controller_params(scn, profile, plant_params, ts_s: float, mode: str = "lockstep",
+                      actuation_delay_s: float | None = None) -> dict[Param, float]:
     """Every parameter the host sends the controller (docs/protocol.md 6.2, "What the host sends"; the
     conformance kit sends the same), in this order, a later one replacing an earlier: the motor's,
     CTRL_DELAY_S, the reference estimator's observer settings (SMO_SIGMOID, SMO_TANH), the trip below
@@ -198,8 +199,13 @@ def controller_params(scn, profile, plant_params, ts_s: float, mode: str = "lock
     # plant emulates. Real time with a shadow-loaded PWM (next_period): one whole period.
     # Real time on arrival: the link's real round trip, unknown before the run; the profile's
     # delay stands for it (a scenario can set CTRL_DELAY_S in [controller.params]).
+    # actuation_delay_s: the plant's own (Plant.actuation_delay_s: its computation delay; with the
+    # switching inverter, the instant the compare values it writes then are loaded); default
+    # plant_params.t_delay_s.
     if mode == "realtime" and scn.realtime.duty_update == "next_period":
         params[Param.CTRL_DELAY_S] = ts_s
+    elif actuation_delay_s is not None:
+        params[Param.CTRL_DELAY_S] = float(actuation_delay_s)
     else:
         params[Param.CTRL_DELAY_S] = float(plant_params.t_delay_s)
     params.update(estimator_defaults(scn.estimator, profile, ts_s,
@@ -375,7 +381,8 @@ class Runner:
 
     # -- what the controller is told ----------------------------------------------------------
     def controller_params(self) -> dict[Param, float]:
-        return controller_params(self.scn, self.profile, self.plant.params, self.ts_s, self.mode)
+        return controller_params(self.scn, self.profile, self.plant.params, self.ts_s, self.mode,
+                                 actuation_delay_s=self.plant.actuation_delay_s)
 
     def inverter_comp_metadata(self) -> dict:
         """What the recording says about the drive's inverter-error feed-forward: from the

@@ -13,6 +13,9 @@
   eq. 17 as in gong_g1_boundary_layer) stepped on the host at Ts = 100, 10 and 1 us on an exact
   500 rpm no-load trajectory of the gong2020 motor: does a finer simulation step give the
   paper's THDs (the bench's 10 kHz cannot: the sampled loop needs k m < (1 + F)/G)?
+* ``g1_switching()`` - the same four observers stepped at 1 and 10 us on the switching plant's
+  500 rpm no-load trajectory (PWM ripple in the currents; the commanded or the switched voltage):
+  does the ripple give the paper's THDs and their rise with m?
 
 Each returns a dict: scalar results by key plus arrays for the report's plots.
 """
@@ -139,4 +142,87 @@ def g1(steps_us=(100.0, 10.0, 1.0), settle_s: float = 0.1, periods: int = 2) -> 
     return out
 
 
-STUDIES = {"Y5": y5, "Y6": y6, "G1": g1}
+def g1_switching_trajectory(sub: int, n_periods: int, rpm: float = G1_RPM,
+                            i_q_a: float = G1_IQ_A, theta0_rad: float = 0.3) -> dict:
+    """The gong2020 motor on the switching plant (ideal inverter, no calculation delay: Gong's
+    simulation) held at ``rpm`` by the dynamometer, driven open loop by the steady-state
+    voltage of a no-load operating point (i_d = 0, i_q = ``i_q_a``) as min-max SVPWM, recorded
+    ``sub`` times per PWM period (Plant.step_trace): ``i_alpha_a, i_beta_a`` (with the PWM
+    ripple), ``v_alpha_v, v_beta_v`` (the switched phase voltage averaged over each sub-step)
+    and ``v_cmd_alpha_v, v_cmd_beta_v`` (the period's commanded voltage, held: what a
+    controller's observer is given)."""
+    from hil_bench.plant_rt.plant import Plant
+    from hil_bench.plant_rt.profile import load_profile
+    from hil_bench.plant_rt.verify import openloop
+    prof = load_profile("gong2020")
+    w_e = rpm / 60.0 * 2.0 * math.pi * prof.pole_pairs
+    plant = Plant(prof, inverter="switching", t_delay_s=0.0, dyno=True,
+                  dyno_speed_rad_s=w_e / prof.pole_pairs)
+    v_d, v_q = openloop.operating_point_voltage(prof, w_e, 0.0, i_q_a)
+    duties = openloop.synchronous(plant.params, n_periods, theta_e0_rad=theta0_rad,
+                                  omega_e_rad_s=w_e, v_d_v=v_d, v_q_v=v_q)
+    plant.set_initial(theta0_rad, w_e / prof.pole_pairs)
+    keys = ("i_alpha_a", "i_beta_a", "v_alpha_v", "v_beta_v")
+    out = {k: np.empty(n_periods * sub) for k in keys}
+    vdc = prof.v_dc_v
+    v_phase = (duties - duties.mean(axis=1, keepdims=True)) * vdc
+    cmd_a = v_phase[:, 0]
+    cmd_b = (v_phase[:, 0] + 2.0 * v_phase[:, 1]) / math.sqrt(3.0)
+    for k in range(n_periods):
+        tr = plant.step_trace(*duties[k], n=sub)
+        if tr is None:  # pragma: no cover - every leg is enabled
+            raise RuntimeError("g1_switching_trajectory: a period was not integrated at switch level")
+        for key in keys:
+            out[key][k * sub:(k + 1) * sub] = tr[key]
+    out["v_cmd_alpha_v"] = np.repeat(cmd_a, sub)
+    out["v_cmd_beta_v"] = np.repeat(cmd_b, sub)
+    out["omega_e_rad_s"] = w_e
+    return out
+
+
+def g1_switching(sub_steps_us=(1.0, 10.0), settle_s: float = 0.1, periods: int = 2) -> dict:
+    """The G1 observers on the switching plant's ripple (hypothesis of docs/claims.md finding 5:
+    Gong's THDs come from the PWM ripple his simulation has and an averaged trajectory has
+    not): each observer stepped every ``sub`` us on the trajectory of g1_switching_trajectory,
+    fed the instantaneous currents (with the ripple) and either the commanded voltage (``cmd``:
+    as a controller's observer) or the switched voltage (``sw``: an observer that also sees the
+    PWM pulses). Keys ``sw<us>.<cmd|sw>.m<m>.thd`` (THD+N of e_alpha) and ``.amp``; the spectrum
+    over the last ``periods`` electrical periods after ``settle_s``."""
+    from hil_bench.firmware_stub.est_smo import SmoTanh
+    from hil_bench.plant_rt.profile import load_profile
+
+    from . import metrics
+    prof = load_profile("gong2020")
+    ts_pwm = prof.ts_s
+    w = G1_RPM / 60.0 * 2.0 * math.pi * prof.pole_pairs
+    period_s = 2.0 * math.pi / w
+    n_periods = int(math.ceil((settle_s + periods * period_s) / ts_pwm))
+    out: dict = {}
+    for step_us in sub_steps_us:
+        sub = int(round(ts_pwm / (step_us * 1e-6)))
+        if abs(sub * step_us * 1e-6 - ts_pwm) > 1e-12:
+            raise ValueError(f"g1_switching: {step_us} us does not divide the PWM period")
+        tr = g1_switching_trajectory(sub, n_periods)
+        ts = ts_pwm / sub
+        n = len(tr["i_alpha_a"])
+        keep = int(round(periods * period_s / ts))
+        for volt in ("cmd", "sw"):
+            va = tr["v_cmd_alpha_v"] if volt == "cmd" else tr["v_alpha_v"]
+            vb = tr["v_cmd_beta_v"] if volt == "cmd" else tr["v_beta_v"]
+            for m, k_v in G1_K_V.items():
+                est = SmoTanh(prof.rs_ohm, prof.lq_h, prof.psi_f_wb, ts, m_per_a=m, k_v=k_v)
+                ea = np.empty(n)
+                ia, ib = tr["i_alpha_a"], tr["i_beta_a"]
+                for j in range(n):
+                    ea[j] = est.step(ia[j], ib[j], va[j], vb[j]).e_alpha_v
+                spec = metrics.harmonic_spectrum(ea[-keep:], 1.0 / ts, w / (2.0 * math.pi))
+                out[f"sw{step_us:g}.{volt}.m{m:g}.thd"] = spec.thd_n_percent
+                out[f"sw{step_us:g}.{volt}.m{m:g}.thd_h50"] = spec.thd_percent
+                out[f"sw{step_us:g}.{volt}.m{m:g}.amp"] = spec.fundamental_amplitude
+        spec_i = metrics.harmonic_spectrum(tr["i_alpha_a"][-keep:], 1.0 / ts, w / (2.0 * math.pi))
+        out[f"sw{step_us:g}.current.thd"] = spec_i.thd_n_percent
+        out[f"sw{step_us:g}.current.amp"] = spec_i.fundamental_amplitude
+    return out
+
+
+STUDIES = {"Y5": y5, "Y6": y6, "G1": g1, "G1.sw": g1_switching}

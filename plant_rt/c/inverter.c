@@ -236,3 +236,151 @@ void inverter_pole_voltages_i(const inverter_t *inv, const double duty[3],
         if (f_hi != 0) f_hi[k] = f;
     }
 }
+
+/* ------------------------------------------------------------------------------------------ */
+/* switch level                                                                               */
+
+/** Switch and diode drops [V] of the devices carrying i (thresholds on over the band). */
+static void sw_drops(const inverter_t *inv, double i_a, double *v_sw, double *v_di)
+{
+    const double ai = fabs(i_a);
+    double onset;
+    if (!(inv->nl.i_cap_band_a > 0.0)) {
+        onset = (ai > 0.0) ? 1.0 : 0.0;
+    } else if (ai < 20.0 * inv->nl.i_cap_band_a) {
+        onset = tanh(ai / inv->nl.i_cap_band_a);
+    } else {
+        onset = 1.0;
+    }
+    *v_sw = inv->nl.v_switch_drop_v * onset + inv->nl.r_switch_ohm * ai;
+    *v_di = inv->nl.v_diode_drop_v * onset + inv->nl.r_diode_ohm * ai;
+}
+
+void inverter_sw_leg_reset(inverter_sw_leg_t *leg, int command)
+{
+    leg->command = command ? 1 : 0;
+    leg->state = command ? INV_SW_HIGH : INV_SW_LOW;
+    leg->dead_end_s = 0.0;
+    leg->t0_s = 0.0;
+    leg->v0_v = 0.0;
+    leg->rate_v_s = 0.0;
+    leg->t_clamp_s = 0.0;
+    leg->v_clamp_v = 0.0;
+    leg->f_clamp = 0.0;
+}
+
+void inverter_sw_command(const inverter_t *inv, inverter_sw_leg_t *leg, double t_s, int command,
+                         double i_a)
+{
+    const double vdc = inv->cfg.v_dc_v;
+    double vs, vd, rate;
+    leg->command = command ? 1 : 0;
+    if (!inv->nonlinear || !(inv->nl.dead_time_s > 0.0)) {
+        leg->state = leg->command ? INV_SW_HIGH : INV_SW_LOW;
+        return;
+    }
+    leg->dead_end_s = t_s + inv->nl.dead_time_s;
+    if (leg->state == INV_SW_DEAD) {
+        return; /* a transition inside a dead interval extends it; the node law goes on */
+    }
+    sw_drops(inv, i_a, &vs, &vd);
+    /* slew rate i / C with C = i_c t_dt / V_dc; C = 0 (i_c = 0): clamped at once */
+    rate = (inv->nl.i_cap_band_a > 0.0) ? fabs(i_a) * vdc / (inv->nl.i_cap_band_a * inv->nl.dead_time_s)
+                                        : HUGE_VAL;
+    if (leg->state == INV_SW_HIGH) {
+        if (i_a > 0.0) { /* the upper switch carried it: the node falls to the lower diode */
+            leg->v0_v = vdc - vs;
+            leg->v_clamp_v = -vd;
+            leg->rate_v_s = -rate;
+            leg->f_clamp = 0.0;
+        } else {         /* the upper diode carried it (or nothing): it keeps the node */
+            leg->v0_v = vdc + vd;
+            leg->v_clamp_v = leg->v0_v;
+            leg->rate_v_s = 0.0;
+            leg->f_clamp = 1.0;
+        }
+    } else {
+        if (i_a < 0.0) { /* the lower switch carried it: the node rises to the upper diode */
+            leg->v0_v = vs;
+            leg->v_clamp_v = vdc + vd;
+            leg->rate_v_s = rate;
+            leg->f_clamp = 1.0;
+        } else {
+            leg->v0_v = -vd;
+            leg->v_clamp_v = leg->v0_v;
+            leg->rate_v_s = 0.0;
+            leg->f_clamp = 0.0;
+        }
+    }
+    leg->t0_s = t_s;
+    if (leg->rate_v_s > 0.0 || leg->rate_v_s < 0.0) {
+        leg->t_clamp_s = t_s + (leg->v_clamp_v - leg->v0_v) / leg->rate_v_s; /* +-inf rate: t_s */
+    } else {
+        leg->t_clamp_s = t_s;
+    }
+    leg->state = INV_SW_DEAD;
+}
+
+void inverter_sw_advance(inverter_sw_leg_t *leg, double t_s)
+{
+    if (leg->state == INV_SW_DEAD && t_s >= leg->dead_end_s) {
+        leg->state = leg->command ? INV_SW_HIGH : INV_SW_LOW;
+    }
+}
+
+double inverter_sw_next_change(const inverter_sw_leg_t *leg, double t_s)
+{
+    double t = HUGE_VAL;
+    if (leg->state == INV_SW_DEAD) {
+        if (leg->t_clamp_s > t_s) t = leg->t_clamp_s;
+        if (leg->dead_end_s > t_s && leg->dead_end_s < t) t = leg->dead_end_s;
+    }
+    return t;
+}
+
+double inverter_sw_pole_voltage(const inverter_t *inv, const inverter_sw_leg_t *leg, double t_s,
+                                double i_a, double *f_hi)
+{
+    const double vdc = inv->cfg.v_dc_v;
+    double v, f, vs, vd;
+    switch (leg->state) {
+    case INV_SW_HIGH:
+        f = 1.0;
+        if (!inv->nonlinear) {
+            v = vdc;
+            break;
+        }
+        sw_drops(inv, i_a, &vs, &vd);
+        v = (i_a > 0.0) ? vdc - vs : ((i_a < 0.0) ? vdc + vd : vdc);
+        break;
+    case INV_SW_LOW:
+        f = 0.0;
+        if (!inv->nonlinear) {
+            v = 0.0;
+            break;
+        }
+        sw_drops(inv, i_a, &vs, &vd);
+        v = (i_a > 0.0) ? -vd : ((i_a < 0.0) ? vs : 0.0);
+        break;
+    case INV_SW_DEAD:
+    default:
+        if (t_s >= leg->t_clamp_s) {
+            v = leg->v_clamp_v;
+            f = leg->f_clamp;
+        } else {
+            v = leg->v0_v + leg->rate_v_s * (t_s - leg->t0_s);
+            f = v / vdc;
+            f = (f < 0.0) ? 0.0 : ((f > 1.0) ? 1.0 : f);
+        }
+        break;
+    }
+    if (f_hi != 0) *f_hi = f;
+    return v;
+}
+
+void inverter_sw_shift(inverter_sw_leg_t *leg, double ts_s)
+{
+    leg->dead_end_s -= ts_s;
+    leg->t0_s -= ts_s;
+    leg->t_clamp_s -= ts_s;
+}

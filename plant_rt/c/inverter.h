@@ -166,4 +166,75 @@ void inverter_pole_voltages_i(const inverter_t *inv, const double duty[3],
                               const inverter_leg_mode_t mode[3], const double i_abc_a[3],
                               double v_pole_v[3], double f_hi[3]);
 
+/* ---- switch level (the plant's switching mode; pwm.h makes the commands) ---- */
+
+/**
+ * One leg at switch level, driven by its high-side command (pwm.h) and the phase current i
+ * (> 0 out of the leg). Times are from the period start [s].
+ *
+ * Gates: each switch turns on dead_time_s after its command rises and off at once (the
+ * dead-band generator of a C2000 ePWM / an STM32 advanced timer), so the leg has both gates
+ * off for dead_time_s after every command transition (longer when transitions come closer
+ * than that: a command pulse shorter than the dead time never turns its switch on).
+ * With a gate on, the node sits at the conducting device (the current decides which one of
+ * the pair, continuously in time):
+ *     HIGH: i > 0 upper switch, v_xN = V_dc - V_s(i);   i < 0 upper diode, V_dc + V_d(i)
+ *     LOW:  i > 0 lower diode,  v_xN = -V_d(i);         i < 0 lower switch, +V_s(i)
+ * with V_s, V_d as in the averaged model (thresholds on over the band: tanh(|i|/i_c)), so the
+ * pole voltage of a conducting leg is continuous in i.
+ * Dead interval (both gates off): decided at its start by the sign of the current AT THAT
+ * INSTANT, i_e, and held until the incoming switch turns on:
+ *     the current flowed in the outgoing leg's diode (HIGH with i_e <= 0, LOW with i_e >= 0):
+ *         that diode keeps conducting: V_dc + V_d(i_e) or -V_d(i_e);
+ *     it flowed in the outgoing switch: it slews the node capacitance C = i_c t_dt / V_dc
+ *         (the averaged model's band, inverter.h top) at i_e / C towards the opposite diode,
+ *         which clamps it there (after C |dv| / |i_e|, i.e. within the dead time when
+ *         |i_e| > i_c); the incoming switch turns on at the end of the dead time wherever the
+ *         node is (hard switching).
+ * Without the non-linearity (inverter_set_nonlinear not called) the leg has no dead time and
+ * no drops: HIGH = V_dc, LOW = 0. Approximations: the current is frozen at i_e for the dead
+ * interval's decisions (a current that reverses inside it keeps the diode conducting:
+ * bounded by the dead time), the node capacitance is linear and only acts in dead intervals.
+ * Averaged over a period at a constant current, with drops off, this leg gives exactly the
+ * averaged leg voltage (tests/c/test_plant_switching.c, tests/test_plant_switching.py).
+ */
+typedef enum { INV_SW_LOW = 0, INV_SW_HIGH = 1, INV_SW_DEAD = 2 } inverter_sw_state_t;
+
+typedef struct inverter_sw_leg {
+    int state;            /**< inverter_sw_state_t */
+    int command;          /**< the latest command (1: high side); the state after a dead interval */
+    double dead_end_s;    /**< DEAD: the incoming switch turns on here */
+    double t0_s;          /**< DEAD: start of the node's slew */
+    double v0_v;          /**< DEAD: node voltage at t0_s */
+    double rate_v_s;      /**< DEAD: slew rate (0: a diode holds the node) */
+    double t_clamp_s;     /**< DEAD: the opposite diode clamps the node from here */
+    double v_clamp_v;     /**< DEAD: ... at this voltage */
+    double f_clamp;       /**< DEAD: + rail fraction once clamped (1 upper diode, 0 lower) */
+} inverter_sw_leg_t;
+
+/** A leg whose gate follows `command` (no dead interval running). */
+void inverter_sw_leg_reset(inverter_sw_leg_t *leg, int command);
+
+/** A command transition at t_s with phase current i_a: starts (or extends) the dead interval. */
+void inverter_sw_command(const inverter_t *inv, inverter_sw_leg_t *leg, double t_s, int command,
+                         double i_a);
+
+/** Move the leg's state to the instant t_s (a dead interval that ended by then is over). */
+void inverter_sw_advance(inverter_sw_leg_t *leg, double t_s);
+
+/** The next instant after t_s at which the leg's state or node law changes (HUGE_VAL: none). */
+double inverter_sw_next_change(const inverter_sw_leg_t *leg, double t_s);
+
+/**
+ * Pole voltage v_xN [V] at time t_s (inside the present segment) for phase current i_a [A];
+ * *f_hi (if not NULL): the fraction tying the node to the + rail (bus current f_hi i; in a
+ * slew the node's position between the rails, so the slew itself is lossless as in the
+ * averaged model).
+ */
+double inverter_sw_pole_voltage(const inverter_t *inv, const inverter_sw_leg_t *leg, double t_s,
+                                double i_a, double *f_hi);
+
+/** Shift the leg's times by -ts_s (the next period starts). */
+void inverter_sw_shift(inverter_sw_leg_t *leg, double ts_s);
+
 #endif

@@ -3,6 +3,7 @@
 add_library(hil_plant STATIC
   ${HIL_ROOT}/plant_rt/c/pmsm_machine.c
   ${HIL_ROOT}/plant_rt/c/inverter.c
+  ${HIL_ROOT}/plant_rt/c/pwm.c
   ${HIL_ROOT}/plant_rt/c/mechanics.c
   ${HIL_ROOT}/plant_rt/c/sensor.c
   ${HIL_ROOT}/plant_rt/c/plant.c
@@ -60,3 +61,9 @@ target_compile_options(test_plant_fault PRIVATE ${HIL_STRICT_FLAGS})
 target_link_libraries(test_plant_fault PRIVATE hil_plant)
 target_include_directories(test_plant_fault PRIVATE ${HIL_ROOT}/tests/c)
 add_test(NAME plant_fault COMMAND test_plant_fault)
+# The switching mode (pwm.h, inverter.h's switch-level leg, the plant's segment loop).
+add_executable(test_plant_switching ${HIL_ROOT}/tests/c/test_plant_switching.c)
+target_compile_options(test_plant_switching PRIVATE ${HIL_STRICT_FLAGS})
+target_link_libraries(test_plant_switching PRIVATE hil_plant)
+target_include_directories(test_plant_switching PRIVATE ${HIL_ROOT}/tests/c)
+add_test(NAME plant_switching COMMAND test_plant_switching)
