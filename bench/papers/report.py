@@ -40,7 +40,12 @@ from .claim_metrics import (
     Context,
     speed_lsb_rpm,
 )
+from . import conditions
+from .conditions import scenario_for
 from .claims import OPERATING_POINT_DEF, derive, measure_with_resolution, relate
+
+#: the claim of a run outside any claim (a condition's note names it)
+_NO_CLAIM = Claim("-", "", "", ())
 
 
 @dataclass
@@ -88,13 +93,6 @@ class Report:
 
 
 # -- running --------------------------------------------------------------------------------------
-
-def scenario_for(run: Run):
-    from hil_bench.scenario import derive_scenario, load_scenario
-    if not run.overrides:
-        return load_scenario(run.scenario)
-    return derive_scenario(run.scenario, run.name, run.overrides, note=run.label)
-
 
 def _run_one(run: Run, out_path: str) -> tuple[bool, str, float, int]:
     """Worker (own process): one scenario against a fresh stub."""
@@ -181,21 +179,27 @@ def _fmt(v: Any, unit: str = "") -> str:
     return f"{s} {unit}".strip()
 
 
-def _context(path: Path) -> Context:
+def _context(path: Path):
+    """(context, scenario) of a recording."""
     from hil_bench.record.recording import load_recording
     from hil_bench.scenario import scenario_of
 
     from .check import build_context
     rec = load_recording(path)
-    return build_context(rec, scenario_of(rec))
+    scn = scenario_of(rec)
+    return build_context(rec, scn), scn
 
 
 class _Contexts:
-    """Recordings are loaded once each."""
+    """Recordings are loaded once each; each is checked against the conditions of the run it
+    was made for (hil_bench.papers.conditions: the estimator the controller reported, the plant,
+    the compensation, the operating point and window): ``mismatch`` says why it is not."""
 
-    def __init__(self, outcomes: dict[str, RunOutcome]):
+    def __init__(self, outcomes: dict[str, RunOutcome], claim: Claim | None = None):
         self.outcomes = outcomes
+        self.claim = claim
         self.cache: dict[str, Context | Exception] = {}
+        self.mismatch: dict[str, str] = {}
 
     def get(self, run_id: str) -> Context:
         if run_id not in self.cache:
@@ -205,7 +209,12 @@ class _Contexts:
                     raise FileNotFoundError(f"run {run_id} was not run")
                 if not out.recording.exists():
                     raise FileNotFoundError(f"no recording for run {run_id}: {out.error}")
-                self.cache[run_id] = _context(out.recording)
+                ctx, scn = _context(out.recording)
+                self.cache[run_id] = ctx
+                failed = conditions.failed(out.run, ctx.rec, scn, self.claim)
+                if failed:
+                    self.mismatch[run_id] = conditions.Match(self.claim or _NO_CLAIM, out.run,
+                                                             tuple(failed)).note()
             except Exception as exc:  # noqa: BLE001
                 self.cache[run_id] = exc
         v = self.cache[run_id]
@@ -234,6 +243,8 @@ def _measure_quantity(q: Quantity, ctxs: _Contexts, studies: dict, study_errors:
                 ctx = ctxs.get(rid)
             except Exception as exc:  # noqa: BLE001
                 return math.nan, "INVALID", str(exc), 0.0
+            if rid in ctxs.mismatch:
+                return math.nan, "INVALID", ctxs.mismatch[rid], 0.0
             v, verdict, note, _res = measure_with_resolution(q, ctx)
             vals.append(v)
             if note:
@@ -257,6 +268,8 @@ def _measure_quantity(q: Quantity, ctxs: _Contexts, studies: dict, study_errors:
         ctx = ctxs.get(q.runs[0])
     except Exception as exc:  # noqa: BLE001
         return math.nan, "INVALID", str(exc), 0.0
+    if q.runs[0] in ctxs.mismatch:
+        return math.nan, "INVALID", ctxs.mismatch[q.runs[0]], 0.0
     return measure_with_resolution(q, ctx)
 
 
@@ -276,7 +289,7 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
                    study_errors: dict) -> list[Row]:
     rows: list[Row] = []
     for c in claims:
-        ctxs = _Contexts(outcomes)          # one claim's recordings in memory at a time
+        ctxs = _Contexts(outcomes, c)       # one claim's recordings in memory at a time
         values: dict[str, float] = {}
         resolutions: dict[str, float] = {}
         qrows = []
