@@ -312,6 +312,14 @@ def relate(rel: Relation, values: dict[str, float], not_reproducible: frozenset 
     if rel.op == "=":
         ok = all(abs(a - b) < rel.tol for a, b in zip(vals, vals[1:]))
         return vals, "PASS" if ok else "FAIL", ""
+    if rel.compared:            # the paper reports both values: the ordering shown, no verdict
+        ok = all((a < b) if rel.op == "<" else (a > b) for a, b in zip(vals, vals[1:]))
+        res = max((resolutions.get(k, 0.0) for k in rel.keys), default=0.0)
+        small = res > 0 and all(abs(a - b) < res for a, b in zip(vals, vals[1:]))
+        return vals, "COMPARED", (f"the paper's ordering ({rel.paper}) "
+                                  + ("holds here" if ok else "is not seen here")
+                                  + (f"; the difference is below the resolution {_g(res)}"
+                                     if small else ""))
     if rel.op not in ("<", ">"):
         raise ValueError(f"{rel.key}: unknown relation {rel.op!r}")
     wrong, unresolved = [], []
