@@ -544,18 +544,22 @@ def plot_angle(rep, c) -> Path | None:
         st = _win(rec, ch.PLANT_STATE, t0, w1)
         wrap = lambda x: np.mod(np.asarray(x, float), 2 * math.pi)  # noqa: E731
         ax.plot(st["t_s"], wrap(st["theta_e_rad"]), ".", ms=1.5, color="k", label="true")
-        te = _win(rec, ch.CONTROLLER_TELEMETRY, t0, w1)
-        if len(te.get("t_s", ())):
-            ax.plot(te["t_s"], wrap(te["theta_hat_rad"]), ".", ms=1.0, color="C0",
-                    label="controller (telemetry)")
-        for j, topic in enumerate(sorted(t for t in rec.topics if
-                                         t.startswith(ch.REFERENCE_PREFIX))):
-            tr = _win(rec, topic, t0, w1)
-            if len(tr.get("t_s", ())) and "theta_hat_rad" in tr:
-                ax.plot(tr["t_s"], wrap(tr["theta_hat_rad"]), ".", ms=0.8, color=f"C{j + 1}",
-                        label=f"host {topic[len(ch.REFERENCE_PREFIX):]}")
+        err_ax = ax.twinx()        # the difference, on its own scale (right)
+        t_true, th_true = np.asarray(st["t_s"], float), np.asarray(st["theta_e_rad"], float)
+        sources = [("controller (telemetry)", _win(rec, ch.CONTROLLER_TELEMETRY, t0, w1))]
+        sources += [(f"host {t[len(ch.REFERENCE_PREFIX):]}", _win(rec, t, t0, w1))
+                    for t in sorted(t for t in rec.topics if t.startswith(ch.REFERENCE_PREFIX))]
+        for j, (label, d) in enumerate(sources):
+            if not len(d.get("t_s", ())) or "theta_hat_rad" not in d:
+                continue
+            ax.plot(d["t_s"], wrap(d["theta_hat_rad"]), ".", ms=1.0, color=f"C{j}", label=label)
+            idx = np.clip(np.searchsorted(t_true, d["t_s"]), 0, len(t_true) - 1)
+            err_ax.plot(d["t_s"], metrics.wrap_pi(np.asarray(d["theta_hat_rad"], float)
+                                                  - th_true[idx]),
+                        lw=0.7, color=f"C{j}", alpha=0.6)
+        err_ax.set_ylabel("estimated - true [rad] (lines)", fontsize=8)
         ax.set_ylim(-0.2, 2 * math.pi + 0.2)
-        ax.set_ylabel("theta_e [rad]")
+        ax.set_ylabel("theta_e [rad] (dots)")
         ax.set_title(f"{run.id} ({run.name}): true vs estimated angle, {t0:.3g}..{w1:.3g} s",
                      fontsize=9)
         ax.grid(alpha=0.3)
