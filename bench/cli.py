@@ -227,17 +227,20 @@ def _cmd_claims(args: argparse.Namespace) -> int:
 
         only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
+            import shlex
             rep = run_report(args.out, only=only, jobs=args.jobs, beyond=not args.no_beyond,
                              reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler,
-                             residual=not args.no_residual)
+                             residual=not args.no_residual,
+                             command=".venv/bin/bench " + shlex.join(args.argv))
         except ValueError as exc:
             Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
             return 2
-        from hil_bench.papers.report import claim_verdict
+        from hil_bench.papers.report import claim_summary
         out = Console()
         for c in rep.claims:
-            rows = [r for r in rep.rows if r.claim == c.id]
-            out.print(escape(f"{c.id:3s} {claim_verdict(rows):17s} {c.text[:90]}"))
+            verdict, _paper, _measured, reason = claim_summary(
+                c, [r for r in rep.rows if r.claim == c.id])
+            out.print(escape(f"{c.id:3s} {verdict:17s} {reason}"))
         if rep.residual:
             from hil_bench.papers.residual import summary
             out.print("inverter-compensation residual: " + ", ".join(
@@ -383,6 +386,7 @@ def main(argv: list[str] | None = None) -> int:
     import signal
 
     args = build_parser().parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)   # the exact command (reports)
     try:
         rc = args.func(args)
     except KeyboardInterrupt:

@@ -148,7 +148,39 @@ def test_derived_ratio_and_rule_on_derived_rows():
     assert cl.derive(q, {"g": 7.0, "s": 23.0}) == pytest.approx(7 / 23)
     faster = registry.CLAIMS["Y5"].quantities[[q.key for q in registry.CLAIMS["Y5"].quantities]
                                         .index("Y5.faster")]
-    assert faster.verdict(3.0) == "PASS" and faster.verdict(3.34) == "FAIL"   # '2-3 cycles'
+    # 'approximately 2-3 cycles', as the same page's 'approximately two / five': compared
+    assert faster.verdict(3.34) == "COMPARED" and "approximately" in faster.rule.source
+
+
+def test_papers_words_decide_the_rules():
+    """issue 16.5: Y6 judged on the operations of the paper's recursions, with the library's
+    instructions beside (diagnostic relation); G7's 'slightly better' and H1's 'about +-3 rpm'
+    are reported values (COMPARED); G1/G5 say what the averaged plant cannot test."""
+    from hil_bench.papers import studies
+    ops = studies.y6_ops()
+    assert (ops["sdft_mul"], ops["sdft_add"]) == (16, 11)      # 5th + 7th, comb shared
+    assert (ops["gsdft_mul"], ops["gsdft_add"]) == (16, 12)    # one add more: (1, -1, 1) comb
+    assert ops["saving_ops"] == pytest.approx(100 * (1 - 28 / 27))
+    assert np.allclose(studies.y6_comb_taps(24)[[0, 4, 8]], [1, -1, 1])
+    y6 = registry.CLAIMS["Y6"]
+    rel = {r.key: r for r in y6.relations}
+    assert rel["Y6.rel"].keys == ("#0", "Y6.saving.ops") and not rel["Y6.rel"].diagnostic
+    assert rel["Y6.rel.protected"].diagnostic
+    assert cl.relate(rel["Y6.rel"], {"Y6.saving.ops": ops["saving_ops"]})[1] == "FAIL"
+    g7 = [r for r in registry.CLAIMS["G7"].relations if not r.diagnostic]
+    assert g7 and all(r.compared for r in g7)
+    vals, verdict, note = cl.relate(g7[0], {g7[0].keys[0]: 1.29, g7[0].keys[1]: 1.05})
+    assert verdict == "COMPARED" and "is not seen here" in note
+    assert cl.relate(g7[0], {g7[0].keys[0]: 1.0, g7[0].keys[1]: 1.05})[2].endswith("holds here")
+    h1 = {q.key: q for q in registry.CLAIMS["H1"].quantities}
+    for k, v in (("H1.hfi.10", 1.5), ("H1.hfi.50", 3.0)):
+        assert h1[k].rule.kind == "compared" and h1[k].paper_value == v
+    g = {q.key: q for c in ("G1", "G5") for q in registry.CLAIMS[c].quantities}
+    for k in ("G1.m0.01.thd", "G1.m0.01.amp", "G5.td"):
+        assert g[k].not_reproducible.startswith("the bench cannot test this with the averaged "
+                                                "plant"), k
+    # m >= 0.1 is unstable at the bench's 10 kHz whatever the plant: that reason stays
+    assert "unstable" in g["G1.m1.thd"].not_reproducible
 
 
 def test_calibration_input_has_no_verdict():

@@ -30,6 +30,33 @@ def test_report_files(rep):
     assert "http://" not in html and "https://" not in html
 
 
+def test_each_claim_has_its_numbers_and_what_decides_it(rep):
+    """issue 16.6: the summary gives per claim the verdict, the paper's and the measured number
+    and a reason naming what decides it; the plots include true vs estimated angle; the
+    estimator's chosen bandwidths are written; the Command: line is the exact command."""
+    from hil_bench.papers.report import claim_summary
+    md = (rep.out_dir / "report.md").read_text()
+    assert "| claim | verdict | paper | measured | what decides it | claim |" in md
+    for c in rep.claims:
+        verdict, paper, measured, reason = claim_summary(c, [r for r in rep.rows
+                                                              if r.claim == c.id])
+        assert paper and measured and reason, c.id
+        assert f"| [{c.id}](#{c.id.lower()}) | {verdict} |" in md
+    g3 = claim_summary(rep.claims[0], [r for r in rep.rows if r.claim == "G3"])
+    assert g3[0] == "PASS" and g3[3].startswith("holds:")
+    assert (rep.out_dir / "plots" / "G3_angle.png").stat().st_size > 10_000
+    assert "PLL bandwidth wn 150 rad/s, zeta 1" in md      # G3's type-2 PLL, kp 300, ki 22500
+    assert ("Command: `.venv/bin/bench claims --run --out "
+            f"{rep.out_dir} --only G3,Y5 --jobs 1 --no-beyond`") in md
+
+
+def test_the_command_line_is_the_one_given(tmp_path):
+    from hil_bench.papers.report import command_of
+    assert command_of(tmp_path, ["Y1"], 3, False, True, False, None, False) == (
+        f".venv/bin/bench claims --run --out {tmp_path} --only Y1 --jobs 3 --no-beyond --reuse "
+        "--no-residual")
+
+
 def test_every_row_has_both_numbers_and_a_verdict(rep):
     assert rep.rows
     for r in rep.rows:
@@ -67,10 +94,10 @@ def test_y5_as_the_paper_set_it_up(rep):
     assert rows["Y5.SDFT.window"].value == pytest.approx(23 / 4.8)
     assert rows["Y5.GSDFT.window"].value == pytest.approx(7 / 4.8)
     assert rows["Y5.rel"].verdict == "PASS"
-    # the paper's own words: 'approximately 2-3 signal cycles faster' (measured 3.33: FAIL),
-    # 'reduced to one third' (compared: 7/23)
+    # the paper's own words: 'approximately 2-3 signal cycles faster' (measured 3.33: compared,
+    # as 'approximately two / five'), 'reduced to one third' (compared: 7/23)
     assert rows["Y5.faster"].value == pytest.approx(16 / 4.8)
-    assert rows["Y5.faster"].verdict == "FAIL"
+    assert rows["Y5.faster"].verdict == "COMPARED"
     assert rows["Y5.ratio"].value == pytest.approx(7 / 23) and rows["Y5.ratio"].verdict == "COMPARED"
     assert rows["Y5.SDFT.step"].verdict == "COMPARED"         # no bound in the paper
 

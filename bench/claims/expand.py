@@ -507,11 +507,11 @@ def table_iii(spec: Spec) -> Expansion:
         for m in ("sf", "thd"):
             rels.append(Relation(f"G7.{rpm:g}.{m}", f"{rpm:g} rpm: {m.upper()} with < without",
                                  (f"G7.{rpm:g}.on.{m}", f"G7.{rpm:g}.off.{m}"), "<", rel["paper"],
-                                 rel["source"]))
+                                 rel["source"], compared=bool(rel.get("compared", False))))
             rels.append(Relation(f"G7.{rpm:g}.{m}.naive", f"{rpm:g} rpm: {m.upper()} with < "
                                  "Gong's naive baseline [diagnostic]",
                                  (f"G7.{rpm:g}.on.{m}", f"G7.{rpm:g}.naive.{m}"), "<", rel["paper"],
-                                 rel["source"], True))
+                                 rel["source"], True, compared=bool(rel.get("compared", False))))
     return [], qs, rels
 
 

@@ -20,7 +20,8 @@ A claim (``Y1`` .. ``G8``, /work/shared/papers/README.md) has
     measurement's resolution or scatter: the value is compared, no pass/fail (verdict COMPARED);
 
 * **relations** between two quantities the paper ranks ("the improved SMO's error is smaller"),
-  checked as stated.
+  checked as stated; where the paper only reports both values and calls the difference
+  "slight" (``compared = true``), the ordering is shown and the verdict is COMPARED.
 
 Every rule carries its source (section, table, the paper's words). A quantity may be marked
 ``diagnostic`` (a run that is not the paper's setup, e.g. the same run without dead time, to
@@ -217,6 +218,8 @@ class Relation:
     source: str
     diagnostic: bool = False
     tol: float = 0.0
+    compared: bool = False       # the paper reports the two values ("slightly better"): the
+                                 # ordering is shown, no pass/fail (verdict COMPARED)
 
     def __post_init__(self):
         # the label must say what the operator tests ("<=" under a "<" would pass a tie)

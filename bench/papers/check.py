@@ -161,7 +161,7 @@ def read_for_check(path: str | Path) -> Recording:
 
     header = read_header(path)
     scn = scenario_of(header)
-    windows = windows_needed(scn)
+    windows = windows_needed(scn, header)
     # a fault's outcome reads the plant from the fault on (its peaks) to the end of the run
     windows += [(max(0.0, fs.t_s - scn.recording.pre_trigger_s), scn.duration_s)
                 for fs in scn.faults]
@@ -203,7 +203,7 @@ def check_recording(path: str | Path) -> CheckReport:
         claim = CLAIMS.get(claim_id)
         if claim is None:
             raise RecordingError(f"{rec.path}: scenario names unknown claim {claim_id!r}")
-        report.results.extend(evaluate(claim, ctx, scn.name))
+        report.results.extend(evaluate(claim, ctx, scn))
     report.integrity = check_integrity(rec, scn.link.allow, rec.run.get("estimator"),
                                        scenario_faults=scn.faults)
     from hil_bench.record.fault_outcomes import FaultOutcome, outcomes
@@ -333,6 +333,11 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
     s = report.summary
     if s:
         console.print("  ".join(f"{k}={_fmt(v)}" for k, v in s.items()))
+    for cid in scn.claims:         # a claim asked for that no single recording measures
+        if cid in CLAIMS and not any(r.claim.id == cid for r in report.results):
+            console.print(escape(f"{cid}: no quantity of this claim is measured on one "
+                                 f"recording (studies, several runs): `bench claims --run "
+                                 f"--only {cid}`"))
     if not report.results:
         return
     table = Table(title="paper claims: paper value vs measured", show_lines=False)
@@ -350,6 +355,17 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
                       _fmt(r.measured, unit), escape(r.quantity.rule_text()),
                       f"[{colour}]{r.verdict}[/{colour}]" + escape(f" ({r.note})" if r.note else ""))
     console.print(table)
+    shown = set()
+    for r in report.results:       # the set-up a claim's rows are INVALID for, once per claim
+        m = r.setup
+        if m is None or m.ok or r.claim.id in shown:
+            continue
+        shown.add(r.claim.id)
+        console.print(f"[yellow]{escape(r.claim.id)}: INVALID, not the set-up the claim is "
+                      f"about[/yellow] " + escape(f"(the nearest of its runs: {m.run.id}, "
+                                                  f"scenario {m.run.name}):"))
+        for f in m.failed:
+            console.print("  " + escape(f.text()))
     for cid in dict.fromkeys(r.claim.id for r in report.results):
         notes = CLAIMS[cid].notes
         if notes:

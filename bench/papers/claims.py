@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -50,6 +50,7 @@ class QuantityResult:
     measured: float
     verdict: str
     note: str = ""
+    setup: Any = None           # conditions.Match: the claim's run this recording is (or not)
 
 
 @dataclass(frozen=True)
@@ -61,16 +62,16 @@ class RelationResult:
     note: str = ""
 
 
-def applicable(claim: Claim, scenario_name: str) -> list[Quantity]:
-    """The quantities of a claim measured in one recording of ``scenario_name`` alone."""
-    names = {r.id: r.name for r in claim.runs}
-    out = []
-    for q in claim.quantities:
-        if q.study or q.aggregate or q.metric == "derived":
-            continue
-        if not q.runs or any(names.get(r) == scenario_name for r in q.runs):
-            out.append(q)
-    return out
+def applicable(claim: Claim, rec, scn, estimator: bool = True):
+    """The run of ``claim`` a recording is, by what ran (hil_bench.papers.conditions.match:
+    the estimator the controller reported, the plant's set-up, the compensation, the operating
+    point and window), with the quantities measured in it alone; None for a claim without
+    runs. ``estimator`` False: a header read (the telemetry not yet streamed)."""
+    from . import conditions
+    m = conditions.match(claim, rec, scn, estimator)
+    if m is None:
+        return None, []
+    return m, [conditions.window_of(q, m.run) for q in conditions.rows_on(claim, m.run)]
 
 
 def operating_point_note(ctx: Context, ref_rpm: float) -> str:
@@ -96,15 +97,22 @@ NEEDS_HISTORY = frozenset({"chattering_a"})
 WINDOW_LEAD_S = 0.2
 
 
-def windows_needed(scn) -> list[tuple[float, float]]:
+def windows_needed(scn, header=None) -> list[tuple[float, float]]:
     """The time windows the claims of a scenario (and the summary) read, each with its lead:
-    what `bench check` keeps of a recording's per-cycle topics."""
+    what `bench check` keeps of a recording's per-cycle topics. ``header``: the recording's
+    header (its metadata): the windows of the claim's run it is; without it, of every run."""
+    from . import conditions
     out = [scn.metrics_window_s]
     for claim_id in scn.claims:
         claim = CLAIMS.get(claim_id)
         if claim is None:
             continue
-        for q in applicable(claim, scn.name):
+        if header is not None:
+            qs = applicable(claim, header, scn, estimator=False)[1]
+        else:
+            qs = [conditions.window_of(q, r) for r in claim.runs
+                  for q in conditions.rows_on(claim, r)]
+        for q in qs:
             w = q.window_s or scn.metrics_window_s
             out.append((0.0, w[1]) if q.metric in NEEDS_HISTORY else w)
             if q.at_speed_window_s is not None:
@@ -258,15 +266,26 @@ def measure_with_resolution(q: Quantity, ctx: Context) -> tuple[float, str, str,
     return value, q.rule.verdict(value), why, res
 
 
-def evaluate(claim: Claim, ctx: Context, scenario_name: str | None = None) -> list[QuantityResult]:
-    """The quantities of ``claim`` measurable in this one recording (``bench check``)."""
-    quantities = claim.quantities if scenario_name is None else applicable(claim, scenario_name)
+def evaluate(claim: Claim, ctx: Context, scn=None) -> list[QuantityResult]:
+    """The quantities of ``claim`` measurable in this one recording (``bench check``): those of
+    the claim's run the recording is, by what ran (``applicable``); if it meets no run's
+    conditions, the nearest run's quantities, each INVALID saying which condition failed and
+    what ran instead. ``scn`` None: every quantity of the claim on this context (no
+    conditions)."""
+    m = None
+    if scn is None:
+        quantities = list(claim.quantities)
+    else:
+        m, quantities = applicable(claim, ctx.rec, scn)
     out = []
     for q in quantities:
         if q.study or q.aggregate or q.metric == "derived":
             continue
+        if m is not None and not m.ok:
+            out.append(QuantityResult(claim, q, math.nan, "INVALID", m.short(), m))
+            continue
         value, verdict, note = measure(q, ctx)
-        out.append(QuantityResult(claim, q, value, verdict, note))
+        out.append(QuantityResult(claim, q, value, verdict, note, m))
     return out
 
 
@@ -293,6 +312,14 @@ def relate(rel: Relation, values: dict[str, float], not_reproducible: frozenset 
     if rel.op == "=":
         ok = all(abs(a - b) < rel.tol for a, b in zip(vals, vals[1:]))
         return vals, "PASS" if ok else "FAIL", ""
+    if rel.compared:            # the paper reports both values: the ordering shown, no verdict
+        ok = all((a < b) if rel.op == "<" else (a > b) for a, b in zip(vals, vals[1:]))
+        res = max((resolutions.get(k, 0.0) for k in rel.keys), default=0.0)
+        small = res > 0 and all(abs(a - b) < res for a, b in zip(vals, vals[1:]))
+        return vals, "COMPARED", (f"the paper's ordering ({rel.paper}) "
+                                  + ("holds here" if ok else "is not seen here")
+                                  + (f"; the difference is below the resolution {_g(res)}"
+                                     if small else ""))
     if rel.op not in ("<", ">"):
         raise ValueError(f"{rel.key}: unknown relation {rel.op!r}")
     wrong, unresolved = [], []

@@ -40,7 +40,12 @@ from .claim_metrics import (
     Context,
     speed_lsb_rpm,
 )
+from . import conditions
+from .conditions import scenario_for
 from .claims import OPERATING_POINT_DEF, derive, measure_with_resolution, relate
+
+#: the claim of a run outside any claim (a condition's note names it)
+_NO_CLAIM = Claim("-", "", "", ())
 
 
 @dataclass
@@ -85,16 +90,10 @@ class Report:
     residual: dict[str, Any] = field(default_factory=dict)
     wall_s: float = 0.0
     jobs: int = 1
+    command: str = ""       # the exact command that produced the report
 
 
 # -- running --------------------------------------------------------------------------------------
-
-def scenario_for(run: Run):
-    from hil_bench.scenario import derive_scenario, load_scenario
-    if not run.overrides:
-        return load_scenario(run.scenario)
-    return derive_scenario(run.scenario, run.name, run.overrides, note=run.label)
-
 
 def _run_one(run: Run, out_path: str) -> tuple[bool, str, float, int]:
     """Worker (own process): one scenario against a fresh stub."""
@@ -181,21 +180,27 @@ def _fmt(v: Any, unit: str = "") -> str:
     return f"{s} {unit}".strip()
 
 
-def _context(path: Path) -> Context:
+def _context(path: Path):
+    """(context, scenario) of a recording."""
     from hil_bench.record.recording import load_recording
     from hil_bench.scenario import scenario_of
 
     from .check import build_context
     rec = load_recording(path)
-    return build_context(rec, scenario_of(rec))
+    scn = scenario_of(rec)
+    return build_context(rec, scn), scn
 
 
 class _Contexts:
-    """Recordings are loaded once each."""
+    """Recordings are loaded once each; each is checked against the conditions of the run it
+    was made for (hil_bench.papers.conditions: the estimator the controller reported, the plant,
+    the compensation, the operating point and window): ``mismatch`` says why it is not."""
 
-    def __init__(self, outcomes: dict[str, RunOutcome]):
+    def __init__(self, outcomes: dict[str, RunOutcome], claim: Claim | None = None):
         self.outcomes = outcomes
+        self.claim = claim
         self.cache: dict[str, Context | Exception] = {}
+        self.mismatch: dict[str, str] = {}
 
     def get(self, run_id: str) -> Context:
         if run_id not in self.cache:
@@ -205,7 +210,12 @@ class _Contexts:
                     raise FileNotFoundError(f"run {run_id} was not run")
                 if not out.recording.exists():
                     raise FileNotFoundError(f"no recording for run {run_id}: {out.error}")
-                self.cache[run_id] = _context(out.recording)
+                ctx, scn = _context(out.recording)
+                self.cache[run_id] = ctx
+                failed = conditions.failed(out.run, ctx.rec, scn, self.claim)
+                if failed:
+                    self.mismatch[run_id] = conditions.Match(self.claim or _NO_CLAIM, out.run,
+                                                             tuple(failed)).note()
             except Exception as exc:  # noqa: BLE001
                 self.cache[run_id] = exc
         v = self.cache[run_id]
@@ -234,6 +244,8 @@ def _measure_quantity(q: Quantity, ctxs: _Contexts, studies: dict, study_errors:
                 ctx = ctxs.get(rid)
             except Exception as exc:  # noqa: BLE001
                 return math.nan, "INVALID", str(exc), 0.0
+            if rid in ctxs.mismatch:
+                return math.nan, "INVALID", ctxs.mismatch[rid], 0.0
             v, verdict, note, _res = measure_with_resolution(q, ctx)
             vals.append(v)
             if note:
@@ -257,6 +269,8 @@ def _measure_quantity(q: Quantity, ctxs: _Contexts, studies: dict, study_errors:
         ctx = ctxs.get(q.runs[0])
     except Exception as exc:  # noqa: BLE001
         return math.nan, "INVALID", str(exc), 0.0
+    if q.runs[0] in ctxs.mismatch:
+        return math.nan, "INVALID", ctxs.mismatch[q.runs[0]], 0.0
     return measure_with_resolution(q, ctx)
 
 
@@ -276,7 +290,7 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
                    study_errors: dict) -> list[Row]:
     rows: list[Row] = []
     for c in claims:
-        ctxs = _Contexts(outcomes)          # one claim's recordings in memory at a time
+        ctxs = _Contexts(outcomes, c)       # one claim's recordings in memory at a time
         values: dict[str, float] = {}
         resolutions: dict[str, float] = {}
         qrows = []
@@ -365,7 +379,141 @@ DEFINITIONS_TEXT = (
     "the Y3 chattering index and the Y5 2 % tracking criterion.")
 
 
+# -- what decides a claim ------------------------------------------------------------------------
+
+#: the order in which a claim's verdict picks the row that decides it
+_DECIDES = {"FAIL": ("FAIL",), "INVALID": ("INVALID",), "NOT REPRODUCIBLE": ("NOT REPRODUCIBLE",),
+            "NOT RESOLVED": ("NOT RESOLVED",), "PARTLY": ("NOT REPRODUCIBLE", "NOT RESOLVED"),
+            "PASS": ("PASS",), "COMPARED": ("COMPARED",)}
+
+
+def _first_clause(text: str, limit: int = 220) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[:limit].rsplit(" ", 1)[0] + " ..."
+
+
+def claim_summary(c: Claim, rows: list[Row]) -> tuple[str, str, str, str]:
+    """(verdict, the paper's number, the measured number, a one-line reason that names what
+    decides it) of one claim: the row that decides the verdict (the first failing one for FAIL,
+    the first passing relation or row for PASS, ...), and why - a bench limitation (NOT
+    REPRODUCIBLE, INVALID), the drive's fault under the claim's set-up, a finding about the
+    paper (FAIL against the paper's own rule), or a value the paper gives without a bound."""
+    verdict = claim_verdict(rows)
+    main = [r for r in rows if not r.diagnostic and r.verdict != "CALIBRATION"]
+    pick = None
+    for want in _DECIDES.get(verdict, ()):
+        # a relation states the claim's ranking: it decides before a single row where it holds
+        cands = [r for r in main if r.verdict == want]
+        if want == "PASS":
+            cands = [r for r in cands if r.is_relation] + [r for r in cands if not r.is_relation]
+        if cands:
+            pick = cands[0]
+            break
+    if pick is None:
+        return verdict, "", "", "no row of the paper's set-up"
+    what = ("relation: " if pick.is_relation else "") + pick.what
+    if pick.verdict == "NOT REPRODUCIBLE":
+        reason = f"bench limitation ({what}): {_first_clause(pick.note)}"
+    elif pick.verdict == "INVALID":
+        reason = f"the bench could not measure {what}: {_first_clause(pick.note)}"
+    elif pick.verdict == "NOT RESOLVED":
+        reason = f"telemetry resolution ({what}): {_first_clause(pick.note)}"
+    elif pick.verdict == "FAIL" and "ended early" in pick.note:
+        reason = (f"the drive faulted under the claim's set-up ({_first_clause(c.setup, 120)}): "
+                  f"{_short_fault(pick.note)}")
+    elif pick.verdict == "FAIL" and "did not hold" in pick.note:
+        reason = f"the drive did not hold the operating point ({what}): {_first_clause(pick.note)}"
+    elif pick.verdict == "FAIL":
+        reason = (f"finding on the claim's set-up: {what} is {pick.measured} against the "
+                  f"paper's {pick.paper} ({pick.rule}; {_first_clause(pick.source, 120)})")
+    elif pick.verdict == "PASS":
+        reason = (f"holds: {what} {pick.measured} against the paper's {pick.paper} ({pick.rule}; "
+                  f"{_first_clause(pick.source, 120)})")
+    else:
+        reason = (f"reported value, no bound in the paper: {what} ({_first_clause(pick.source, 140)})"
+                  + (f"; {_first_clause(pick.note, 120)}" if pick.note else ""))
+    return verdict, pick.paper, pick.measured, reason
+
+
+#: the estimator settings a report states per run (CONFIG as recorded), with their meaning
+_SETTINGS = (("PLL_KP", "PLL kp", "1/s"), ("PLL_KI", "PLL ki", "1/s^2"),
+             ("SPEED_LPF_RAD_S", "speed LPF", "rad/s"), ("SMO_K_V", "SMO k", "V"),
+             ("SMO_K_MIN_V", "SMO k floor", "V"), ("SMO_WC_RAD_S", "SMO EMF LPF cut-off", "rad/s"),
+             ("SMO_M_PER_A", "tanh m", "1/A"), ("SMO_SIGMOID_A_PER_A", "sigmoid a", "1/A"),
+             ("SMO_STA_K1_V", "STA k1", "V"), ("SMO_STA_K2_V_S", "STA k2", "V/s"),
+             ("HFI_BW_RAD_S", "HFI tracking bandwidth", "rad/s"), ("HFI_U_V", "HFI injection", "V"),
+             ("HFI_F_HZ", "HFI frequency", "Hz"), ("DELAY_COMP_ENABLE", "delay pre-compensation", ""))
+
+
+def estimator_settings(recording: Path) -> str:
+    """The estimator's chosen bandwidths and gains of one run, from its recording's CONFIG (what
+    the controller was sent) and the estimator it ran: the PLL as a type-2 loop (kp = 2 zeta
+    wn, ki = wn^2: est_common.h), every filter cut-off and gain the estimator has."""
+    from hil_bench.record.recording import read_header
+    try:
+        run = read_header(recording).run
+        params = json.loads(run.get("controller_params", "{}"))
+        comp = json.loads(run.get("inverter_comp", "{}") or "{}")
+    except Exception:  # noqa: BLE001 - no settings is said, never a crash of the report
+        return ""
+    est = run.get("estimator", "?")
+    parts = []
+    kp, ki = params.get("PLL_KP"), params.get("PLL_KI")
+    for name, label, unit in _SETTINGS:
+        v = params.get(name)
+        if v is None or name in ("PLL_KP", "PLL_KI"):
+            continue
+        if name == "SPEED_LPF_RAD_S" and v <= 0:
+            parts.append("speed LPF off")
+            continue
+        parts.append(f"{label} {v:.4g} {unit}".strip())
+    if kp and ki and ki > 0:
+        wn = math.sqrt(ki)
+        parts.insert(0, f"PLL bandwidth wn {wn:.4g} rad/s, zeta {kp / (2 * wn):.3g} (kp {kp:.4g} "
+                        f"1/s, ki {ki:.4g} 1/s^2)")
+    if comp.get("on"):
+        r = comp.get("residual")
+        parts.append("inverter compensation on" + (f", residual {100 * r:g} %" if r is not None
+                                                   else ""))
+    parts.append("settings not listed are the controller's own defaults (not sent, so not "
+                 "recorded)")
+    return f"{est}: " + "; ".join(parts)
+
+
+def command_of(out_dir: Path, only: list[str] | None, jobs: int | None, beyond: bool,
+               reuse: bool, beyond_quick: bool, scheduler: str | None, residual: bool) -> str:
+    """The command line that runs this report (when it was not started from one)."""
+    import shlex
+    argv = ["claims", "--run", "--out", str(out_dir)]
+    if only:
+        argv += ["--only", ",".join(only)]
+    if jobs:
+        argv += ["--jobs", str(jobs)]
+    if not beyond:
+        argv.append("--no-beyond")
+    if beyond_quick:
+        argv.append("--quick")
+    if reuse:
+        argv.append("--reuse")
+    if scheduler:
+        argv += ["--scheduler", scheduler]
+    if not residual:
+        argv.append("--no-residual")
+    return ".venv/bin/bench " + shlex.join(argv)
+
+
 # -- writing --------------------------------------------------------------------------------------
+
+def _settings_lines(outcomes: list) -> list[tuple[str, str]]:
+    """(run ids, settings) of a claim's runs, runs with the same settings together."""
+    by_text: dict[str, list[str]] = {}
+    for o in outcomes:
+        if o.recording.exists():
+            text = estimator_settings(o.recording)
+            if text:
+                by_text.setdefault(text, []).append(o.run.id)
+    return [(", ".join(ids), text) for text, ids in by_text.items()]
+
 
 def _md_cell(s: str) -> str:
     return str(s).replace("|", "\\|").replace("\n", " ")
@@ -375,7 +523,7 @@ def write_markdown(rep: Report) -> Path:
     L = ["# Paper claims reproduced on the bench", ""]
     L += [f"Generated {_dt.datetime.now().isoformat(timespec='seconds')} on {platform.node()} "
           f"({os.cpu_count()} cores, {rep.jobs} parallel runs), wall time {rep.wall_s:.0f} s. "
-          f"Command: `.venv/bin/bench claims --run --out {rep.out_dir}`.", ""]
+          f"Command: `{rep.command}`.", ""]
     L += ["Verdicts: **PASS** / **FAIL** against a rule from the paper; **COMPARED**: the paper "
           "gives a value without a bound or a stated resolution, so the value is compared, no "
           "pass/fail; **NOT REPRODUCIBLE**: the reason is given; **INVALID**: the bench could "
@@ -384,11 +532,13 @@ def write_markdown(rep: Report) -> Path:
           "the row is the fit's input (no verdict). Rows marked *diagnostic* are not the paper's "
           "setup (e.g. dead time off, to locate a failure) and do not count for the claim.", ""]
     L += [RESOLUTION_TEXT, "", DEFINITIONS_TEXT, ""]
-    L += ["| claim | verdict | what |", "|---|---|---|"]
+    L += ["| claim | verdict | paper | measured | what decides it | claim |",
+          "|---|---|---|---|---|---|"]
     by_claim = {c.id: [r for r in rep.rows if r.claim == c.id] for c in rep.claims}
     for c in rep.claims:
-        L.append(f"| [{c.id}](#{c.id.lower()}) | {claim_verdict(by_claim[c.id])} | "
-                 f"{_md_cell(c.text)} |")
+        v, paper, measured, reason = claim_summary(c, by_claim[c.id])
+        L.append(f"| [{c.id}](#{c.id.lower()}) | {v} | {_md_cell(paper)} | {_md_cell(measured)} "
+                 f"| {_md_cell(reason)} | {_md_cell(c.text)} |")
     L.append("")
     for c in rep.claims:
         L += [f"## {c.id}", "", f"**{c.paper}.** {c.text}", ""]
@@ -407,6 +557,11 @@ def write_markdown(rep: Report) -> Path:
                      f"{_md_cell(r.note)} |")
         L.append("")
         runs = [rep.outcomes[r.id] for r in c.runs if r.id in rep.outcomes]
+        settings = _settings_lines(runs)
+        if settings:
+            L.append("Estimator settings (each run's CONFIG as recorded): " + "; ".join(
+                f"{ids}: {text}" for ids, text in settings))
+            L.append("")
         if runs:
             L.append("Runs: " + "; ".join(
                 f"`{o.run.id}` ({o.run.name}{': ' + o.run.label if o.run.label else ''}) "
@@ -454,7 +609,7 @@ def write_html(rep: Report) -> Path:
          f"<style>{_CSS}</style></head><body>", "<h1>Paper claims reproduced on the bench</h1>"]
     H.append(f"<p>Generated {e(_dt.datetime.now().isoformat(timespec='seconds'))} on "
              f"{e(platform.node())}, wall time {rep.wall_s:.0f} s, {rep.jobs} parallel runs. "
-             f"Command: <code>.venv/bin/bench claims --run --out {e(str(rep.out_dir))}</code>.</p>")
+             f"Command: <code>{e(rep.command)}</code>.</p>")
     H.append("<p>Verdicts: PASS / FAIL against a rule from the paper; COMPARED: value compared, "
              "no pass/fail (the paper gives no bound and no resolution); NOT REPRODUCIBLE (reason "
              "given); INVALID: the bench could not measure; NOT RESOLVED: a relation whose "
@@ -463,10 +618,12 @@ def write_html(rep: Report) -> Path:
              "paper's setup and do not count.</p>")
     H.append(f"<p>{e(RESOLUTION_TEXT)}</p><p>{e(DEFINITIONS_TEXT)}</p>")
     by_claim = {c.id: [r for r in rep.rows if r.claim == c.id] for c in rep.claims}
-    H.append("<table><tr><th>claim</th><th>verdict</th><th>what</th></tr>")
+    H.append("<table><tr><th>claim</th><th>verdict</th><th>paper</th><th>measured</th>"
+             "<th>what decides it</th><th>claim</th></tr>")
     for c in rep.claims:
-        v = claim_verdict(by_claim[c.id])
+        v, paper, measured, reason = claim_summary(c, by_claim[c.id])
         H.append(f"<tr><td><a href='#{c.id}'>{c.id}</a></td><td class='{_css_class(v)}'>{v}</td>"
+                 f"<td>{e(paper)}</td><td>{e(measured)}</td><td>{e(reason)}</td>"
                  f"<td>{e(c.text)}</td></tr>")
     H.append("</table>")
     for c in rep.claims:
@@ -484,6 +641,10 @@ def write_html(rep: Report) -> Path:
                      f"<td>{e(r.source)}</td><td class='{_css_class(r.verdict)}'>{e(r.verdict)}"
                      f"</td><td>{e(r.note)}</td></tr>")
         H.append("</table>")
+        settings = _settings_lines([rep.outcomes[r.id] for r in c.runs if r.id in rep.outcomes])
+        if settings:
+            H.append("<p>Estimator settings (each run's CONFIG as recorded):</p><ul>" + "".join(
+                f"<li><code>{e(ids)}</code>: {e(text)}</li>" for ids, text in settings) + "</ul>")
         for p in rep.plots.get(c.id, []):
             H.append(_img(p))
     if rep.residual:
@@ -503,7 +664,9 @@ def write_html(rep: Report) -> Path:
 def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = None,
                beyond: bool = True, reuse: bool = False, console: Console | None = None,
                beyond_quick: bool = False, scheduler: str | None = None,
-               residual: bool = True) -> Report:
+               residual: bool = True, command: str | None = None) -> Report:
+    """``command``: the command line that started it (the report's "Command:"; default: the
+    equivalent of the arguments given)."""
     t0 = time.monotonic()
     console = console or Console(stderr=True)
     out_dir = Path(out_dir)
@@ -530,7 +693,9 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
         for r in residual_plan.runs:
             runs.setdefault(r.id, r)
     jobs = jobs or default_jobs()
-    rep = Report(out_dir, claims, jobs=jobs)
+    rep = Report(out_dir, claims, jobs=jobs,
+                 command=command or command_of(out_dir, only, jobs, beyond, reuse, beyond_quick,
+                                               scheduler, residual))
     console.print(escape(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
                          + (" and the studies beyond the papers" if beyond else "")))
     rep.outcomes = execute(runs, out_dir / "recordings", jobs, console, reuse=reuse,

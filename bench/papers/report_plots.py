@@ -503,20 +503,89 @@ PLOTS: dict[str, Callable] = {
 }
 
 
+#: the true vs estimated angle plot: at most this many runs of a claim, this many electrical
+#: periods at the end of the run's first window
+ANGLE_RUNS = 4
+ANGLE_PERIODS = 3.0
+
+
+def _angle_runs(c) -> list:
+    """The claim's runs its verdict reads (non-diagnostic rows), in order, at most ANGLE_RUNS."""
+    want: list[str] = []
+    for q in c.quantities:
+        if q.diagnostic or q.study or q.calibration:
+            continue
+        for rid in q.runs:
+            if rid not in want:
+                want.append(rid)
+    return [c.run(rid) for rid in want[:ANGLE_RUNS]]
+
+
+def plot_angle(rep, c) -> Path | None:
+    """True vs estimated electrical angle (the controller's telemetry, and the host references
+    where they ran) over the last ANGLE_PERIODS electrical periods of each run's first window."""
+    from .conditions import windows_of
+    runs = _angle_runs(c)
+    if not runs:
+        return None
+    fig, axes = plt.subplots(len(runs), 1, figsize=(9, 2.4 * len(runs)), squeeze=False)
+    for ax, run in zip(axes[:, 0], runs):
+        rec = _load(rep, run.id)
+        if rec is None:
+            _missing(ax, run.id)
+            continue
+        w0, w1 = windows_of(c, run)[0]
+        st = _win(rec, ch.PLANT_STATE, w0, w1)
+        if not len(st.get("t_s", ())):
+            _missing(ax, f"{run.id}: no samples in {w0:g}..{w1:g} s")
+            continue
+        w_e = float(np.mean(np.abs(st["omega_e_rad_s"]))) if "omega_e_rad_s" in st else 0.0
+        span = (w1 - w0) if w_e <= 0 else min(w1 - w0, ANGLE_PERIODS * 2 * math.pi / w_e)
+        t0 = w1 - span
+        st = _win(rec, ch.PLANT_STATE, t0, w1)
+        wrap = lambda x: np.mod(np.asarray(x, float), 2 * math.pi)  # noqa: E731
+        ax.plot(st["t_s"], wrap(st["theta_e_rad"]), ".", ms=1.5, color="k", label="true")
+        err_ax = ax.twinx()        # the difference, on its own scale (right)
+        t_true, th_true = np.asarray(st["t_s"], float), np.asarray(st["theta_e_rad"], float)
+        sources = [("controller (telemetry)", _win(rec, ch.CONTROLLER_TELEMETRY, t0, w1))]
+        sources += [(f"host {t[len(ch.REFERENCE_PREFIX):]}", _win(rec, t, t0, w1))
+                    for t in sorted(t for t in rec.topics if t.startswith(ch.REFERENCE_PREFIX))]
+        for j, (label, d) in enumerate(sources):
+            if not len(d.get("t_s", ())) or "theta_hat_rad" not in d:
+                continue
+            ax.plot(d["t_s"], wrap(d["theta_hat_rad"]), ".", ms=1.0, color=f"C{j}", label=label)
+            idx = np.clip(np.searchsorted(t_true, d["t_s"]), 0, len(t_true) - 1)
+            err_ax.plot(d["t_s"], metrics.wrap_pi(np.asarray(d["theta_hat_rad"], float)
+                                                  - th_true[idx]),
+                        lw=0.7, color=f"C{j}", alpha=0.6)
+        err_ax.set_ylabel("estimated - true [rad] (lines)", fontsize=8)
+        ax.set_ylim(-0.2, 2 * math.pi + 0.2)
+        ax.set_ylabel("theta_e [rad] (dots)")
+        ax.set_title(f"{run.id} ({run.name}): true vs estimated angle, {t0:.3g}..{w1:.3g} s",
+                     fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right", markerscale=6)
+    axes[-1, 0].set_xlabel("t [s]")
+    return _save(fig, rep, f"{c.id}_angle")
+
+
 def plot_claims(rep) -> dict[str, list[Path]]:
     out: dict[str, list[Path]] = {}
     for c in rep.claims:
         fn = PLOTS.get(c.id)
-        if fn is None:
-            continue
-        try:
-            out[c.id] = fn(rep)
-        except Exception as exc:  # noqa: BLE001 - a plot must not lose the report
-            fig, ax = plt.subplots(figsize=(6, 1.5))
-            ax.text(0.01, 0.5, f"{c.id}: plot failed: {type(exc).__name__}: {exc}", fontsize=8,
-                    va="center")
-            ax.set_axis_off()
-            out[c.id] = [_save(fig, rep, f"{c.id}_error")]
+        for what, draw in (("plot", (lambda c=c, fn=fn: fn(rep)) if fn else None),
+                           ("angle plot", lambda c=c: [p for p in [plot_angle(rep, c)] if p])):
+            if draw is None:
+                continue
+            try:
+                out.setdefault(c.id, []).extend(draw())
+            except Exception as exc:  # noqa: BLE001 - a plot must not lose the report
+                fig, ax = plt.subplots(figsize=(6, 1.5))
+                ax.text(0.01, 0.5, f"{c.id}: {what} failed: {type(exc).__name__}: {exc}",
+                        fontsize=8, va="center")
+                ax.set_axis_off()
+                out.setdefault(c.id, []).append(
+                    _save(fig, rep, f"{c.id}_{what.replace(' ', '_')}_error"))
     return out
 
 

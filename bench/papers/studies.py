@@ -9,6 +9,8 @@
   after the first new one, 4.79 and 1.46 cycles; the 2 % criterion gives the same.
 * ``y6()`` - Yuan Table 2: the cost of the 5th + 7th extraction per sample, GSDFT against SDFT,
   counted by callgrind (x86-64 instructions of this library's C, bench/perf/estimators.py).
+* ``y6_ops()`` - Yuan Y6 on the paper's own recursions (eq. 24-27): operations per sample,
+  the verdict's basis; the library's instructions (``y6``) are reported beside.
 * ``g1()`` - Gong V-A-a, Fig. 7: the four tanh SMOs of claim G1 (m = 1, 0.25, 0.1, 0.01, k by
   eq. 17 as in gong_g1_boundary_layer) stepped on the host at Ts = 100, 10 and 1 us on an exact
   500 rpm no-load trajectory of the gong2020 motor: does a finer simulation step give the
@@ -82,6 +84,52 @@ def y6(n: int = 20000) -> dict:
     out["saving_protected"] = 100.0 * (1.0 - out["gsdft_57_real_mod"] / out["sdft_57_real_mod"])
     out["saving_direct"] = 100.0 * (1.0 - out["gsdft_57_real_direct"] / out["sdft_57_real_direct"])
     out["n"] = n
+    return out
+
+
+#: Yuan's recursions for a real input, per sample, as (multiplications, additions): the comb
+#: (shared by the harmonics extracted together) and, per harmonic, the resonator
+#: 1/(1 - z^-1 e^{j 2 pi k/M}) (a complex product: 4 mul + 2 add; the real input into its real
+#: part: 1 add) and the gain (1/M) e^{j 2 pi k/M} (a complex constant: 4 mul + 2 add).
+#: SDFT eq. 24-25: comb 1 - z^-M (1 add); SDFT's time-domain form eq. 22-23 counts the same
+#: (two real adds and a rotation, then the output rotation by the twiddle with 1/M folded in).
+#: GSDFT eq. 26-27: comb (1 - z^-M/6 e^{j pi/3})(1 - z^-M/6 e^{-j pi/3}) = 1 - z^-M/6 + z^-M/3
+#: (y6_ops checks the expansion): 2 adds, no multiplication.
+Y6_COMB_OPS = {"SDFT": (0, 1), "GSDFT": (0, 2)}
+Y6_PER_HARMONIC_OPS = (4 + 4, 3 + 2)
+Y6_HARMONICS = (5, 7)
+
+
+def y6_comb_taps(m: int = Y5_M) -> np.ndarray:
+    """The GSDFT comb of eq. 26-27 multiplied out, coefficients of z^0 .. z^-M/3."""
+    d = m // 6
+    f1 = np.zeros(d + 1, complex)
+    f1[0], f1[d] = 1.0, -np.exp(1j * math.pi / 3)
+    f2 = np.zeros(d + 1, complex)
+    f2[0], f2[d] = 1.0, -np.exp(-1j * math.pi / 3)
+    return np.convolve(f1, f2)
+
+
+def y6_ops() -> dict:
+    """Yuan Y6 judged on the paper's own recursions: operations per sample for the 5th + 7th
+    extraction, SDFT against GSDFT (counted from eq. 24-27, ``Y6_COMB_OPS``), every operation
+    one (a C28x FPU multiply and add both take one pipelined instruction). The GSDFT's comb has
+    real taps (1, -1, 1) - checked here on the product of eq. 26's two factors - so it costs
+    one add more than the SDFT's and nothing else differs: no weighting of mul against add
+    makes the GSDFT cheaper."""
+    taps = y6_comb_taps()
+    d = Y5_M // 6
+    want = np.zeros(2 * d + 1)
+    want[0], want[d], want[2 * d] = 1.0, -1.0, 1.0
+    if not np.allclose(taps, want, atol=1e-12):
+        raise RuntimeError(f"GSDFT comb does not expand to 1 - z^-M/6 + z^-M/3: {taps}")
+    out: dict = {}
+    for name, (cm, ca) in Y6_COMB_OPS.items():
+        mul = cm + len(Y6_HARMONICS) * Y6_PER_HARMONIC_OPS[0]
+        add = ca + len(Y6_HARMONICS) * Y6_PER_HARMONIC_OPS[1]
+        out[f"{name.lower()}_mul"], out[f"{name.lower()}_add"] = mul, add
+        out[f"{name.lower()}_ops"] = mul + add
+    out["saving_ops"] = 100.0 * (1.0 - out["gsdft_ops"] / out["sdft_ops"])
     return out
 
 
@@ -225,4 +273,4 @@ def g1_switching(sub_steps_us=(1.0, 10.0), settle_s: float = 0.1, periods: int =
     return out
 
 
-STUDIES = {"Y5": y5, "Y6": y6, "G1": g1, "G1.sw": g1_switching}
+STUDIES = {"Y5": y5, "Y6": y6, "Y6ops": y6_ops, "G1": g1, "G1.sw": g1_switching}
