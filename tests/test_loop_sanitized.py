@@ -78,7 +78,7 @@ def test_closed_loop_with_the_sanitized_engine_and_stub(tmp_path):
     scn = tmp_path / "g2_sanitized.toml"
     scn.write_text(SCENARIO)
     out = tmp_path / "g2_sanitized.mcap"
-    # cwd outside the repository: its root on sys.path would shadow build-asan/python
+    # cwd outside the repository, so that nothing of the checkout comes before build-asan/python
     proc = subprocess.run([sys.executable, "-c", RUN_BENCH, "run", str(scn), "--out", str(out),
                            "--no-progress"], cwd=tmp_path, env=sanitized_env(asan),
                           capture_output=True, text=True, timeout=900, check=False)

@@ -33,7 +33,7 @@ def test_every_octet_of_a_serial_run_is_captured(tmp_path):
     assert t == sorted(t)
 
 
-# -- converters (python -m hil_bench.record.serial_capture socat|raw|hex|logic) ----------------------
+# -- converters (python -m hil_bench.replay.serial_convert socat|raw|hex|logic) ----------------------
 
 def _directions(path):
     recs = list(read_records(path, []))

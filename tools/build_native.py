@@ -10,15 +10,16 @@ package directory. Run from the repository root: ``python tools/build_native.py`
 ``build-asan/python/hil_bench/``: the installed layout (``hil_bench`` = bench/, with
 ``plant_rt``, ``firmware_stub`` and ``protocol`` inside it) as directories of symlinks to the
 repository's files, with the sanitized extensions in place of the normal ones, so the normal
-build is untouched. A process uses
-it with (``make sanitize`` builds it; tests/test_loop_sanitized.py runs the closed loop on it)::
+build is untouched. A process uses it with (``make sanitize`` builds it;
+tests/test_loop_sanitized.py runs the closed loop on it)::
 
     LD_PRELOAD=$(gcc -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 \\
     UBSAN_OPTIONS=halt_on_error=1 PYTHONPATH=build-asan/python python ...
 
-(run from a directory other than the repository root, whose packages would come first on
-``sys.path``). The interpreter is not instrumented: ASan's runtime must be loaded first
-(LD_PRELOAD), and leak detection is off because CPython keeps memory until exit by design.
+(from the repository root, or with an absolute PYTHONPATH from anywhere: the root holds no
+``hil_bench`` that could come first on ``sys.path``). The interpreter is not instrumented:
+ASan's runtime must be loaded first (LD_PRELOAD), and leak detection is off because CPython
+keeps memory until exit by design.
 """
 from __future__ import annotations
 

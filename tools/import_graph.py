@@ -57,7 +57,9 @@ def imports_of(name: str, path: Path, known: set[str]) -> set[str]:
             else:
                 mod = node.module or ""
             subs = [f"{mod}.{a.name}" for a in node.names]
-            # `from P import m` of submodules needs P only to hold them, not P's own code
+            # `from P import m` of submodules runs P's __init__ too, but counting that arrow would
+            # make every __init__ that re-exports its own modules a circle (P -> P.m -> P), which
+            # Python resolves; an arrow into another package's __init__ is seen by package_graph
             targets = subs if all(t in known for t in subs) else [mod] + subs
         else:
             continue
@@ -119,19 +121,12 @@ def package_of(module: str) -> str:
 
 
 def package_graph(g: dict[str, set[str]]) -> dict[str, set[str]]:
-    mods = modules()
+    """The module graph folded onto sub-packages (package_of); a module at the top of hil_bench
+    (cli, conformance, __main__) is a node of its own."""
     out: dict[str, set[str]] = {}
     for m, deps in g.items():
-        # a module at the top of hil_bench (cli, __init__, conformance) is the top layer itself
-        pm = package_of(m) if (mods[m].name == "__init__.py" and m.count(".") >= 1) or \
-            m.count(".") >= 2 else m
-        node = out.setdefault(pm, set())
-        for d in deps:
-            pd = package_of(d) if d.count(".") >= 1 else d
-            if pd != pm and not (d.count(".") == 1 and mods[d].name != "__init__.py"):
-                node.add(pd)
-            elif d.count(".") == 1 and mods[d].name != "__init__.py" and d != pm:
-                node.add(d)
+        pm = package_of(m)
+        out.setdefault(pm, set()).update(pd for pd in map(package_of, deps) if pd != pm)
     return out
 
 
@@ -140,6 +135,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--layers", action="store_true", help="print the sub-package graph")
     args = ap.parse_args(argv)
     g = graph()
+    if not g:
+        print(f"no module found under {', '.join(str(f) for f in FOLDERS.values())}")
+        return 2
     pg = package_graph(g)
     if args.layers:
         for p in sorted(pg):

@@ -123,7 +123,7 @@ CHECK_FIELDS: dict[str, tuple[str, ...]] = {
     ch.LINK_FRAMES: ("t_s", "seq", "tx"),   # read only with dual sampling: the SENSE_DUAL frames
 }
 #: what a run with [[faults]] reads besides: the plant's peaks and the controller's state after
-#: its trip (bench/scenario/faults.py outcomes)
+#: its trip (bench/record/fault_outcomes.py)
 FAULT_FIELDS: dict[str, tuple[str, ...]] = {
     ch.PLANT_STATE: ("i_b_a", "i_c_a", "torque_e_nm"),
     ch.CONTROLLER_TELEMETRY: ("state",),

@@ -48,8 +48,6 @@ from .claims import (
     speed_lsb_rpm,
 )
 
-REPO = Path(__file__).resolve().parents[2]
-
 
 @dataclass
 class RunOutcome:

@@ -17,7 +17,7 @@ the recorder appends the records to this file; the octets of the handshake, whic
 exchanges before the engine starts, are recorded the same way (bench/loop/links/serial_link.py).
 
 Captures of other tools (socat, raw and hex dumps, a logic analyser's CSV) convert to this
-format with ``python -m hil_bench.replay.serial_convert`` (hil_bench/replay/serial_convert.py).
+format with ``python -m hil_bench.replay.serial_convert`` (bench/replay/serial_convert.py).
 """
 from __future__ import annotations
 

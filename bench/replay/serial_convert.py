@@ -1,5 +1,5 @@
 """Converters of serial line captures to the ``.serial.bin`` format
-(hil_bench/record/serial_capture.py).
+(bench/record/serial_capture.py).
 
 From a real UART (the drive on /dev/ttyUSB0, the bench or any host tool on the other side):
 ``socat -x -v PTY,link=/tmp/hil,raw,echo=0 /dev/ttyUSB0,raw,echo=0,b3000000 2> capture.txt``

@@ -9,14 +9,11 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import sys
 from pathlib import Path
 
+from hil_bench.protocol.messages import MESSAGES, PROTO_VERSION, Command, Estimator, Param
+
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))
-
-from hil_bench.protocol.messages import MESSAGES, PROTO_VERSION, Command, Estimator, Param  # noqa: E402
-
 VECTORS = ROOT / "protocol" / "vectors"
 CORPUS = Path(__file__).resolve().parent / "corpus"
 # fuzz_msgs.c: selector byte -> message

@@ -17,18 +17,16 @@ from __future__ import annotations
 
 import hashlib
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))
+from hil_bench.loop.runner import run_scenario
+from hil_bench.record.recording import load_recording
+from hil_bench.scenario import load_scenario
 
-from hil_bench.loop.runner import run_scenario  # noqa: E402
-from hil_bench.record.recording import load_recording  # noqa: E402
-from hil_bench.scenario import load_scenario  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 TOPICS = ("/plant/state", "/plant/sense", "/controller/telemetry", "/reference/SMO_SIGN")
 FULL = {"/plant/state": ("theta_e_rad", "omega_m_rad_s", "i_a_a", "i_b_a", "i_d_a", "i_q_a"),
