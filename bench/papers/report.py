@@ -101,12 +101,15 @@ def scenario_for(run: Run):
     return derive_scenario(run.scenario, run.name, run.overrides, note=run.label)
 
 
-def _run_one(run: Run, out_path: str) -> tuple[bool, str, float, int]:
-    """Worker (own process): one scenario against a fresh stub."""
+def _run_one(run: Run, out_path: str, link: str = "stub") -> tuple[bool, str, float, int]:
+    """Worker (own process): one scenario against a fresh stub (or the controller on ``link``)."""
     from hil_bench.loop.runner import run_scenario
     try:
         scn = scenario_for(run)
-        res = run_scenario(scn, link_spec="stub", out_path=Path(out_path), progress=False)
+        # another controller in lockstep: a link slower than the control rate only slows the
+        # run down, the results are the same (bench run --allow-slow-link)
+        res = run_scenario(scn, link_spec=link, out_path=Path(out_path), progress=False,
+                           allow_slow_link=link != "stub")
         return res.ok, res.error or "", res.wall_s, res.cycles_done
     except Exception as exc:  # noqa: BLE001 - reported in the row, never a crash of the report
         return False, f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}", 0.0, 0
@@ -117,8 +120,9 @@ def default_jobs() -> int:
 
 
 def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | None = None,
-            reuse: bool = False) -> dict[str, RunOutcome]:
-    """Run every scenario (``jobs`` in parallel) with a progress bar; returns outcomes by run id."""
+            reuse: bool = False, link: str = "stub") -> dict[str, RunOutcome]:
+    """Run every scenario (``jobs`` in parallel) against the controller on ``link`` with a
+    progress bar; returns outcomes by run id."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     rec_dir.mkdir(parents=True, exist_ok=True)
@@ -139,7 +143,7 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | N
                   disable=not console.is_terminal) as progress:
         task = progress.add_task("", total=len(todo))
         with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
-            futs = {pool.submit(_run_one, run, str(path)): (rid, run, path)
+            futs = {pool.submit(_run_one, run, str(path), link): (rid, run, path)
                     for rid, run, path in todo}
             running = {rid for rid, _, _ in todo[:jobs]}
             progress.update(task, description=", ".join(sorted(running))[:60])
@@ -162,7 +166,7 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | N
         first = (o.error.splitlines() or ["no error text"])[0]
         console.print(f"  {rid}: the bench broke the run ({first}): once more")
         _keep_attempt(o.recording)
-        ok, err, wall, cycles = _run_one(o.run, str(o.recording))
+        ok, err, wall, cycles = _run_one(o.run, str(o.recording), link)
         outcomes[rid] = RunOutcome(o.run, o.recording, ok, err, wall, cycles, retried=first)
     return outcomes
 
