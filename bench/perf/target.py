@@ -32,7 +32,7 @@ CASES = [
     ("gong_g2_500rpm", "tanh SMO (Gong), 500 rpm"),
     ("yuan_y1_conventional", "sign SMO + LPF + PLL (Yuan), 1000 rpm"),
     ("yuan_y1_improved", "sigmoid SMO (Yuan)"),
-    ("hou_h1_hfi", "HF injection + IPD (Hou)"),
+    ("beyond_hfi_speed", "HF injection + IPD (Hou's HFI-SDFT)"),
 ]
 
 
@@ -69,6 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=0.8, help="simulated seconds per case")
     ap.add_argument("--json", action="store_true", help="also print the figures as JSON")
+    ap.add_argument("--cases", default="", help="comma-separated scenario names (default: all)")
     args = ap.parse_args(argv)
     elf = firmware_elf()
     fp = footprint(elf)
@@ -78,7 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         print(f"\n{'case':48s} {'cycles':>6s} {'ISR instr mean':>14s} {'min':>7s} {'max':>7s} "
               f"{'stack B':>8s} {'wall s':>7s}")
-        for name, what in CASES:
+        chosen = [c for c in CASES if not args.cases or c[0] in args.cases.split(",")]
+        for name, what in chosen:
             target, _, wall = run_case(name, args.seconds, Path(tmp), "pil-qemu")
             row = dict(case=name, what=what, cycles=int(target["isr_count"]),
                        isr_mean=float(target["isr_instructions_mean"]),
