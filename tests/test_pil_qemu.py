@@ -181,3 +181,27 @@ def test_the_stats_block_is_read_field_for_field():
         TargetStats.from_bytes(b"\0" * 4 * TargetStats.words())
     with pytest.raises(ValueError, match="layout version"):
         TargetStats.from_bytes(_block(version=99))
+
+
+def test_a_controller_restart_is_taken_in_band_by_the_target(elf, tmp_path):
+    """CMD RESTART (the controller_reset fault, docs/protocol.md 6.3) reaches the firmware in
+    QEMU like the stub: the portable session restarts before the fault cycle's SENSE, the cycle
+    never completes, the HEARTBEAT_CTRL it sends says so (ctrl_resets +1), and the port counts
+    the restart in its own figures."""
+    from hil_bench.loop.runner import run_scenario
+    from hil_bench.record import channels as ch
+    from hil_bench.record.fault_outcomes import outcomes
+    from hil_bench.record.recording import load_recording
+    from tests.test_controller_restart import _scenario
+
+    out = tmp_path / "restart.mcap"
+    result = run_scenario(_scenario(), link_spec="pil-qemu", out_path=out, progress=False)
+    assert result.end == "NO_DUTY" and result.cycles_done == 2000, result.error
+    assert "the bench restarted the controller at this cycle" in result.error
+    assert result.target["restarts"] == "1" and result.target["state_name"] == "running"
+    assert int(result.target["isr_count"]) == 2000
+    rec = load_recording(out)
+    f = rec.topic(ch.FAULTS)
+    assert any(a == "on" and "CMD RESTART" in t for a, t in zip(f["action"], f["text"]))
+    (o,) = outcomes(rec)
+    assert o.detection_s == 0.0 and "ctrl_resets +1" in o.evidence, o

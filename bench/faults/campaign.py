@@ -1,7 +1,8 @@
 """Fault campaigns: a base scenario and a list (or grid) of faults, one run each, a table of what
 the controller did with them, judged against the limits the campaign file states.
 
-    bench campaign bench/campaigns/g2_protection.toml [--jobs N] [--out DIR] [--keep-all]
+    bench campaign bench/campaigns/g2_protection.toml [--jobs N] [--scheduler ADDR] [--out DIR]
+                   [--keep-all]
 
 A campaign file (TOML; docs/faults.md "Campaigns")::
 
@@ -49,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from hil_bench.scenario import ScenarioError, check_against_profile, parse_scenario, resolve_path
+from hil_bench.scenario.scenario import NAME_PATTERN
 from hil_bench.scenario.fields import Fields
 
 LIMIT_KEYS = {"detected": bool, "detection_time_s": float, "peak_current_a": float,
@@ -155,6 +157,11 @@ def _campaign(path: Path, where: str, raw: dict, text: str) -> Campaign:
     top = Fields(where, raw, "", text)
     c = top.table_of("campaign")
     name = c.string("name", path.stem)
+    if not NAME_PATTERN.match(name) or "@" in name:
+        raise c.fail("name", f"{name!r} must be letters, digits, '_', '-' or '.', not starting with "
+                             f"'.' or '-': it names the report folder "
+                             f"(reports/campaigns/<name>) and every run's scenario and recording "
+                             f"(<name>@<run>)")
     description = c.string("description", "")
     base_name = c.string("base")
     base_path = resolve_path(base_name)
@@ -230,6 +237,10 @@ def _campaign(path: Path, where: str, raw: dict, text: str) -> Campaign:
         f.reject_unknown()
     if not cases:
         raise top.fail("runs", "a campaign needs at least one [[runs]] or [[grid]] entry")
+    longest = max(cases, key=lambda case: len(case.name))
+    if not NAME_PATTERN.match(f"{name}@{longest.name}"):
+        raise c.fail("name", f"{name!r}: with its run {longest.name!r} the scenario name "
+                             f"{name}@{longest.name} is longer than 100 characters")
     top.reject_unknown()
     camp = Campaign(path, name, description, base_path, base_raw, link, cases, recording, limits)
     for case in cases:   # every run's scenario is valid before anything runs
@@ -262,13 +273,17 @@ def scenario_for(camp: Campaign, case: Case):
 # ---- running ------------------------------------------------------------------------------------
 
 
-def judge(case: Case, outcomes: list, run_error: str, end: str) -> tuple[str, list[str]]:
+def judge(case: Case, outcomes: list, run_error: str, end: str,
+          never_acted: list[str] | None = None) -> tuple[str, list[str]]:
     """PASS / FAIL against the case's limits; INVALID when the bench, not the controller, ended
-    the run, or a fault never acted or left no trace."""
+    the run, or a fault never acted (``never_acted``: the integrity check's words, naming the
+    fault and why) or left no trace."""
     reasons: list[str] = []
     if run_error and "controller reported fault" not in run_error and end not in (
             "NO_DUTY", "WATCHDOG", "CONTROLLER_FAULT", "BAD_DUTIES"):
         return "INVALID", [f"the run ended for another reason than the controller: {run_error}"]
+    if never_acted:
+        return "INVALID", list(never_acted)
     if len(outcomes) < len(case.faults):
         return "INVALID", [f"{len(case.faults) - len(outcomes)} fault(s) have no /faults record"]
     for o in outcomes:
@@ -303,6 +318,7 @@ def _run_case(camp: Campaign, case_index: int, out_dir: str, link: str) -> dict:
     from hil_bench.loop.runner import RunAborted, run_scenario
     from hil_bench.papers.check import read_for_check
     from hil_bench.record.fault_outcomes import outcomes as fault_outcomes
+    from hil_bench.record.integrity import fault_problems
 
     case = camp.cases[case_index]
     scn = scenario_for(camp, case)
@@ -314,55 +330,42 @@ def _run_case(camp: Campaign, case_index: int, out_dir: str, link: str) -> dict:
         return {"error": f"could not run: {exc}", "end": "SETUP", "recording": None,
                 "wall_s": time.monotonic() - t0}
     rec_path = result.recording if Path(result.recording).exists() else None
-    outcomes = fault_outcomes(read_for_check(rec_path)) if rec_path else []
+    rec = read_for_check(rec_path) if rec_path else None
+    outcomes = fault_outcomes(rec) if rec is not None else []
+    never = [p.text for p in fault_problems(rec, scn.faults, result.cycles_done)
+             if p.name == "never_acted"] if rec is not None else []
     return {"error": result.error or "", "end": result.end, "recording": str(rec_path or ""),
-            "wall_s": time.monotonic() - t0, "outcomes": outcomes}
+            "wall_s": time.monotonic() - t0, "outcomes": outcomes, "never_acted": never}
 
 
-def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int = 1, link: str | None = None,
-                 keep_all: bool = False, console=None) -> list[CaseResult]:
-    """Run every case with a progress bar; keep the recordings of the runs that did not PASS."""
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
+def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int | None = None,
+                 link: str | None = None, keep_all: bool = False, console=None,
+                 scheduler: str | None = None, progress: bool = True) -> list[CaseResult]:
+    """Run every case on the executor (hil_bench.cluster: a local Dask cluster of ``jobs``
+    workers, or ``scheduler``); keep the recordings of the runs that did not PASS."""
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.markup import escape
 
+    from hil_bench.cluster import Executor, TaskFailure
     from hil_bench.record.recorder import SIDE_SUFFIXES
 
     console = console or Console(stderr=True)
     rec_dir = out_dir / "recordings"
     rec_dir.mkdir(parents=True, exist_ok=True)
     results: dict[int, CaseResult] = {}
-    import sys
-
-    sys.stdout.flush()
-    sys.stderr.flush()
-    with Progress(TextColumn(f"[bold]{camp.name}[/bold] {{task.description}}"), BarColumn(),
-                  MofNCompleteColumn(), TimeElapsedColumn(), console=console,
-                  disable=not console.is_terminal) as progress:
-        task = progress.add_task("", total=len(camp.cases))
+    with Executor(scheduler, jobs, progress=progress, console=console, label=camp.name) as ex:
 
         def finished():
-            """(case index, result) as the runs end: in this process (jobs = 1) or in workers."""
-            args = [(camp, i, str(rec_dir), link or camp.link)
+            """(case index, result) as the runs end, on whichever worker."""
+            args = [(str(i), (camp, i, str(rec_dir.resolve()), link or camp.link))
                     for i in range(len(camp.cases))]
-            if jobs <= 1:
-                for a in args:
-                    progress.update(task, description=camp.cases[a[1]].name)
-                    try:
-                        yield a[1], _run_case(*a)
-                    except Exception as exc:  # noqa: BLE001 - the bench's failure, said
-                        yield a[1], {"error": f"{type(exc).__name__}: {exc}", "end": "BENCH",
+            for key, res in ex.map(_run_case, args,
+                                   describe=lambda k: camp.cases[int(k)].name):
+                if isinstance(res, TaskFailure):   # the bench's failure, said
+                    yield int(key), {"error": res.error.splitlines()[0], "end": "BENCH",
                                      "recording": None, "wall_s": 0.0}
-                return
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
-                futs = {pool.submit(_run_case, *a): a[1] for a in args}
-                for fut in as_completed(futs):
-                    try:
-                        yield futs[fut], fut.result()
-                    except Exception as exc:  # noqa: BLE001 - a dead worker: the bench's failure
-                        yield futs[fut], {"error": f"worker failed: {type(exc).__name__}: {exc}",
-                                          "end": "BENCH", "recording": None, "wall_s": 0.0}
+                else:
+                    yield int(key), res.value
 
         for i, r in finished():
             case = camp.cases[i]
@@ -370,16 +373,16 @@ def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int = 1, link: str | No
             if r["end"] in ("SETUP", "BENCH"):
                 verdict, reasons = "INVALID", [r["error"]]
             else:
-                verdict, reasons = judge(case, outs, r["error"], r["end"])
+                verdict, reasons = judge(case, outs, r["error"], r["end"], r.get("never_acted"))
             rec = Path(r["recording"]) if r.get("recording") else None
             if rec is not None and verdict == "PASS" and not keep_all:
                 for p in (rec, *(rec.with_suffix(sfx) for sfx, _ in SIDE_SUFFIXES)):
                     p.unlink(missing_ok=True)
                 rec = None
             results[i] = CaseResult(case, rec, verdict, reasons, outs, r["error"], r["wall_s"])
-            progress.update(task, advance=1, description=case.name)
             if not console.is_terminal:
-                console.print(f"  {case.name}: {verdict}" + (f" ({reasons[0]})" if reasons else ""))
+                console.print(escape(f"  {case.name}: {verdict}" +
+                                     (f" ({reasons[0]})" if reasons else "")))
     if not any(rec_dir.iterdir()):
         rec_dir.rmdir()
     return [results[i] for i in sorted(results)]

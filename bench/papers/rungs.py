@@ -25,7 +25,7 @@ from .claims import CLAIMS
 from .report import RunOutcome, Row, default_jobs, execute, measure_claims
 
 #: link kinds that start their own controller per run (parallel runs do not share a device)
-PARALLEL_KINDS = ("stub", "pil-qemu")
+PARALLEL_KINDS = ("stub", "sil", "pil-qemu")
 
 
 @dataclass
@@ -57,9 +57,15 @@ def jobs_for(link: str, jobs: int | None) -> int:
 
 
 def run_rungs(out_dir: Path, link: str, only: list[str] | None = None, jobs: int | None = None,
-              reuse: bool = False, console: Console | None = None) -> Rungs:
+              reuse: bool = False, console: Console | None = None,
+              scheduler: str | None = None) -> Rungs:
+    """Both rungs on the executor (hil_bench.cluster); ``scheduler``: an existing Dask cluster,
+    only for links that start their controller where the run is (a device is on this machine)."""
     console = console or Console(stderr=True)
     out_dir = Path(out_dir)
+    if scheduler and not link.startswith(PARALLEL_KINDS):
+        raise ValueError(f"--scheduler with --link {link}: the device is on this machine, its "
+                         f"runs cannot go to a cluster's workers; run without --scheduler")
     ids = list(CLAIMS) if not only else only
     unknown = [c for c in ids if c not in CLAIMS]
     if unknown:
@@ -77,7 +83,8 @@ def run_rungs(out_dir: Path, link: str, only: list[str] | None = None, jobs: int
         console.print(f"{rung}: {len(runs)} runs ({n_jobs} at a time) for claims {', '.join(ids)}")
         t0 = time.monotonic()
         rg.outcomes[rung] = execute(runs, out_dir / "recordings" / slug(rung), n_jobs, console,
-                                    reuse=reuse, link=rung)
+                                    reuse=reuse, link=rung,
+                                    scheduler=scheduler if rung.startswith(PARALLEL_KINDS) else None)
         rg.wall_s[rung] = time.monotonic() - t0
         rg.rows[rung] = measure_claims(claims, rg.outcomes[rung], studies, study_errors)
     write_markdown(rg, claims)

@@ -108,11 +108,12 @@ class TargetStats:
     calib_loops: int
     calib_ticks: int
     calib_empty_ticks: int
+    restarts: int        # controller restarts (CMD RESTART) the session took
     #: not in the block: QEMU's -icount shift when the ticks are instructions, else None
     icount_shift: int | None = None
 
     MAGIC = 0x53484948
-    VERSION = 1
+    VERSION = 2
 
     @classmethod
     def words(cls) -> int:

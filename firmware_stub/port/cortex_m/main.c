@@ -12,6 +12,10 @@
  *       any other  ──► hil_session_on_frame() in the main loop (HELLO, CONFIG, CMD, SENSE_AUX ...)
  *   hil_port_t.send ──► COBS/CRC frame ──► transmit ring ──► USART1 TXE interrupt
  *   SysTick 1 kHz: HEARTBEAT_CTRL every 100 ms while no cycles flow (docs/protocol.md 6.7)
+ *   CMD RESTART (the bench's controller_reset fault, docs/protocol.md 6.3): the portable code
+ *       restarts as from power-up (hil_session_restart) and says so with a HEARTBEAT_CTRL; the
+ *       port's own state (heartbeat timing, the link's error count) starts over with it, as
+ *       port/linux/main.c does; the link, the rings and the target's own figures stay
  *
  * Priorities: USART1 (1) above SysTick (2) above the control ISR (3) above the main loop. No heap
  * (the link has no _sbrk), no OS, float32 on the FPU (-mfloat-abi=hard, lazy stacking).
@@ -51,6 +55,7 @@ static volatile uint32_t g_ms;         /* SysTick milliseconds */
 static uint32_t g_systick_reload;
 static uint32_t g_counter_kind;
 static uint64_t g_isr_ticks_sum;
+static uint32_t g_rx_errors_base;      /* link errors before the last restart */
 
 void SysTick_Handler(void);
 void ADC_IRQHandler(void);
@@ -168,11 +173,17 @@ static void stack_high_water(void)
     g_hil_target_stats.stack_used_bytes = (uint32_t)((uintptr_t)top - (uintptr_t)w);
 }
 
-static uint32_t link_rx_errors(void)
+static uint32_t link_rx_errors_total(void)
 {
     const volatile hil_usart_stats_t *u = hil_usart_stats();
     return g_deframer.crc_errors + g_deframer.cobs_errors + g_deframer.length_errors +
            g_deframer.overruns + u->overruns + u->rx_ring_overflows;
+}
+
+/** The frames the controller rejected since it (last) started: HEARTBEAT_CTRL's rx_errors. */
+static uint32_t link_rx_errors(void)
+{
+    return link_rx_errors_total() - g_rx_errors_base;
 }
 
 static void publish_stats(void)
@@ -195,6 +206,7 @@ static void publish_stats(void)
     st->deframer_overruns = g_deframer.overruns;
     st->session_cycles = g_session.stats.cycles;
     st->unknown_ids = g_session.stats.unknown_ids;
+    st->restarts = g_session.restarts;
 }
 
 static void nvic_enable(uint32_t irq, uint32_t prio)
@@ -207,7 +219,7 @@ int main(void)
 {
     hil_clock_t clk;
     hil_port_t port;
-    uint32_t last_hb_ms = 0u, last_cycles = 0u;
+    uint32_t last_hb_ms = 0u, last_cycles = 0u, last_restarts = 0u;
     volatile hil_target_stats_t *st = &g_hil_target_stats;
 
     st->magic = HIL_TARGET_STATS_MAGIC;
@@ -247,6 +259,14 @@ int main(void)
             }
         }
         now = g_ms;
+        if (g_session.restarts != last_restarts) {
+            /* a power cycle of the portable code (CMD RESTART; it sent its HEARTBEAT_CTRL): the
+             * port's own state starts over with it, the link stays (port/linux/main.c) */
+            last_restarts = g_session.restarts;
+            last_cycles = g_session.stats.cycles;
+            last_hb_ms = now;
+            g_rx_errors_base = link_rx_errors_total();
+        }
         if (g_session.stats.cycles != last_cycles) {
             last_cycles = g_session.stats.cycles;
             last_hb_ms = now;

@@ -15,7 +15,7 @@
 #include <stdint.h>
 
 #define HIL_TARGET_STATS_MAGIC 0x53484948u /* "HILS" little-endian */
-#define HIL_TARGET_STATS_VERSION 1u
+#define HIL_TARGET_STATS_VERSION 2u
 #define HIL_STACK_PAINT 0xA5A5A5A5u /* every stack word at reset (startup.c) */
 
 /** What counts the ISR's cost (counter_kind). */
@@ -80,6 +80,7 @@ typedef struct {
     uint32_t calib_loops;
     uint32_t calib_ticks;
     uint32_t calib_empty_ticks; /**< two counter reads with nothing between them */
+    uint32_t restarts;          /**< hil_session_t.restarts: CMD RESTART (docs/protocol.md 6.3) */
 } hil_target_stats_t;
 
 #define HIL_TARGET_STATS_WORDS (sizeof(hil_target_stats_t) / 4u)
