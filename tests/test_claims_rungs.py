@@ -13,6 +13,7 @@ def test_a_single_device_runs_one_scenario_at_a_time():
     assert jobs_for("can:pcan:PCAN_USBBUS1@1M", None) == 1
     assert jobs_for("pil-qemu", None) == default_jobs()
     assert jobs_for("stub-slcan", 3) == 3
+    assert jobs_for("sil", 2) == 2          # the firmware in each run's own process
     assert slug("serial:/dev/ttyUSB0@3000000") == "serial_dev_ttyUSB0_3000000"
 
 
@@ -34,3 +35,12 @@ def test_an_unknown_claim_is_an_error_not_a_traceback(tmp_path, capsys):
     assert cli_main(["claims", "--run", "--link", "pil-qemu", "--only", "Z9",
                      "--out", str(tmp_path)]) == 2
     assert "unknown claim(s) Z9" in capsys.readouterr().err
+
+
+def test_a_devices_runs_never_go_to_a_cluster(tmp_path, capsys):
+    """The drive on /dev/ttyUSB0 is on this machine: --scheduler is refused before any run (the
+    stub's, QEMU's and the SIL link's runs start their controller where they run: those may)."""
+    assert cli_main(["claims", "--run", "--link", "serial:/dev/ttyUSB0@3000000", "--only", "G2",
+                     "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)]) == 2
+    assert "the device is on this machine" in " ".join(capsys.readouterr().err.split())
+    assert not (tmp_path / "recordings").exists()
