@@ -7,7 +7,7 @@ STAMP   := $(VENV)/.installed
 BUILD   := build
 SCENARIO ?= bench/scenarios/gong_g2_500rpm.toml
 
-.PHONY: all build native cmake test test-c test-py sanitize demo perf clean fuzz fuzz-ci
+.PHONY: all build native cmake firmware-cm4 test test-c test-py sanitize demo perf clean fuzz fuzz-ci
 
 all: build
 
@@ -36,7 +36,21 @@ $(FOXGLOVE_STAMP): tools/foxglove_check/package-lock.json
 	  echo "npm not found and HIL_REQUIRE_FOXGLOVE=1: install Node.js and npm (apt-get install nodejs npm)"; exit 1; \
 	else echo "npm not found: tests/test_foxglove.py will skip (install Node.js to run it)"; fi
 
-build: $(STAMP) cmake native $(FOXGLOVE_STAMP)
+# The firmware cross-compiled for a Cortex-M4F (STM32F405 as QEMU's netduinoplus2 models it:
+# firmware_stub/port/cortex_m, docs/ports.md), the controller of `--link pil-qemu`. Without the
+# cross compiler it is skipped, saying why (tests/test_pil_qemu.py then skips); with
+# HIL_REQUIRE_CORTEX_M=1 (.ci/run) the build stops here instead.
+CM_BUILD := $(BUILD)/cortex_m
+CM_PORT  := firmware_stub/port/cortex_m
+firmware-cm4:
+	@if command -v arm-none-eabi-gcc >/dev/null 2>&1; then \
+	  cmake -S $(CM_PORT) -B $(CM_BUILD) -DCMAKE_TOOLCHAIN_FILE=$(CURDIR)/$(CM_PORT)/arm-none-eabi.cmake >/dev/null && \
+	  cmake --build $(CM_BUILD) -j2; \
+	elif [ "$$HIL_REQUIRE_CORTEX_M" = "1" ]; then \
+	  echo "arm-none-eabi-gcc not found and HIL_REQUIRE_CORTEX_M=1: apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm"; exit 1; \
+	else echo "arm-none-eabi-gcc not found: the Cortex-M firmware is not built and tests/test_pil_qemu.py will skip (apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)"; fi
+
+build: $(STAMP) cmake native firmware-cm4 $(FOXGLOVE_STAMP)
 
 test-c: cmake
 	ctest --test-dir $(BUILD) --output-on-failure

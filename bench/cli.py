@@ -222,6 +222,23 @@ def _cmd_claims(args: argparse.Namespace) -> int:
     from hil_bench.claims.model import METRIC_DEFINITIONS
     from hil_bench.claims.registry import CLAIMS
 
+    if args.run and args.link != "stub":
+        from hil_bench.papers.rungs import run_rungs
+
+        only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
+        try:
+            rg = run_rungs(args.out, args.link, only=only, jobs=args.jobs, reuse=args.reuse,
+                           scheduler=args.scheduler)
+        except ValueError as exc:
+            Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
+            return 2
+        out = Console()
+        for a, b in rg.pairs():
+            same = b is not None and a.verdict == b.verdict
+            out.print(escape(f"{a.claim:3s} {a.key:24s} stub {a.verdict:17s} {args.link} "
+                             f"{b.verdict if b else 'missing':17s}{'' if same else '  DIFFERS'}"))
+        out.print(f"report: {rg.out_dir / 'rungs.md'}")
+        return 0
     if args.run:
         from hil_bench.papers.report import run_report
 
@@ -357,6 +374,10 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--run", action="store_true",
                    help="run every claim's scenarios (in parallel) and write report.md/.html")
     k.add_argument("--only", default="", help="comma-separated claim ids (default: all 19)")
+    k.add_argument("--link", default="stub",
+                   help="with --run: run the claims' scenarios against this controller too "
+                        "(pil-qemu, serial:..., can:...) and set each verdict beside the host "
+                        "stub's in <out>/rungs.md (one run at a time on a single device)")
     k.add_argument("--out", type=Path, default=Path("reports/claims"),
                    help="report folder (default reports/claims)")
     k.add_argument("--jobs", type=int, default=None,

@@ -95,12 +95,15 @@ class Report:
 
 # -- running --------------------------------------------------------------------------------------
 
-def _run_one(run: Run, out_path: str) -> tuple[bool, str, float, int]:
-    """Worker (own process): one scenario against a fresh stub."""
+def _run_one(run: Run, out_path: str, link: str = "stub") -> tuple[bool, str, float, int]:
+    """Worker (own process): one scenario against a fresh stub (or the controller on ``link``)."""
     from hil_bench.loop.runner import run_scenario
     try:
         scn = scenario_for(run)
-        res = run_scenario(scn, link_spec="stub", out_path=Path(out_path), progress=False)
+        # another controller in lockstep: a link slower than the control rate only slows the
+        # run down, the results are the same (bench run --allow-slow-link)
+        res = run_scenario(scn, link_spec=link, out_path=Path(out_path), progress=False,
+                           allow_slow_link=link != "stub")
         return res.ok, res.error or "", res.wall_s, res.cycles_done
     except Exception as exc:  # noqa: BLE001 - reported in the row, never a crash of the report
         return False, f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}", 0.0, 0
@@ -112,9 +115,10 @@ def default_jobs() -> int:
 
 def execute(runs: dict[str, Run], rec_dir: Path, jobs: int | None,
             console: Console | None = None, reuse: bool = False,
-            scheduler: str | None = None) -> dict[str, RunOutcome]:
-    """Run every scenario on the executor (hil_bench.cluster: a local Dask cluster of ``jobs``
-    workers, or ``scheduler``) with a progress bar; returns outcomes by run id."""
+            scheduler: str | None = None, link: str = "stub") -> dict[str, RunOutcome]:
+    """Run every scenario against the controller on ``link`` on the executor (hil_bench.cluster:
+    a local Dask cluster of ``jobs`` workers, or ``scheduler``) with a progress bar; returns
+    outcomes by run id."""
 
     rec_dir.mkdir(parents=True, exist_ok=True)
     outcomes: dict[str, RunOutcome] = {}
@@ -130,7 +134,7 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int | None,
 
     by_id = {rid: (run, path) for rid, run, path in todo}
     with Executor(scheduler, jobs, progress=True, console=console, label="claims") as ex:
-        args = [(rid, (run, str(path.resolve()))) for rid, run, path in todo]
+        args = [(rid, (run, str(path.resolve()), link)) for rid, run, path in todo]
         for rid, res in ex.map(_run_one, args):
             run, path = by_id[rid]
             if isinstance(res, TaskFailure):    # a dead worker, every retry: the bench's failure
@@ -149,7 +153,7 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int | None,
         first = (o.error.splitlines() or ["no error text"])[0]
         console.print(escape(f"  {rid}: the bench broke the run ({first}): once more"))
         _keep_attempt(o.recording)
-        ok, err, wall, cycles = _run_one(o.run, str(o.recording))
+        ok, err, wall, cycles = _run_one(o.run, str(o.recording), link)
         outcomes[rid] = RunOutcome(o.run, o.recording, ok, err, wall, cycles, retried=first)
     return outcomes
 

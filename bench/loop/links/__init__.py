@@ -20,6 +20,10 @@ spec                                                            meaning
                                                                 opened with python-can's socketcand interface
 ``stub-socketcan[:<iface>][@bitrate][,fd][,data_bitrate=N]``    the stub on a SocketCAN interface (default vcan0;
                                                                 needs kernel CAN), python-can's socketcan
+``pil-qemu[:<elf>]``                                            the firmware cross-compiled for a Cortex-M4F
+                                                                (firmware_stub/port/cortex_m) in QEMU's
+                                                                netduinoplus2 (STM32F405), USART1 on a pty
+                                                                (qemu.py; lockstep)
 ==============================================================  ================================================
 
 Bit rates are integers or take a k/M suffix (``500k``, ``1M``). On interfaces whose bit rate is set
@@ -48,7 +52,9 @@ _RATE = re.compile(r"(\d+(?:\.\d+)?)([kKmM]?)\Z")
 @dataclass
 class OpenedLink:
     link: Link
-    stub: object | None  # StubProcess when the bench started the stub itself
+    #: the controller process the bench started and ends: StubProcess (hil_stub) or QemuProcess
+    #: (pil-qemu); None for a drive
+    stub: object | None
 
     def close(self) -> int | None:
         if self.stub is not None:
@@ -207,6 +213,11 @@ def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
                            capture_path=capture_path)
         return OpenedLink(stub.link, stub)
     rest = tail[1:] if tail.startswith(":") else tail
+    if kind == "pil-qemu" and (not tail or tail.startswith(":")):
+        from .qemu import QemuProcess
+
+        qemu = QemuProcess(elf=Path(rest) if rest else None)
+        return OpenedLink(qemu.link, qemu)
     if kind == "serial":
         from .serial_link import PySerialTransport, SerialLink
 
@@ -219,8 +230,8 @@ def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
 
         return OpenedLink(open_can_link(parse_can_spec(spec), capture_path), None)
     raise LinkError(f"unknown link spec {spec!r}: use 'stub', 'sil', 'serial:<port>[@baud]', "
-                    f"'can:<interface>:<channel>[@bitrate][,fd]', 'stub-slcan', 'stub-socketcand' or "
-                    f"'stub-socketcan[:<iface>]'")
+                    f"'can:<interface>:<channel>[@bitrate][,fd]', 'stub-slcan', 'stub-socketcand', "
+                    f"'stub-socketcan[:<iface>]' or 'pil-qemu[:<elf>]'")
 
 
 __all__ = ["Link", "LinkError", "OpenedLink", "open_link", "parse_can_spec", "parse_stub_can_spec",

@@ -58,6 +58,7 @@ class StubProcess:
         if mode != "serial" and can_spec is None:
             raise LinkError(f"stub link mode {mode!r} needs a CAN spec")
         self.executable = executable or stub_path()
+        self.controller = f"hil_stub {self.executable}"   # the recording's "controller"
         self.mode = mode
         self.stderr_tail: collections.deque[str] = collections.deque(maxlen=20)
         self._listening = threading.Event()   # the stub said it has its port open

@@ -1,0 +1,132 @@
+#include "usart.h"
+
+#include "stm32f4_regs.h"
+
+typedef char check_rx_pow2[(HIL_USART_RX_RING & (HIL_USART_RX_RING - 1u)) == 0u ? 1 : -1];
+typedef char check_tx_pow2[(HIL_USART_TX_RING & (HIL_USART_TX_RING - 1u)) == 0u ? 1 : -1];
+
+/* one octet per element, the type of protocol/c's hil_octet_t */
+static volatile uint_least8_t g_rx[HIL_USART_RX_RING];
+static volatile uint32_t g_rx_head, g_rx_tail; /* head: ISR writes; tail: main loop */
+static volatile uint_least8_t g_tx[HIL_USART_TX_RING];
+static volatile uint32_t g_tx_head, g_tx_tail; /* head: writers (PRIMASK held); tail: ISR */
+static volatile hil_usart_stats_t g_stats;
+static volatile int g_hold;
+
+uint32_t hil_usart_init(uint32_t pclk2_hz, uint32_t baud)
+{
+    /* oversampling by 16: BRR = fck / baud, rounded (mantissa.fraction in 12.4) */
+    const uint32_t brr = (pclk2_hz + baud / 2u) / baud;
+    RCC_AHB1ENR |= RCC_AHB1ENR_GPIOAEN;
+    RCC_APB2ENR |= RCC_APB2ENR_USART1EN;
+    /* PA9, PA10: alternate function 7, high speed, pull-up on RX */
+    GPIOA_MODER = (GPIOA_MODER & ~(0xFu << 18)) | (0xAu << 18);
+    GPIOA_OSPEEDR |= (0xFu << 18);
+    GPIOA_PUPDR = (GPIOA_PUPDR & ~(0xFu << 18)) | (0x4u << 18);
+    GPIOA_AFRH = (GPIOA_AFRH & ~(0xFFu << 4)) | (0x77u << 4);
+    USART1_CR1 = 0u;
+    USART1_BRR = brr;
+    USART1_CR2 = 0u; /* 1 stop bit */
+    USART1_CR3 = 0u; /* no flow control */
+    USART1_CR1 = USART_CR1_UE | USART_CR1_TE | USART_CR1_RE | USART_CR1_RXNEIE;
+    return brr;
+}
+
+int hil_usart_read(uint_least8_t *b)
+{
+    const uint32_t tail = g_rx_tail;
+    if (tail == g_rx_head) {
+        return 0;
+    }
+    *b = g_rx[tail & (HIL_USART_RX_RING - 1u)];
+    g_rx_tail = tail + 1u;
+    return 1;
+}
+
+int hil_usart_rx_empty(void)
+{
+    return g_rx_tail == g_rx_head;
+}
+
+/* Write while the data register is empty. On silicon that is one octet (TXE clears until the
+ * shift register takes it) and the TXE interrupt sends the rest. QEMU 7.2's model raises its
+ * interrupt for RXNE only (observed: CR1 = UE|TE|RE|RXNEIE|TXEIE with SR = TXE|TC pends nothing)
+ * and keeps TXE set, so there the writer drains the ring itself, synchronously. Called with
+ * PRIMASK held or from the USART interrupt. */
+static void tx_pump(void)
+{
+    while ((USART1_SR & USART_SR_TXE) && g_tx_tail != g_tx_head) {
+        USART1_DR = g_tx[g_tx_tail & (HIL_USART_TX_RING - 1u)];
+        g_tx_tail = g_tx_tail + 1u;
+        g_stats.tx_bytes++;
+    }
+}
+
+int hil_usart_write(const uint_least8_t *octets, size_t n)
+{
+    size_t i;
+    const uint32_t m = hil_primask_save();
+    uint32_t head = g_tx_head;
+    if ((size_t)(HIL_USART_TX_RING - (head - g_tx_tail)) < n) {
+        g_stats.tx_ring_overflows++;
+        hil_primask_restore(m);
+        return -1;
+    }
+    for (i = 0u; i < n; ++i) {
+        g_tx[head & (HIL_USART_TX_RING - 1u)] = octets[i];
+        head++;
+    }
+    g_tx_head = head;
+    if (!g_hold) {
+        tx_pump();
+        USART1_CR1 |= USART_CR1_TXEIE; /* the TXE interrupt carries on with the rest */
+    }
+    hil_primask_restore(m);
+    return 0;
+}
+
+void hil_usart_hold(int hold)
+{
+    const uint32_t m = hil_primask_save();
+    g_hold = hold;
+    if (!hold && g_tx_tail != g_tx_head) {
+        tx_pump();
+        USART1_CR1 |= USART_CR1_TXEIE;
+    }
+    hil_primask_restore(m);
+}
+
+const volatile hil_usart_stats_t *hil_usart_stats(void)
+{
+    return &g_stats;
+}
+
+void USART1_IRQHandler(void);
+void USART1_IRQHandler(void)
+{
+    const uint32_t sr = USART1_SR;
+    /* receive: reading SR then DR clears RXNE and ORE. One octet per interrupt (the F4 has no
+     * FIFO; a next octet interrupts again): every register read costs QEMU a wake-up of its I/O
+     * thread (stm32f2xx_usart.c: a read of SR or DR calls qemu_chr_fe_accept_input) */
+    if (sr & (USART_SR_RXNE | USART_SR_ORE)) {
+        const uint32_t b = USART1_DR & 0xFFu;
+        const uint32_t head = g_rx_head;
+        if (sr & USART_SR_ORE) {
+            g_stats.overruns++;
+        }
+        if (head - g_rx_tail < HIL_USART_RX_RING) {
+            g_rx[head & (HIL_USART_RX_RING - 1u)] = (uint_least8_t)b;
+            g_rx_head = head + 1u;
+            g_stats.rx_bytes++;
+        } else {
+            g_stats.rx_ring_overflows++;
+        }
+    }
+    /* transmit: one octet per TXE (no FIFO on the F4) */
+    if (USART1_CR1 & USART_CR1_TXEIE) {
+        tx_pump();
+        if (g_tx_tail == g_tx_head) {
+            USART1_CR1 &= ~USART_CR1_TXEIE;
+        }
+    }
+}
