@@ -21,12 +21,26 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     out = Console()
     err = Console(stderr=True)
+    live = None
+    if args.live is not None:
+        from hil_bench.record.live_view import LiveOptions
+
+        try:
+            live = LiveOptions(port=args.live, rate_hz=args.live_rate)
+        except ValueError as exc:
+            err.print(f"[red]error:[/red] {escape(str(exc))}")
+            return 2
+
+    def said_live(port: int) -> None:
+        err.print(f"live view: Foxglove WebSocket on ws://127.0.0.1:{port} (Foxglove or "
+                  f"Lichtblick: Open connection, Foxglove WebSocket; docs/foxglove.md)")
+
     try:
         scn = load_scenario(args.scenario)
         result = run_scenario(scn, link_spec=args.link, out_path=args.out,
                               progress=not args.no_progress, allow_slow_link=args.allow_slow_link,
                               force=args.force, realtime=True if args.realtime else None,
-                              cpu=args.cpu)
+                              cpu=args.cpu, live=live, pace=args.pace, on_live=said_live)
     except (ScenarioError, LinkError, RunAborted, RecorderError) as exc:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
@@ -270,6 +284,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pace the plant by the wall clock (as [scenario] mode = \"realtime\")")
     r.add_argument("--cpu", type=int, default=None,
                    help="real time: pin the engine thread to this CPU")
+    r.add_argument("--live", type=int, nargs="?", const=8765, default=None, metavar="PORT",
+                   help="serve the recording's channels live over the Foxglove WebSocket "
+                        "protocol on 127.0.0.1:PORT (default 8765; 0: any free port) while the "
+                        "run goes on (docs/foxglove.md)")
+    r.add_argument("--live-rate", type=float, default=50.0, metavar="HZ",
+                   help="--live: messages per second per per-cycle channel sent to a viewer "
+                        "(default 50; /events, /faults, /link/stats go out whole)")
+    r.add_argument("--pace", type=float, default=None, metavar="FACTOR",
+                   help="lockstep: wall seconds per second of plant time (1.0: real time, to "
+                        "watch with --live; 2: half speed); default: as fast as the link goes")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--allow-slow-link", action="store_true",
                    help="lockstep only: run even if the link cannot carry the control rate in "

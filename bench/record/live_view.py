@@ -1,0 +1,165 @@
+"""The live view: a Foxglove WebSocket server in the recorder process (docs/foxglove.md).
+
+``bench run --live [PORT]`` serves every channel of the recording, with the schemas the
+recording has (protobuf, :mod:`.channels`), to Foxglove or Lichtblick while the run goes on. It
+is fed from the recorder's side of the shared-memory ring: each batch the recorder drains for
+the MCAP file is offered to :meth:`LiveView.feed`, which picks in C (``live_pick``, live.h) the
+records a viewer asked for and hands them to foxglove-sdk's server. So
+
+* the engine never waits for a viewer: it writes into the ring as ever, and the recorder never
+  blocks on a socket (foxglove-sdk queues each client's messages in Rust, at most
+  ``backlog`` of them, and drops the oldest of a client that does not read);
+* the per-cycle channels reach a viewer decimated to ``rate_hz`` per channel (the newest record
+  of a batch, at most once per 1/rate_hz of wall time): a 10 kHz run does not flood a browser.
+  /events, /faults and /link/stats go out whole (a few rows per second);
+* with no client subscribed the live view costs the recorder one attribute test per batch.
+
+foxglove-sdk starts Rust threads, so the server is started in the recorder process, after the
+fork, never in the bench's.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+
+from hil_bench.plant_rt._plant_c import ffi, lib
+
+from . import channels as chans
+
+DEFAULT_PORT = 8765
+DEFAULT_RATE_HZ = 50.0
+DEFAULT_BACKLOG = 256
+#: topics every row of which goes to the viewer (rare rows that mean something one by one)
+EVERY_ROW_TOPICS = (chans.EVENTS, chans.FAULTS, chans.LINK_STATS)
+#: picks per batch at most (a batch beyond it: the picks cut are counted, never an error)
+PICKS_PER_BATCH = 4096
+
+
+@dataclass(frozen=True)
+class LiveOptions:
+    """``bench run --live``: where the server listens and how much it sends."""
+
+    port: int = DEFAULT_PORT          # 0: any free port (the recorder says which)
+    host: str = "127.0.0.1"
+    rate_hz: float = DEFAULT_RATE_HZ  # per channel, for the per-cycle channels
+    backlog: int = DEFAULT_BACKLOG    # messages queued per client before the oldest is dropped
+
+    def __post_init__(self) -> None:
+        if not 0 <= int(self.port) <= 65535:
+            raise ValueError(f"--live {self.port}: a TCP port is 0..65535")
+        if not self.rate_hz > 0:
+            raise ValueError(f"--live-rate {self.rate_hz:g}: the viewer rate is > 0 Hz")
+
+
+class LiveViewError(RuntimeError):
+    """The live view could not start (the port is taken, foxglove-sdk missing)."""
+
+
+class _Listener:
+    """Counts each channel's subscribers (foxglove-sdk calls it on its own threads)."""
+
+    def __init__(self, view: "LiveView") -> None:
+        self.view = view
+
+    def on_subscribe(self, client, channel) -> None:
+        self.view._subscribed(channel.topic, +1)
+
+    def on_unsubscribe(self, client, channel) -> None:
+        self.view._subscribed(channel.topic, -1)
+
+
+class LiveView:
+    """The server and its channels, one per ring channel (raw serial captures: none)."""
+
+    def __init__(self, opts: LiveOptions, name: str) -> None:
+        try:
+            import foxglove
+            from foxglove.websocket import Capability  # noqa: F401 - present in the sdk we need
+        except ImportError as exc:
+            raise LiveViewError(f"live view: foxglove-sdk is not installed ({exc}); "
+                                f"`pip install foxglove-sdk`") from None
+        self._fox = foxglove
+        self.opts = opts
+        self._lock = threading.Lock()
+        self._subs: dict[str, int] = {}
+        self.context = foxglove.Context()   # this server's channels only (no global sink)
+        try:
+            self.server = foxglove.start_server(
+                name=name, host=opts.host, port=int(opts.port), context=self.context,
+                server_listener=_Listener(self), supported_encodings=[chans.MESSAGE_ENCODING],
+                message_backlog_size=int(opts.backlog))
+        except Exception as exc:  # noqa: BLE001 - the sdk's error type is not public
+            raise LiveViewError(f"live view: cannot listen on {opts.host}:{opts.port}: "
+                                f"{exc}") from None
+        self.port = int(self.server.port)
+        self.channels: list = []   # ring channel -> foxglove.Channel | None
+        self.every: list[bool] = []
+        self._modes = ffi.new("int32_t[]", lib.LIVE_PICK_MAX_CHANNELS)
+        self._due_ns: list[int] = []
+        self._period_ns = int(round(1e9 / opts.rate_hz))
+        self._picks = ffi.new("live_pick_t[]", PICKS_PER_BATCH)
+        self._cut = ffi.new("uint64_t *")
+        self._any = False
+        #: what the viewer was sent, and the records it was not (picks beyond a batch's cap)
+        self.forwarded = 0
+
+    @property
+    def cut(self) -> int:
+        return int(self._cut[0])
+
+    def _subscribed(self, topic: str, delta: int) -> None:
+        with self._lock:
+            self._subs[topic] = max(0, self._subs.get(topic, 0) + delta)
+            self._any = any(self._subs.values())
+
+    def add_channel(self, topic: str, schema_name: str, schema_data: bytes) -> None:
+        """The next ring channel (in the recorder's order), advertised to every client."""
+        fox = self._fox
+        schema = fox.Schema(name=schema_name, encoding=chans.MESSAGE_ENCODING, data=schema_data)
+        self.channels.append(fox.Channel(topic, schema=schema,
+                                         message_encoding=chans.MESSAGE_ENCODING,
+                                         context=self.context))
+        self.every.append(topic in EVERY_ROW_TOPICS)
+        self._due_ns.append(0)
+
+    def add_raw(self) -> None:
+        """A ring channel the viewer never sees (a serial byte capture)."""
+        self.channels.append(None)
+        self.every.append(False)
+        self._due_ns.append(0)
+
+    def feed(self, cbuf, buf, n: int, start_ns: int) -> None:
+        """Forward what the clients subscribed to out of one drained batch (``cbuf``/``buf``:
+        the recorder's read buffer, ``n`` octets of ring records)."""
+        if not self._any:
+            return
+        now = time.monotonic_ns()
+        modes = self._modes
+        n_ch = min(len(self.channels), lib.LIVE_PICK_MAX_CHANNELS)
+        with self._lock:
+            subs = dict(self._subs)
+        for c in range(n_ch):
+            ch = self.channels[c]
+            if ch is None or not subs.get(ch.topic):
+                modes[c] = lib.LIVE_SKIP
+            elif self.every[c]:
+                modes[c] = lib.LIVE_EVERY
+            else:
+                modes[c] = lib.LIVE_LAST if now >= self._due_ns[c] else lib.LIVE_SKIP
+        picked = lib.live_pick(cbuf, n, modes, n_ch, self._picks, PICKS_PER_BATCH, self._cut)
+        view = memoryview(buf)
+        for i in range(picked):
+            p = self._picks[i]
+            c = p.channel
+            self.channels[c].log(bytes(view[p.offset:p.offset + p.length]),
+                                 log_time=start_ns + p.t_ns)
+            if not self.every[c]:
+                self._due_ns[c] = now + self._period_ns
+        self.forwarded += picked
+
+    def stop(self) -> None:
+        try:
+            self.server.stop()
+        except Exception:  # noqa: BLE001 - stopping a server that failed is not news
+            pass
