@@ -94,6 +94,7 @@ class LiveView:
                                 f"{exc}") from None
         self.port = int(self.server.port)
         self.channels: list = []   # ring channel -> foxglove.Channel | None
+        self.topics: list[str | None] = []
         self.every: list[bool] = []
         self._modes = ffi.new("int32_t[]", lib.LIVE_PICK_MAX_CHANNELS)
         self._due_ns: list[int] = []
@@ -120,12 +121,14 @@ class LiveView:
         self.channels.append(fox.Channel(topic, schema=schema,
                                          message_encoding=chans.MESSAGE_ENCODING,
                                          context=self.context))
+        self.topics.append(topic)
         self.every.append(topic in EVERY_ROW_TOPICS)
         self._due_ns.append(0)
 
     def add_raw(self) -> None:
         """A ring channel the viewer never sees (a serial byte capture)."""
         self.channels.append(None)
+        self.topics.append(None)
         self.every.append(False)
         self._due_ns.append(0)
 
@@ -140,8 +143,8 @@ class LiveView:
         with self._lock:
             subs = dict(self._subs)
         for c in range(n_ch):
-            ch = self.channels[c]
-            if ch is None or not subs.get(ch.topic):
+            topic = self.topics[c]
+            if topic is None or not subs.get(topic):
                 modes[c] = lib.LIVE_SKIP
             elif self.every[c]:
                 modes[c] = lib.LIVE_EVERY

@@ -412,8 +412,9 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
             os.sched_setaffinity(0, cpus)   # real time: the engine's CPU, below the engine
         except OSError:
             pass
-    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0":
-        # throughput, not latency: every other task of the machine comes first
+    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0" and live is None:
+        # throughput, not latency: every other task of the machine comes first (not with a
+        # live view: a viewer wants the rows while they are new, on a loaded machine too)
         try:
             os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
             os.nice(19)
@@ -433,6 +434,9 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
             live_view = LiveView(live, name=f"hil-bench {target.name}")
         except LiveViewError as exc:
             conn.send(("error", str(exc)))
+            return
+        except Exception as exc:  # noqa: BLE001 - a bug here must name itself, not kill the run silently
+            conn.send(("error", f"live view: {type(exc).__name__}: {exc}"))
             return
     buf = bytearray(READ_BATCH_BYTES)
     cbuf = ffi.from_buffer(buf)

@@ -1,0 +1,229 @@
+"""bench run --live: the Foxglove WebSocket protocol, spoken by a client of our own, during a run.
+
+The client is `websockets` speaking the Foxglove WebSocket protocol by hand (subprotocol
+``foxglove.sdk.v1``, which foxglove-sdk 0.30 serves; ``foxglove.websocket.v1`` offered as well):
+JSON ``serverInfo`` / ``advertise`` / ``subscribe``, binary ``messageData`` (opcode 1, u32
+subscription id, u64 log time, payload). It checks what a viewer relies on against the
+recording the same run wrote: the advertised channels and their schemas are the recording's,
+and a /plant/state message decoded with the *advertised* schema is the recording's row of the
+same time.
+"""
+from __future__ import annotations
+
+import base64
+import fcntl
+import json
+import struct
+import termios
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("foxglove")
+ws_sync = pytest.importorskip("websockets.sync.client")
+
+from mcap.reader import make_reader  # noqa: E402
+
+from hil_bench.loop.runner import Runner  # noqa: E402
+from hil_bench.record.live_view import LiveOptions  # noqa: E402
+from hil_bench.scenario import load_scenario  # noqa: E402
+
+SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+OP_MESSAGE_DATA = 1
+
+
+def _connect(port: int, **kw):
+    deadline = time.monotonic() + 20.0
+    while True:
+        try:
+            return ws_sync.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS,
+                                   open_timeout=5, **kw)
+        except OSError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.02)
+
+
+class Viewer(threading.Thread):
+    """Connects once the live view listens, subscribes to ``topics`` as they are advertised,
+    reads until the server closes (the run's end), or, ``stall``, stops reading once
+    subscribed and only holds the connection open."""
+
+    def __init__(self, port: int, topics: tuple[str, ...] | None, stall: bool = False):
+        super().__init__(daemon=True)
+        self.port, self.topics, self.stall = port, topics, stall
+        self.subprotocol = None
+        self.advertised: dict[int, dict] = {}
+        self.subscribed: dict[int, int] = {}    # subscription id -> channel id
+        self.messages: list[tuple[int, int, bytes]] = []   # (channel id, log time, payload)
+        self.error: BaseException | None = None
+        self.unread_octets = 0
+        self.done = threading.Event()
+        self.release = threading.Event()
+
+    def _subscribe(self, ws, channels) -> None:
+        subs = []
+        for c in channels:
+            if self.topics is None or c["topic"] in self.topics:
+                sid = len(self.subscribed) + 1
+                self.subscribed[sid] = c["id"]
+                subs.append({"id": sid, "channelId": c["id"]})
+        if subs:
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+
+    def run(self) -> None:
+        try:
+            ws = _connect(self.port, max_queue=4 if self.stall else 4096)
+            with ws:
+                self.subprotocol = ws.subprotocol
+                while True:
+                    try:
+                        m = ws.recv(timeout=30)
+                    except Exception:   # noqa: BLE001 - closed by the server: the run's end
+                        break
+                    if isinstance(m, str):
+                        j = json.loads(m)
+                        if j["op"] == "advertise":
+                            for c in j["channels"]:
+                                self.advertised[c["id"]] = c
+                            self._subscribe(ws, j["channels"])
+                        elif j["op"] == "unadvertise":
+                            pass
+                    elif m[0] == OP_MESSAGE_DATA:
+                        sid, t_ns = struct.unpack_from("<IQ", m, 1)
+                        self.messages.append((self.subscribed[sid], t_ns, bytes(m[13:])))
+                        if self.stall and len(self.messages) >= 1:
+                            self._hold(ws)
+                            break
+        except BaseException as exc:  # noqa: BLE001 - the test reports it
+            self.error = exc
+        finally:
+            self.done.set()
+
+    def _hold(self, ws) -> None:
+        """Read nothing more: the server's data for us piles up in the kernel, then in its
+        per-client queue. Measure what lies unread in our socket until the test lets go."""
+        sock = ws.socket
+        while not self.release.wait(0.05):
+            buf = bytearray(4)
+            fcntl.ioctl(sock.fileno(), termios.FIONREAD, buf)
+            self.unread_octets = max(self.unread_octets, struct.unpack("i", buf)[0])
+
+
+def _recording(path: Path):
+    """The recording's channels (topic -> (schema name, encoding, schema data)) and its
+    messages by (topic, log time)."""
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        chans = {c.topic: (summary.schemas[c.schema_id].name, summary.schemas[c.schema_id].encoding,
+                           summary.schemas[c.schema_id].data, c.message_encoding)
+                 for c in summary.channels.values()}
+        rows = {}
+        for _schema, channel, message in reader.iter_messages():
+            rows[(channel.topic, message.log_time)] = message.data
+    return chans, rows
+
+
+def _run(tmp_path: Path, *, live: LiveOptions, pace: float | None, make_viewer, **kw):
+    scn = load_scenario("gong_g2_500rpm")
+    out = tmp_path / "live.mcap"
+    runner = Runner(scn, "stub", out, False, live=live, pace=pace, **kw)
+    viewers = []
+
+    def on_live(port: int) -> None:
+        v = make_viewer(port)
+        v.start()
+        viewers.append(v)
+
+    runner.on_live = on_live
+    result = runner.run()
+    return result, viewers
+
+
+def test_a_viewer_sees_the_recordings_channels_and_decodes_plant_state(tmp_path):
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    result, viewers = _run(tmp_path, live=LiveOptions(port=0), pace=1.0,
+                           make_viewer=lambda port: Viewer(port, ("/plant/state",)))
+    assert result.ok, result.error
+    assert result.cycles_done == result.cycles_planned
+    (viewer,) = viewers
+    assert viewer.done.wait(30), "the server did not close the connection at the run's end"
+    assert viewer.error is None, repr(viewer.error)
+    assert viewer.subprotocol in SUBPROTOCOLS
+
+    chans, rows = _recording(result.recording)
+    advertised = {c["topic"]: c for c in viewer.advertised.values()}
+    assert set(advertised) == set(chans)
+    for topic, c in advertised.items():
+        name, encoding, data, msg_encoding = chans[topic]
+        assert (c["schemaName"], c["schemaEncoding"], c["encoding"]) == (name, encoding, msg_encoding)
+        assert base64.b64decode(c["schema"]) == data, topic
+
+    # decode with what the viewer was told, nothing of ours
+    state = advertised["/plant/state"]
+    fds = descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(state["schema"]))
+    pool = descriptor_pool.DescriptorPool()
+    for fd in fds.file:
+        pool.Add(fd)
+    cls = message_factory.GetMessageClass(pool.FindMessageTypeByName(state["schemaName"]))
+    got = [(t, payload) for cid, t, payload in viewer.messages if cid == state["id"]]
+    # 1.5 s paced to real time, 50 Hz: about 75 (fewer on a loaded machine, the first ones
+    # before the viewer subscribed)
+    assert len(got) >= 10, len(got)
+    assert len(got) <= result.wall_s * 50 + 5, f"{len(got)}: the viewer rate is not kept"
+    times = [t for t, _ in got]
+    assert times == sorted(times)
+    for t, payload in got:
+        assert rows[("/plant/state", t)] == payload   # the recording's row of that time
+        msg = cls.FromString(payload)
+        assert msg.ListFields(), "decoded to nothing"
+    last = cls.FromString(got[-1][1])
+    fields = {f.name: v for f, v in last.ListFields()}
+    speed = next(v for k, v in fields.items() if "speed" in k or "omega" in k)
+    assert speed > 10.0, fields   # the motor runs toward 500 rpm by the end
+
+
+def test_a_viewer_that_stops_reading_does_not_hold_the_run(tmp_path):
+    """A client subscribed to every channel, sent every batch's rows (--live-rate very high),
+    that reads nothing: its socket fills, foxglove-sdk drops its oldest messages, and the run
+    and its recording finish whole (a live view that waited on the socket would stall the
+    recorder, then the engine, and the close would time out)."""
+    result, viewers = _run(tmp_path, live=LiveOptions(port=0, rate_hz=1e6, backlog=16),
+                           pace=None, make_viewer=lambda port: Viewer(port, None, stall=True),
+                           ring_bytes=4 * 1024 * 1024)
+    (viewer,) = viewers
+    try:
+        assert result.ok, result.error
+        assert result.cycles_done == result.cycles_planned
+        assert viewer.error is None, repr(viewer.error)
+        assert viewer.messages, "the viewer never got a message: it did not stall anything"
+        assert viewer.unread_octets > 64 * 1024, viewer.unread_octets
+    finally:
+        viewer.release.set()
+        viewer.done.wait(10)
+    _chans, rows = _recording(result.recording)
+    state_rows = sum(1 for topic, _t in rows if topic == "/plant/state")
+    every = load_scenario("gong_g2_500rpm").recording.decimate
+    assert state_rows >= result.cycles_done // every, (state_rows, result.cycles_done)
+
+
+def test_a_taken_port_is_a_clear_error(tmp_path):
+    import socket
+
+    from hil_bench.record.recorder import ProcessRecorder, RecorderError
+
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    s.listen()
+    port = s.getsockname()[1]
+    try:
+        with pytest.raises(RecorderError, match=rf"live view: cannot listen on 127.0.0.1:{port}"):
+            ProcessRecorder(tmp_path / "x.mcap", live=LiveOptions(port=port))
+        assert not (tmp_path / "x.mcap").exists()
+        assert not list(tmp_path.iterdir()), "a refused live view leaves no file"
+    finally:
+        s.close()
