@@ -127,6 +127,37 @@ def _cmd_recover(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_layout(args: argparse.Namespace) -> int:
+    import json
+
+    from hil_bench.record.layout import make_layout
+    from hil_bench.scenario import ScenarioError, load_scenario
+
+    err = Console(stderr=True)
+    try:
+        scn = load_scenario(args.scenario)
+    except ScenarioError as exc:
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
+        return 2
+    layout = make_layout(tuple(scn.reference_estimators), telemetry_emf=bool(scn.telemetry_emf),
+                         faults=bool(scn.faults) or scn.post_trip_s > 0)
+    text = json.dumps(layout, indent=2) + "\n"
+    if args.out is None:
+        print(text, end="")
+        return 0
+    try:
+        with open(args.out, "w" if args.force else "x") as f:
+            f.write(text)
+    except FileExistsError:
+        err.print(f"[red]error:[/red] {escape(str(args.out))} exists; --force replaces it")
+        return 2
+    except OSError as exc:
+        err.print(f"[red]error:[/red] cannot write {escape(str(args.out))}: {exc.strerror or exc}")
+        return 2
+    print(f"layout for {scn.name}: {args.out} (Foxglove or Lichtblick: Layouts, Import from file)")
+    return 0
+
+
 def _cmd_conformance(args: argparse.Namespace) -> int:
     from hil_bench.conformance import main as conformance_main
 
@@ -301,6 +332,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--strict", action="store_true",
                    help="exit 1 if any paper claim does not reproduce")
     r.set_defaults(func=_cmd_run)
+
+    lay = sub.add_parser("layout", help="write a Foxglove / Lichtblick layout for a scenario's "
+                                        "recording or live view")
+    lay.add_argument("scenario", help="scenario file or bundled scenario name")
+    lay.add_argument("-o", "--out", type=Path, default=None,
+                     help="layout file (.json); default: print it")
+    lay.add_argument("--force", action="store_true", help="replace an existing --out file")
+    lay.set_defaults(func=_cmd_layout)
 
     c = sub.add_parser("check", help="recompute metrics and paper claims from a recording")
     c.add_argument("recording", type=Path)
