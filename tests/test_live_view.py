@@ -21,14 +21,12 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("foxglove")
-ws_sync = pytest.importorskip("websockets.sync.client")
+import websockets.sync.client as ws_sync   # a test dependency (pyproject [test]): never skipped
+from mcap.reader import make_reader
 
-from mcap.reader import make_reader  # noqa: E402
-
-from hil_bench.loop.runner import Runner  # noqa: E402
-from hil_bench.record.live_view import LiveOptions  # noqa: E402
-from hil_bench.scenario import load_scenario  # noqa: E402
+from hil_bench.loop.runner import Runner
+from hil_bench.record.live_view import LiveOptions
+from hil_bench.scenario import load_scenario
 
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
 OP_MESSAGE_DATA = 1
