@@ -262,6 +262,10 @@ class Runner:
         :class:`hil_bench.record.live_view.LiveOptions` (``bench run --live``: the recorder
         serves the channels to Foxglove). ``pace``: lockstep, wall seconds per second of plant
         time (1.0: as fast as real time, to watch; None: as fast as the link goes)."""
+        if live is not None and pace is not None:
+            import dataclasses
+
+            live = dataclasses.replace(live, background=False)   # a run paced for watching
         self.live = live
         self.live_port: int | None = None
         #: called with the live view's port once it listens (the CLI prints the URL)

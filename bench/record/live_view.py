@@ -44,6 +44,10 @@ class LiveOptions:
     host: str = "127.0.0.1"
     rate_hz: float = DEFAULT_RATE_HZ  # per channel, for the per-cycle channels
     backlog: int = DEFAULT_BACKLOG    # messages queued per client before the oldest is dropped
+    #: the recorder stays below every other task (SCHED_BATCH, nice 19) as without a viewer; a
+    #: run paced for watching (--pace) sets it False: the rows reach the viewer while new on a
+    #: loaded machine too
+    background: bool = True
 
     def __post_init__(self) -> None:
         if not 0 <= int(self.port) <= 65535:
@@ -96,8 +100,11 @@ class LiveView:
         self.channels: list = []   # ring channel -> foxglove.Channel | None
         self.topics: list[str | None] = []
         self.every: list[bool] = []
-        self._modes = ffi.new("int32_t[]", lib.LIVE_PICK_MAX_CHANNELS)
-        self._due_ns: list[int] = []
+        self._modes = ffi.new("int32_t[]", lib.LIVE_PICK_MAX_CHANNELS)   # all LIVE_SKIP
+        self._due_ns = 0
+        self._dirty = False
+        self._last_channels: list[int] = []
+        self._any_every = False
         self._period_ns = int(round(1e9 / opts.rate_hz))
         self._picks = ffi.new("live_pick_t[]", PICKS_PER_BATCH)
         self._cut = ffi.new("uint64_t *")
@@ -113,6 +120,25 @@ class LiveView:
         with self._lock:
             self._subs[topic] = max(0, self._subs.get(topic, 0) + delta)
             self._any = any(self._subs.values())
+            self._dirty = True
+
+    def _set_modes(self) -> None:
+        """The pick modes of the subscribed channels (after a subscription changed)."""
+        with self._lock:
+            subs = dict(self._subs)
+            self._dirty = False
+        self._last_channels = []
+        self._any_every = False
+        for c in range(min(len(self.topics), lib.LIVE_PICK_MAX_CHANNELS)):
+            topic = self.topics[c]
+            if topic is None or not subs.get(topic):
+                self._modes[c] = lib.LIVE_SKIP
+            elif self.every[c]:
+                self._modes[c] = lib.LIVE_EVERY
+                self._any_every = True
+            else:
+                self._last_channels.append(c)
+                self._modes[c] = lib.LIVE_SKIP   # LIVE_LAST only in a batch where they are due
 
     def add_channel(self, topic: str, schema_name: str, schema_data: bytes) -> None:
         """The next ring channel (in the recorder's order), advertised to every client."""
@@ -123,42 +149,41 @@ class LiveView:
                                          context=self.context))
         self.topics.append(topic)
         self.every.append(topic in EVERY_ROW_TOPICS)
-        self._due_ns.append(0)
+        self._dirty = True
 
     def add_raw(self) -> None:
         """A ring channel the viewer never sees (a serial byte capture)."""
         self.channels.append(None)
         self.topics.append(None)
         self.every.append(False)
-        self._due_ns.append(0)
 
     def feed(self, cbuf, buf, n: int, start_ns: int) -> None:
         """Forward what the clients subscribed to out of one drained batch (``cbuf``/``buf``:
-        the recorder's read buffer, ``n`` octets of ring records)."""
+        the recorder's read buffer, ``n`` octets of ring records). Most batches cost a clock
+        read: the per-cycle channels are picked only once per 1/rate_hz, all at once."""
         if not self._any:
             return
+        if self._dirty:
+            self._set_modes()
         now = time.monotonic_ns()
+        due = now >= self._due_ns and bool(self._last_channels)
+        if not (due or self._any_every):
+            return
         modes = self._modes
-        n_ch = min(len(self.channels), lib.LIVE_PICK_MAX_CHANNELS)
-        with self._lock:
-            subs = dict(self._subs)
-        for c in range(n_ch):
-            topic = self.topics[c]
-            if topic is None or not subs.get(topic):
+        if due:
+            for c in self._last_channels:
+                modes[c] = lib.LIVE_LAST
+        picked = lib.live_pick(cbuf, n, modes, len(self.topics), self._picks, PICKS_PER_BATCH,
+                               self._cut)
+        if due:
+            for c in self._last_channels:
                 modes[c] = lib.LIVE_SKIP
-            elif self.every[c]:
-                modes[c] = lib.LIVE_EVERY
-            else:
-                modes[c] = lib.LIVE_LAST if now >= self._due_ns[c] else lib.LIVE_SKIP
-        picked = lib.live_pick(cbuf, n, modes, n_ch, self._picks, PICKS_PER_BATCH, self._cut)
+            self._due_ns = now + self._period_ns
         view = memoryview(buf)
         for i in range(picked):
             p = self._picks[i]
-            c = p.channel
-            self.channels[c].log(bytes(view[p.offset:p.offset + p.length]),
-                                 log_time=start_ns + p.t_ns)
-            if not self.every[c]:
-                self._due_ns[c] = now + self._period_ns
+            self.channels[p.channel].log(bytes(view[p.offset:p.offset + p.length]),
+                                         log_time=start_ns + p.t_ns)
         self.forwarded += picked
 
     def stop(self) -> None:

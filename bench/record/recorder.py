@@ -412,7 +412,7 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
             os.sched_setaffinity(0, cpus)   # real time: the engine's CPU, below the engine
         except OSError:
             pass
-    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0" and live is None:
+    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0" and (live is None or live.background):
         # throughput, not latency: every other task of the machine comes first (not with a
         # live view: a viewer wants the rows while they are new, on a loaded machine too)
         try:
