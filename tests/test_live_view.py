@@ -148,6 +148,8 @@ def test_a_viewer_sees_the_recordings_channels_and_decodes_plant_state(tmp_path)
                            make_viewer=lambda port: Viewer(port, ("/plant/state",)))
     assert result.ok, result.error
     assert result.cycles_done == result.cycles_planned
+    # --pace 1: cycle k starts k Ts after the first (absolute deadlines): never faster
+    assert result.engine_s >= 0.99 * (result.cycles_done - 1) * result.ts_s, result.engine_s
     (viewer,) = viewers
     assert viewer.done.wait(30), "the server did not close the connection at the run's end"
     assert viewer.error is None, repr(viewer.error)
