@@ -331,6 +331,11 @@ int engine_attach_inbox(engine_t *e, void *mem, size_t size);
 #define LIVE_LAST 1
 #define LIVE_EVERY 2
 #define LIVE_PICK_MAX_CHANNELS 1024
+#define LIVE_IN_SPEED_REF 1
+#define LIVE_IN_LOAD 2
+#define LIVE_IN_PAUSE 3
+#define LIVE_IN_RESUME 4
+#define LIVE_IN_REFUSED 5
 typedef struct { int32_t kind; int32_t client; double value; char text[192]; } live_input_t;
 typedef struct live_inbox { uint64_t magic; uint64_t head; uint64_t tail; ...; } live_inbox_t;
 size_t live_inbox_size(void);

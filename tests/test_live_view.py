@@ -227,3 +227,117 @@ def test_a_taken_port_is_a_clear_error(tmp_path):
         assert not list(tmp_path.iterdir()), "a refused live view leaves no file"
     finally:
         s.close()
+
+
+class Operator(Viewer):
+    """A viewer that advertises /operator/speed_ref (client-publish, JSON) and, once it has seen
+    ``after`` /plant/state messages (the run is going), publishes one speed reference."""
+
+    def __init__(self, port: int, rpm: float, after: int = 5):
+        super().__init__(port, ("/plant/state",))
+        self.rpm, self.after = rpm, after
+        self.capabilities: list[str] = []
+        self.published = False
+
+    def run(self) -> None:
+        try:
+            with _connect(self.port) as ws:
+                while True:
+                    try:
+                        m = ws.recv(timeout=30)
+                    except Exception:   # noqa: BLE001 - closed by the server: the run's end
+                        break
+                    if isinstance(m, str):
+                        j = json.loads(m)
+                        if j["op"] == "serverInfo":
+                            self.capabilities = j.get("capabilities", [])
+                            ws.send(json.dumps({"op": "advertise", "channels": [
+                                {"id": 1, "topic": "/operator/speed_ref", "encoding": "json",
+                                 "schemaName": "hil.OperatorSpeedRef"}]}))
+                        elif j["op"] == "advertise":
+                            for c in j["channels"]:
+                                self.advertised[c["id"]] = c
+                            self._subscribe(ws, j["channels"])
+                    elif m[0] == OP_MESSAGE_DATA:
+                        self.messages.append((0, 0, b""))
+                        if len(self.messages) >= self.after and not self.published:
+                            payload = json.dumps({"rpm": self.rpm}).encode()
+                            ws.send(struct.pack("<BI", 1, 1) + payload)   # client message data
+                            self.published = True
+        except BaseException as exc:  # noqa: BLE001
+            self.error = exc
+        finally:
+            self.done.set()
+
+
+def _operator_run(tmp_path: Path, inputs: bool, rpm: float):
+    from hil_bench.scenario import derive_scenario
+
+    # the same name: its claims (G2) are judged as the bundled scenario's are
+    scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm", [("live.inputs", inputs)])
+    out = tmp_path / "op.mcap"
+    runner = Runner(scn, "stub", out, False, live=LiveOptions(port=0), pace=1.0)
+    viewers = []
+
+    def on_live(port: int) -> None:
+        viewers.append(Operator(port, rpm))
+        viewers[0].start()
+
+    runner.on_live = on_live
+    result = runner.run()
+    assert result.ok, result.error
+    viewers[0].done.wait(30)
+    assert viewers[0].error is None, repr(viewers[0].error)
+    assert "clientPublish" in viewers[0].capabilities
+    assert viewers[0].published
+    return result
+
+
+def _events(path: Path) -> list[tuple[float, str, str]]:
+    from hil_bench.record.recording import load_recording
+
+    ev = load_recording(path, topics=["/events"]).topic("/events")
+    return list(zip(map(float, ev["t_s"]), map(str, ev["kind"]), map(str, ev["text"])))
+
+
+def test_an_operator_speed_reference_is_applied_recorded_and_no_claim_passes(tmp_path):
+    import re
+
+    import numpy as np
+
+    from hil_bench.papers.check import check_recording
+    from hil_bench.record.recording import load_recording
+
+    result = _operator_run(tmp_path, inputs=True, rpm=700.0)
+    rows = [e for e in _events(result.recording) if e[1] == "operator"]
+    assert len(rows) == 1, _events(result.recording)
+    t_s, _, text = rows[0]
+    assert "viewer client" in text and "speed reference 700 rpm" in text, text
+    cycle = int(re.search(r"\(cycle (\d+)\)", text).group(1))
+    assert t_s == pytest.approx(cycle * result.ts_s, abs=1e-9)   # the row's time is its cycle's
+    state = load_recording(result.recording, topics=["/plant/state"]).topic("/plant/state")
+    speed = np.asarray(state["speed_rpm"])
+    assert speed[-1] > 650.0, speed[-1]   # the drive followed the operator, not the scenario
+    report = check_recording(result.recording)
+    assert report.results and all(r.verdict == "INVALID" for r in report.results), \
+        [(r.verdict, r.note) for r in report.results]
+    assert report.integrity.invalid_note == "operator input during the run: see integrity"
+    assert any(p.kind == "operator" for p in report.integrity.problems)
+
+
+def test_an_operator_input_the_scenario_forbids_is_refused_on_events(tmp_path):
+    import numpy as np
+
+    from hil_bench.papers.check import check_recording
+    from hil_bench.record.recording import load_recording
+
+    result = _operator_run(tmp_path, inputs=False, rpm=700.0)
+    events = _events(result.recording)
+    assert not [e for e in events if e[1] == "operator"]
+    refused = [e for e in events if e[1] == "operator_refused"]
+    assert len(refused) == 1 and "[live] inputs = false" in refused[0][2], events
+    speed = load_recording(result.recording, topics=["/plant/state"]).topic("/plant/state")["speed_rpm"]
+    assert abs(float(np.asarray(speed)[-1]) - 500.0) < 20.0
+    report = check_recording(result.recording)
+    assert not any(p.kind == "operator" for p in report.integrity.problems)
+    assert report.results and not any(r.verdict == "INVALID" for r in report.results)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import mmap
 import os
 import platform
 import re
@@ -262,10 +263,12 @@ class Runner:
         :class:`hil_bench.record.live_view.LiveOptions` (``bench run --live``: the recorder
         serves the channels to Foxglove). ``pace``: lockstep, wall seconds per second of plant
         time (1.0: as fast as real time, to watch; None: as fast as the link goes)."""
-        if live is not None and pace is not None:
+        if live is not None:
             import dataclasses
 
-            live = dataclasses.replace(live, background=False)   # a run paced for watching
+            live = dataclasses.replace(live, inputs=scenario.live_inputs)   # [live] inputs
+            if pace is not None:
+                live = dataclasses.replace(live, background=False)   # a run paced for watching
         self.live = live
         self.live_port: int | None = None
         #: called with the live view's port once it listens (the CLI prints the URL)
@@ -444,8 +447,11 @@ class Runner:
                                          capture_path=self.out_path.with_suffix(".log"))
         try:
             self._check_budget(opened)
+            self.live_inbox = None
+            if self.live is not None:
+                self.live_inbox = new_live_inbox()
             rec = ProcessRecorder(self.out_path, force=self.force, cpus=self._recorder_cpus(),
-                                  live=self.live,
+                                  live=self.live, live_inbox=self.live_inbox,
                                   **({"ring_capacity": self.ring_bytes} if self.ring_bytes else {}))
             self.live_port = rec.live_port
             if self.live_port is not None and self.on_live is not None:
@@ -700,6 +706,8 @@ class Runner:
         for t0_s, t1_s in self.full_rate_s:
             e.add_full_rate(max(0, math.floor(t0_s / self.ts_s) - 1), math.ceil(t1_s / self.ts_s) + 1)
         self._schedule_events(e)
+        if getattr(self, "live_inbox", None) is not None:
+            e.attach_inbox(self.live_inbox)
         # what the Python link received but did not use: the engine continues from there
         py_link = opened.link
         stats = py_link.stats()
@@ -908,6 +916,17 @@ class _Progress:
     def close(self, done: int) -> None:
         self.progress.update(self.task, completed=done)
         self.progress.stop()
+
+
+def new_live_inbox() -> mmap.mmap:
+    """The operator inputs' mailbox (live.h): shared with the recorder process (its live view
+    pushes what a viewer published), read by the engine at the start of each cycle."""
+    from hil_bench.plant_rt._plant_c import ffi as _ffi, lib as _lib
+
+    mem = mmap.mmap(-1, int(_lib.live_inbox_size()))   # MAP_SHARED | MAP_ANONYMOUS: survives fork
+    if _lib.live_inbox_format(_ffi.from_buffer(mem), len(mem)) != 0:
+        raise RunAborted("cannot format the operator inputs' mailbox")
+    return mem
 
 
 def run_scenario(scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,

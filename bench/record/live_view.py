@@ -48,6 +48,8 @@ class LiveOptions:
     #: run paced for watching (--pace) sets it False: the rows reach the viewer while new on a
     #: loaded machine too
     background: bool = True
+    #: the scenario's [live] inputs: a viewer's operator inputs are applied (else refused)
+    inputs: bool = False
 
     def __post_init__(self) -> None:
         if not 0 <= int(self.port) <= 65535:
@@ -60,8 +62,19 @@ class LiveViewError(RuntimeError):
     """The live view could not start (the port is taken, foxglove-sdk missing)."""
 
 
+#: what a viewer may publish (client-publish, JSON): topic -> (live.h kind, JSON key, what)
+OPERATOR_TOPICS = {
+    "/operator/speed_ref": ("LIVE_IN_SPEED_REF", "rpm", "speed reference"),
+    "/operator/load": ("LIVE_IN_LOAD", "nm", "load torque"),
+    "/operator/pause": ("LIVE_IN_PAUSE", None, "pause"),
+    "/operator/resume": ("LIVE_IN_RESUME", None, "resume"),
+}
+RAD_S_PER_RPM = 2.0 * 3.141592653589793 / 60.0
+
+
 class _Listener:
-    """Counts each channel's subscribers (foxglove-sdk calls it on its own threads)."""
+    """Counts each channel's subscribers and takes what viewers publish (foxglove-sdk calls it
+    on its own threads)."""
 
     def __init__(self, view: "LiveView") -> None:
         self.view = view
@@ -72,11 +85,26 @@ class _Listener:
     def on_unsubscribe(self, client, channel) -> None:
         self.view._subscribed(channel.topic, -1)
 
+    def on_client_advertise(self, client, channel) -> None:
+        with self.view._lock:
+            self.view._client_channels[(client.id, channel.id)] = channel.topic
+
+    def on_client_unadvertise(self, client, client_channel_id) -> None:
+        with self.view._lock:
+            self.view._client_channels.pop((client.id, client_channel_id), None)
+
+    def on_message_data(self, client, client_channel_id, data) -> None:
+        self.view._operator_input(client.id, client_channel_id, bytes(data))
+
 
 class LiveView:
     """The server and its channels, one per ring channel (raw serial captures: none)."""
 
-    def __init__(self, opts: LiveOptions, name: str) -> None:
+    def __init__(self, opts: LiveOptions, name: str, inbox_mem=None,
+                 inputs_allowed: bool = False) -> None:
+        """``inbox_mem``: the engine's operator-input mailbox (live.h; None: no inputs are
+        served); ``inputs_allowed``: the scenario's ``[live] inputs`` (otherwise every input is
+        refused, with an /events row saying why)."""
         try:
             import foxglove
             from foxglove.websocket import Capability  # noqa: F401 - present in the sdk we need
@@ -87,11 +115,22 @@ class LiveView:
         self.opts = opts
         self._lock = threading.Lock()
         self._subs: dict[str, int] = {}
+        self._client_channels: dict[tuple[int, int], str] = {}
+        self._inbox = None
+        self.inputs_allowed = bool(inputs_allowed)
+        capabilities = []
+        if inbox_mem is not None:
+            self._inbox = lib.live_inbox_attach(ffi.from_buffer(inbox_mem), len(inbox_mem))
+            if self._inbox == ffi.NULL:
+                raise LiveViewError("live view: the operator inputs' mailbox is not formatted")
+            self._inbox_mem = inbox_mem
+            capabilities = [foxglove.websocket.Capability.ClientPublish]
         self.context = foxglove.Context()   # this server's channels only (no global sink)
         try:
             self.server = foxglove.start_server(
                 name=name, host=opts.host, port=int(opts.port), context=self.context,
-                server_listener=_Listener(self), supported_encodings=[chans.MESSAGE_ENCODING],
+                server_listener=_Listener(self), capabilities=capabilities,
+                supported_encodings=[chans.MESSAGE_ENCODING, "json"],
                 message_backlog_size=int(opts.backlog))
         except Exception as exc:  # noqa: BLE001 - the sdk's error type is not public
             raise LiveViewError(f"live view: cannot listen on {opts.host}:{opts.port}: "
@@ -111,6 +150,8 @@ class LiveView:
         self._any = False
         #: what the viewer was sent, and the records it was not (picks beyond a batch's cap)
         self.forwarded = 0
+        #: operator inputs the full mailbox could not take
+        self.inputs_lost = 0
 
     @property
     def cut(self) -> int:
@@ -185,6 +226,45 @@ class LiveView:
             self.channels[p.channel].log(bytes(view[p.offset:p.offset + p.length]),
                                          log_time=start_ns + p.t_ns)
         self.forwarded += picked
+
+    def _operator_input(self, client_id: int, client_channel_id: int, data: bytes) -> None:
+        """One message a viewer published: into the engine's mailbox, applied at the start of
+        the engine's next cycle and recorded on /events with the client's id, or refused there
+        (the engine writes the row, at the cycle it took it). Never raises into the sdk."""
+        import json
+
+        with self._lock:
+            topic = self._client_channels.get((client_id, client_channel_id), "?")
+        who = f"operator (viewer client {client_id}, {topic})"
+        spec = OPERATOR_TOPICS.get(topic)
+        kind, value, why = lib.LIVE_IN_REFUSED, 0.0, None
+        if spec is None:
+            why = f"not an operator topic (one of {', '.join(OPERATOR_TOPICS)})"
+        else:
+            name, key, what = spec
+            if key is not None:
+                try:
+                    msg = json.loads(data)
+                    value = float(msg[key])
+                except (ValueError, TypeError, KeyError) as exc:
+                    why = f'expected JSON {{"{key}": number}}, got {data[:60]!r} ({exc})'
+                else:
+                    who += f": {what} {value:g} {'rpm' if key == 'rpm' else 'N m'}"
+                    if key == "rpm":
+                        value *= RAD_S_PER_RPM
+            else:
+                who += f": {what}"
+            if why is None and not self.inputs_allowed:
+                why = "the scenario does not allow operator inputs ([live] inputs = false)"
+            if why is None:
+                kind = getattr(lib, name)
+        text = who if why is None else f"{who}: refused: {why}"
+        with self._lock:   # foxglove-sdk's threads: one producer at a time
+            if self._inbox is None:
+                return
+            if lib.live_inbox_push(self._inbox, kind, client_id, value,
+                                   text.encode()[:lib.LIVE_INPUT_TEXT - 1]) != 0:
+                self.inputs_lost += 1
 
     def stop(self) -> None:
         try:

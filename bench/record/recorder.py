@@ -394,7 +394,7 @@ def _write_outside_chunks(f, record) -> None:
 
 
 def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: int,
-           force: bool, cpus: tuple[int, ...] = (), live=None) -> None:
+           force: bool, cpus: tuple[int, ...] = (), live=None, live_inbox=None) -> None:
     import signal as _signal
 
     from mcap.writer import CompressionType, Writer
@@ -431,7 +431,8 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
         from .live_view import LiveView, LiveViewError
 
         try:
-            live_view = LiveView(live, name=f"hil-bench {target.name}")
+            live_view = LiveView(live, name=f"hil-bench {target.name}", inbox_mem=live_inbox,
+                                 inputs_allowed=live.inputs)
         except LiveViewError as exc:
             conn.send(("error", str(exc)))
             return
@@ -641,10 +642,12 @@ class ProcessRecorder:
     """Writes one MCAP file through a recorder process. Context manager; always finalised."""
 
     def __init__(self, path: Path, *, force: bool = False, ring_capacity: int = RING_CAPACITY_BYTES,
-                 chunk_size: int = CHUNK_SIZE_BYTES, cpus: tuple[int, ...] = (), live=None):
+                 chunk_size: int = CHUNK_SIZE_BYTES, cpus: tuple[int, ...] = (), live=None,
+                 live_inbox=None):
         """``cpus``: the CPUs the recorder process may run on (empty: any). ``live``: a
         :class:`.live_view.LiveOptions` to serve the channels to Foxglove while recording
-        (:attr:`live_port` is then the port it listens on)."""
+        (:attr:`live_port` is then the port it listens on); ``live_inbox``: the engine's
+        operator-input mailbox (a formatted MAP_SHARED mapping, live.h) it pushes inputs to."""
         import multiprocessing as mp
 
         self.path = Path(path)
@@ -659,7 +662,7 @@ class ProcessRecorder:
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path),
                                                       self.ring_mem, self.ring_size, chunk_size,
-                                                      force, tuple(cpus), live),
+                                                      force, tuple(cpus), live, live_inbox),
                                  name="hil-recorder", daemon=False)
         self._proc.start()
         child.close()
