@@ -341,3 +341,72 @@ def test_an_operator_input_the_scenario_forbids_is_refused_on_events(tmp_path):
     report = check_recording(result.recording)
     assert not any(p.kind == "operator" for p in report.integrity.problems)
     assert report.results and not any(r.verdict == "INVALID" for r in report.results)
+
+
+class Pauser(Operator):
+    """Publishes a pause, holds it ``hold_s`` of wall time, then a resume."""
+
+    def __init__(self, port: int, hold_s: float):
+        super().__init__(port, 0.0)
+        self.hold_s = hold_s
+
+    def run(self) -> None:
+        try:
+            with _connect(self.port) as ws:
+                while True:
+                    try:
+                        m = ws.recv(timeout=30)
+                    except Exception:   # noqa: BLE001 - the run's end
+                        break
+                    if isinstance(m, str):
+                        j = json.loads(m)
+                        if j["op"] == "serverInfo":
+                            ws.send(json.dumps({"op": "advertise", "channels": [
+                                {"id": 1, "topic": "/operator/pause", "encoding": "json",
+                                 "schemaName": "hil.OperatorPause"},
+                                {"id": 2, "topic": "/operator/resume", "encoding": "json",
+                                 "schemaName": "hil.OperatorResume"}]}))
+                        elif j["op"] == "advertise":
+                            self._subscribe(ws, j["channels"])
+                    elif m[0] == OP_MESSAGE_DATA:
+                        self.messages.append((0, 0, b""))
+                        if len(self.messages) >= self.after and not self.published:
+                            ws.send(struct.pack("<BI", 1, 1) + b"{}")
+                            time.sleep(self.hold_s)
+                            ws.send(struct.pack("<BI", 1, 2) + b"{}")
+                            self.published = True
+        except BaseException as exc:  # noqa: BLE001
+            self.error = exc
+        finally:
+            self.done.set()
+
+
+def test_a_lockstep_run_paused_and_resumed_by_a_viewer_runs_every_cycle(tmp_path):
+    import re
+
+    from hil_bench.scenario import derive_scenario
+
+    scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm", [("live.inputs", True)])
+    runner = Runner(scn, "stub", tmp_path / "p.mcap", False, live=LiveOptions(port=0), pace=1.0)
+    viewers = []
+
+    def on_live(port: int) -> None:
+        viewers.append(Pauser(port, hold_s=1.0))
+        viewers[0].start()
+
+    runner.on_live = on_live
+    result = runner.run()
+    assert result.ok, result.error
+    assert result.cycles_done == result.cycles_planned
+    viewers[0].done.wait(30)
+    assert viewers[0].error is None and viewers[0].published
+    events = _events(result.recording)
+    pause = [e for e in events if e[1] == "operator_pause"]
+    resume = [e for e in events if e[1] == "operator_resume"]
+    assert len(pause) == 1 and len(resume) == 1, events
+    k_pause = int(re.search(r"\(cycle (\d+)\)", pause[0][2]).group(1))
+    k_resume = int(re.search(r"\(cycle (\d+)\)", resume[0][2]).group(1))
+    assert k_pause == k_resume   # nothing ran while paused
+    # paced to real time, plus the second it was held
+    assert result.engine_s >= 0.99 * (result.cycles_done - 1) * result.ts_s + 0.9, result.engine_s
+    assert not [e for e in events if e[1] in ("operator", "operator_refused")]
