@@ -410,3 +410,44 @@ def test_a_lockstep_run_paused_and_resumed_by_a_viewer_runs_every_cycle(tmp_path
     # paced to real time, plus the second it was held
     assert result.engine_s >= 0.99 * (result.cycles_done - 1) * result.ts_s + 0.9, result.engine_s
     assert not [e for e in events if e[1] in ("operator", "operator_refused")]
+
+
+def test_the_mailbox_and_the_picker_in_c():
+    """live.c on its own: the mailbox keeps order and refuses when full; live_pick takes the
+    last record of a LIVE_LAST channel, every record of a LIVE_EVERY one, nothing else."""
+    import mmap
+
+    from hil_bench.plant_rt._plant_c import ffi, lib
+
+    mem = mmap.mmap(-1, int(lib.live_inbox_size()))
+    assert lib.live_inbox_attach(ffi.from_buffer(mem), len(mem)) == ffi.NULL   # not formatted
+    assert lib.live_inbox_format(ffi.from_buffer(mem), len(mem)) == 0
+    box = lib.live_inbox_attach(ffi.from_buffer(mem), len(mem))
+    for i in range(lib.LIVE_INBOX_SLOTS):
+        assert lib.live_inbox_push(box, lib.LIVE_IN_LOAD, 7, float(i), b"x" * 500) == 0
+    assert lib.live_inbox_push(box, lib.LIVE_IN_LOAD, 7, 99.0, b"full") == -1
+    out = ffi.new("live_input_t *")
+    for i in range(lib.LIVE_INBOX_SLOTS):
+        assert lib.live_inbox_take(box, out) == 1
+        assert (out.kind, out.client, out.value) == (lib.LIVE_IN_LOAD, 7, float(i))
+        assert ffi.string(out.text) == b"x" * (lib.LIVE_INPUT_TEXT - 1)   # cut, terminated
+    assert lib.live_inbox_take(box, out) == 0 and lib.live_inbox_pending(box) == 0
+
+    ring_mem = mmap.mmap(-1, int(lib.rec_ring_mapping_size(1 << 16)))
+    lib.rec_ring_format(ffi.from_buffer(ring_mem), len(ring_mem))
+    ring = ffi.new("rec_ring_t *")
+    lib.rec_ring_attach(ring, ffi.from_buffer(ring_mem), len(ring_mem))
+    rows = [(0, 1, b"a0"), (1, 2, b"b0"), (0, 3, b"a1"), (2, 4, b"c0"), (1, 5, b"b1!"),
+            (2, 6, b"c1"), (0, 7, b"a2")]
+    for chan, t, data in rows:
+        assert lib.rec_ring_write(ring, chan, t, data, len(data)) == 0
+    buf = bytearray(1 << 16)
+    n = lib.rec_ring_read(ring, ffi.from_buffer(buf), len(buf))
+    modes = ffi.new("int32_t[]", [lib.LIVE_LAST, lib.LIVE_EVERY, lib.LIVE_SKIP])
+    picks = ffi.new("live_pick_t[]", 8)
+    cut = ffi.new("uint64_t *")
+    got = lib.live_pick(ffi.from_buffer(buf), n, modes, 3, picks, 8, cut)
+    seen = [(picks[i].channel, picks[i].t_ns, bytes(buf[picks[i].offset:picks[i].offset + picks[i].length]))
+            for i in range(got)]
+    assert seen == [(1, 2, b"b0"), (1, 5, b"b1!"), (0, 7, b"a2")]
+    assert lib.live_pick(ffi.from_buffer(buf), n, modes, 3, picks, 2, cut) == 2 and cut[0] == 1
