@@ -451,3 +451,21 @@ def test_the_mailbox_and_the_picker_in_c():
             for i in range(got)]
     assert seen == [(1, 2, b"b0"), (1, 5, b"b1!"), (0, 7, b"a2")]
     assert lib.live_pick(ffi.from_buffer(buf), n, modes, 3, picks, 2, cut) == 2 and cut[0] == 1
+
+
+def test_bad_live_and_pace_options_are_clear_errors(tmp_path):
+    import subprocess
+    import sys
+
+    from hil_bench.loop.runner import RunAborted
+
+    scn = load_scenario("gong_g2_500rpm")
+    with pytest.raises(RunAborted, match="real-time run is paced by its own clock"):
+        Runner(scn, "stub", tmp_path / "x.mcap", False, realtime=True, pace=1.0)
+    with pytest.raises(RunAborted, match="the pace is > 0"):
+        Runner(scn, "stub", tmp_path / "x.mcap", False, pace=0.0)
+    r = subprocess.run([sys.executable, "-m", "hil_bench", "run", "gong_g2_500rpm", "--live",
+                        "70000", "--out", str(tmp_path / "x.mcap")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "a TCP port is 0..65535" in r.stderr and "Traceback" not in r.stderr
+    assert not list(tmp_path.iterdir())

@@ -281,6 +281,9 @@ class Runner:
         self._recorder_cpus_override = recorder_cpus
         self.mode = "realtime" if (realtime if realtime is not None else
                                    scenario.mode == "realtime") else "lockstep"
+        if pace is not None and self.mode == "realtime":
+            raise RunAborted(f"--pace {pace:g}: a real-time run is paced by its own clock "
+                             f"(--pace is for lockstep runs)")
         self.allow_slow_link = allow_slow_link
         self.link_spec = link_spec
         self.out_path = Path(out_path) if out_path else default_recording_path(scenario)
