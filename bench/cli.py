@@ -38,6 +38,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     out = Console()
     err = Console(stderr=True)
+    live = None
+    if args.live is not None:
+        from hil_bench.record.live_view import LiveOptions
+
+        try:
+            live = LiveOptions(port=args.live, rate_hz=args.live_rate)
+        except ValueError as exc:
+            err.print(f"[red]error:[/red] {escape(str(exc))}")
+            return 2
+
+    def said_live(port: int) -> None:
+        err.print(f"live view: Foxglove WebSocket on ws://127.0.0.1:{port} (Foxglove or "
+                  f"Lichtblick: Open connection, Foxglove WebSocket; docs/foxglove.md)")
+
     try:
         scn = load_scenario(args.scenario)
         if args.set:
@@ -48,7 +62,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         result = run_scenario(scn, link_spec=args.link, out_path=args.out,
                               progress=not args.no_progress, allow_slow_link=args.allow_slow_link,
                               force=args.force, realtime=True if args.realtime else None,
-                              cpu=args.cpu)
+                              cpu=args.cpu, live=live, pace=args.pace, on_live=said_live)
     except (ScenarioError, LinkError, RunAborted, RecorderError) as exc:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
@@ -132,6 +146,37 @@ def _cmd_recover(args: argparse.Namespace) -> int:
         Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     print(report.text())
+    return 0
+
+
+def _cmd_layout(args: argparse.Namespace) -> int:
+    import json
+
+    from hil_bench.record.layout import make_layout
+    from hil_bench.scenario import ScenarioError, load_scenario
+
+    err = Console(stderr=True)
+    try:
+        scn = load_scenario(args.scenario)
+    except ScenarioError as exc:
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
+        return 2
+    layout = make_layout(tuple(scn.reference_estimators), telemetry_emf=bool(scn.telemetry_emf),
+                         faults=bool(scn.faults) or scn.post_trip_s > 0)
+    text = json.dumps(layout, indent=2) + "\n"
+    if args.out is None:
+        print(text, end="")
+        return 0
+    try:
+        with open(args.out, "w" if args.force else "x") as f:
+            f.write(text)
+    except FileExistsError:
+        err.print(f"[red]error:[/red] {escape(str(args.out))} exists; --force replaces it")
+        return 2
+    except OSError as exc:
+        err.print(f"[red]error:[/red] cannot write {escape(str(args.out))}: {exc.strerror or exc}")
+        return 2
+    print(f"layout for {scn.name}: {args.out} (Foxglove or Lichtblick: Layouts, Import from file)")
     return 0
 
 
@@ -312,6 +357,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pace the plant by the wall clock (as [scenario] mode = \"realtime\")")
     r.add_argument("--cpu", type=int, default=None,
                    help="real time: pin the engine thread to this CPU")
+    r.add_argument("--live", type=int, nargs="?", const=8765, default=None, metavar="PORT",
+                   help="serve the recording's channels live over the Foxglove WebSocket "
+                        "protocol on 127.0.0.1:PORT (default 8765; 0: any free port) while the "
+                        "run goes on (docs/foxglove.md)")
+    r.add_argument("--live-rate", type=float, default=50.0, metavar="HZ",
+                   help="--live: messages per second per per-cycle channel sent to a viewer "
+                        "(default 50; /events, /faults, /link/stats go out whole)")
+    r.add_argument("--pace", type=float, default=None, metavar="FACTOR",
+                   help="lockstep: wall seconds per second of plant time (1.0: real time, to "
+                        "watch with --live; 2: half speed); default: as fast as the link goes")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--allow-slow-link", action="store_true",
                    help="lockstep only: run even if the link cannot carry the control rate in "
@@ -323,6 +378,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "--set plant.inverter=switching --set controller.speed_ref_rpm=800; "
                         "the recording attaches the derived scenario")
     r.set_defaults(func=_cmd_run)
+
+    lay = sub.add_parser("layout", help="write a Foxglove / Lichtblick layout for a scenario's "
+                                        "recording or live view")
+    lay.add_argument("scenario", help="scenario file or bundled scenario name")
+    lay.add_argument("-o", "--out", type=Path, default=None,
+                     help="layout file (.json); default: print it")
+    lay.add_argument("--force", action="store_true", help="replace an existing --out file")
+    lay.set_defaults(func=_cmd_layout)
 
     c = sub.add_parser("check", help="recompute metrics and paper claims from a recording")
     c.add_argument("recording", type=Path)

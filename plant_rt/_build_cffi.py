@@ -17,7 +17,7 @@ from cffi import FFI
 C_DIR = Path(__file__).resolve().parent / "c"
 SOURCES = ("pmsm_machine.c", "inverter.c", "pwm.c", "mechanics.c", "sensor.c", "plant.c", "plant_fault.c",
            # the cycle engine and the recording ring / schema (engine.h, rec_ring.h, rec_schema.h)
-           "engine.c", "engine_faults.c", "engine_link.c", "engine_refs.c", "engine_sil.c",
+           "engine.c", "engine_faults.c", "engine_link.c", "engine_refs.c", "engine_sil.c", "live.c",
            "rec_ring.c", "rec_schema.c", "rec_mcap.c")
 ROOT = C_DIR.parents[1]
 FW_SRC = ROOT / "firmware_stub" / "src"
@@ -323,6 +323,7 @@ typedef struct {
     uint64_t faults_injected, faults_untraced;
     uint64_t faults_acted, faults_traced;
     uint64_t state_rows;
+    uint64_t operator_inputs, operator_refused, ring_waits;
 } engine_counters_t;
 typedef struct {
     uint64_t frames_tx, frames_rx, bytes_tx, bytes_rx;
@@ -344,6 +345,7 @@ typedef struct engine {
     double duties[3];
     engine_trace_t traces[64];
     long trip_cycle;
+    int paused; int64_t paused_ns;
     ...;
 } engine_t;
 void engine_default_config(engine_config_t *cfg);
@@ -356,6 +358,32 @@ int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f);
 int engine_run(engine_t *e);
 void engine_request_stop(engine_t *e);
 int engine_add_full_rate(engine_t *e, long from_k, long to_k);
+int engine_attach_inbox(engine_t *e, void *mem, size_t size);
+
+/* the live view (live.h): operator inputs' mailbox, the recorder's picker */
+#define LIVE_INBOX_SLOTS 64
+#define LIVE_INPUT_TEXT 192
+#define LIVE_SKIP 0
+#define LIVE_LAST 1
+#define LIVE_EVERY 2
+#define LIVE_PICK_MAX_CHANNELS 1024
+#define LIVE_IN_SPEED_REF 1
+#define LIVE_IN_LOAD 2
+#define LIVE_IN_PAUSE 3
+#define LIVE_IN_RESUME 4
+#define LIVE_IN_REFUSED 5
+typedef struct { int32_t kind; int32_t client; double value; char text[192]; } live_input_t;
+typedef struct live_inbox { uint64_t magic; uint64_t head; uint64_t tail; ...; } live_inbox_t;
+size_t live_inbox_size(void);
+int live_inbox_format(void *mem, size_t size);
+live_inbox_t *live_inbox_attach(void *mem, size_t size);
+int live_inbox_push(live_inbox_t *b, int kind, int client, double value, const char *text);
+int live_inbox_take(live_inbox_t *b, live_input_t *out);
+uint64_t live_inbox_pending(const live_inbox_t *b);
+typedef struct { uint64_t offset; uint32_t length; uint16_t channel; uint16_t pad_; int64_t t_ns; }
+    live_pick_t;
+size_t live_pick(const uint8_t *in, size_t n_in, const int32_t *mode, size_t n_mode,
+                 live_pick_t *picks, size_t cap, uint64_t *cut);
 double engine_hist_percentile(const engine_hist_t *h, double q);
 void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extra);
 int engine_send(engine_t *e, uint16_t id, const uint8_t *data, uint16_t dlc);

@@ -251,6 +251,13 @@ class Engine:
         if lib.engine_add_event(self._e, ev) != 0:
             raise ValueError(ffi.string(self._e.message).decode())
 
+    def attach_inbox(self, mem) -> None:
+        """Take operator inputs from a live view's mailbox (``mem``: a formatted MAP_SHARED
+        mapping, live.h), at the start of each cycle. The mapping must outlive the run."""
+        self._inbox_mem = mem
+        if lib.engine_attach_inbox(self._e, ffi.from_buffer(mem), len(mem)) != 0:
+            raise ValueError(ffi.string(self._e.message).decode())
+
     def add_full_rate(self, from_cycle: int, to_cycle: int) -> None:
         """Cycles [from_cycle, to_cycle) recorded in full in a decimated recording."""
         if lib.engine_add_full_rate(self._e, int(from_cycle), int(to_cycle)) != 0:

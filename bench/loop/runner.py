@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import mmap
 import os
 import platform
 import re
@@ -302,15 +303,35 @@ class Runner:
                  allow_slow_link: bool = False, force: bool = False,
                  realtime: bool | None = None, record: bool = True, cpu: int | None = None,
                  ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None,
-                 full_rate_s: tuple[tuple[float, float], ...] = ()):
+                 full_rate_s: tuple[tuple[float, float], ...] = (), live=None,
+                 pace: float | None = None):
         """``recorder_cpus``: overrides where the recorder runs (hil_bench.perf.loop compares).
         ``full_rate_s``: time windows [s] recorded in full when the scenario's recording is
-        decimated (the windows its metrics read: hil_bench.sweep)."""
+        decimated (the windows its metrics read: hil_bench.sweep). ``live``: a
+        :class:`hil_bench.record.live_view.LiveOptions` (``bench run --live``: the recorder
+        serves the channels to Foxglove). ``pace``: lockstep, wall seconds per second of plant
+        time (1.0: as fast as real time, to watch; None: as fast as the link goes)."""
+        if live is not None:
+            import dataclasses
+
+            live = dataclasses.replace(live, inputs=scenario.live_inputs)   # [live] inputs
+            if pace is not None:
+                live = dataclasses.replace(live, background=False)   # a run paced for watching
+        self.live = live
+        self.live_port: int | None = None
+        #: called with the live view's port once it listens (the CLI prints the URL)
+        self.on_live = None
+        if pace is not None and not pace > 0:
+            raise RunAborted(f"--pace {pace:g}: the pace is > 0 (1.0: real time)")
+        self.pace = pace
         self.full_rate_s = tuple(full_rate_s)
         self.scn = scenario
         self._recorder_cpus_override = recorder_cpus
         self.mode = "realtime" if (realtime if realtime is not None else
                                    scenario.mode == "realtime") else "lockstep"
+        if pace is not None and self.mode == "realtime":
+            raise RunAborted(f"--pace {pace:g}: a real-time run is paced by its own clock "
+                             f"(--pace is for lockstep runs)")
         self.allow_slow_link = allow_slow_link
         self.link_spec = link_spec
         self.out_path = Path(out_path) if out_path else default_recording_path(scenario)
@@ -465,8 +486,15 @@ class Runner:
                                          capture_path=self.out_path.with_suffix(".log"))
         try:
             self._check_budget(opened)
+            self.live_inbox = None
+            if self.live is not None:
+                self.live_inbox = new_live_inbox()
             rec = ProcessRecorder(self.out_path, force=self.force, cpus=self._recorder_cpus(),
+                                  live=self.live, live_inbox=self.live_inbox,
                                   **({"ring_capacity": self.ring_bytes} if self.ring_bytes else {}))
+            self.live_port = rec.live_port
+            if self.live_port is not None and self.on_live is not None:
+                self.on_live(self.live_port)
         except BaseException:
             opened.close()
             raise
@@ -701,6 +729,8 @@ class Runner:
                        post_trigger_cycles=int(math.ceil(rs.post_trigger_s / self.ts_s)))
         if self.ch_faults is not None:
             options.update(ch_faults=self.ch_faults.index)
+        if self.pace is not None and self.mode == "lockstep":
+            options.update(pace_s=self.pace * self.ts_s)
         channels = {"ch_state": self.ch_state.index, "ch_sense": self.ch_sense.index,
                     "ch_telem": self.ch_telem.index, "ch_frames": self.ch_frames.index,
                     "ch_events": self.ch_events.index, "ch_timing": self.ch_timing.index,
@@ -715,6 +745,8 @@ class Runner:
         for t0_s, t1_s in self.full_rate_s:
             e.add_full_rate(max(0, math.floor(t0_s / self.ts_s) - 1), math.ceil(t1_s / self.ts_s) + 1)
         self._schedule_events(e)
+        if getattr(self, "live_inbox", None) is not None:
+            e.attach_inbox(self.live_inbox)
         # what the Python link received but did not use: the engine continues from there
         py_link = opened.link
         stats = py_link.stats()
@@ -929,15 +961,30 @@ class _Progress:
         self.progress.stop()
 
 
+def new_live_inbox() -> mmap.mmap:
+    """The operator inputs' mailbox (live.h): shared with the recorder process (its live view
+    pushes what a viewer published), read by the engine at the start of each cycle."""
+    from hil_bench.plant_rt._plant_c import ffi as _ffi, lib as _lib
+
+    mem = mmap.mmap(-1, int(_lib.live_inbox_size()))   # MAP_SHARED | MAP_ANONYMOUS: survives fork
+    if _lib.live_inbox_format(_ffi.from_buffer(mem), len(mem)) != 0:
+        raise RunAborted("cannot format the operator inputs' mailbox")
+    return mem
+
+
 def run_scenario(scenario: Scenario, link_spec: str = "stub", out_path: Path | None = None,
                  progress: bool = True, stub_args: tuple[str, ...] = (),
                  allow_slow_link: bool = False, force: bool = False,
                  realtime: bool | None = None, cpu: int | None = None,
-                 record: bool = True) -> RunResult:
+                 record: bool = True, live=None, pace: float | None = None,
+                 on_live=None) -> RunResult:
     """Run a scenario against the controller on ``link_spec`` and record it (lockstep, or real
-    time when the scenario or ``realtime=True`` asks)."""
-    return Runner(scenario, link_spec, out_path, progress, stub_args, allow_slow_link, force,
-                  realtime, record, cpu).run()
+    time when the scenario or ``realtime=True`` asks). ``live``, ``pace``: see :class:`Runner`;
+    ``on_live(port)`` is called once the live view listens."""
+    runner = Runner(scenario, link_spec, out_path, progress, stub_args, allow_slow_link, force,
+                    realtime, record, cpu, live=live, pace=pace)
+    runner.on_live = on_live
+    return runner.run()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -53,7 +53,7 @@ ALLOWABLE_COUNTERS: tuple[str, ...] = tuple(c for c in LINK_COUNTERS if c != "es
 
 @dataclass(frozen=True)
 class Problem:
-    kind: str            # "completeness", "link", "estimator" or "fault"
+    kind: str            # "completeness", "link", "estimator", "fault" or "operator"
     name: str            # run_result, cycles, error, interrupted, truncated, unreadable_chunks, damage, rows,
                          # encoder_angle_sent, never_acted / untraced / count (a fault), or a counter
     text: str
@@ -98,6 +98,8 @@ class Integrity:
             return "true angle sent to a sensorless controller: see integrity"
         if self.estimator_mismatch:
             return "estimator mismatch: see integrity"
+        if any(p.kind == "operator" for p in self.problems):
+            return "operator input during the run: see integrity"
         bad = self.unallowed
         return f"{bad[0].kind} problem: see integrity" if bad else None
 
@@ -368,6 +370,17 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
 
     # -- faults: every fault of the scenario acted and left a trace (docs/faults.md) ------------------
     out.problems += fault_problems(rec, scenario_faults, out.cycles_done)
+
+    # -- operator inputs (bench run --live, docs/foxglove.md): a run a viewer steered is not the
+    # scenario's run, whatever its file says: no claim of it can PASS -------------------------------------
+    events = _topic(rec, ch.EVENTS)
+    if events and "kind" in events:
+        steered = [str(t) for k, t in zip(events["kind"], events.get("text", ())) if k == "operator"]
+        if steered:
+            add(Problem("operator", "operator_input",
+                        f"{len(steered)} operator input(s) during the run (bench run --live): "
+                        f"{steered[0]}" + (f" (+{len(steered) - 1} more)" if len(steered) > 1 else ""),
+                        float(len(steered))))
 
     # -- the estimator under test -------------------------------------------------------------------------
     sent = str(rec.run.get("encoder_angle_sent", "")).lower() in ("true", "1")

@@ -394,7 +394,7 @@ def _write_outside_chunks(f, record) -> None:
 
 
 def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: int,
-           force: bool, cpus: tuple[int, ...] = ()) -> None:
+           force: bool, cpus: tuple[int, ...] = (), live=None, live_inbox=None) -> None:
     import signal as _signal
 
     from mcap.writer import CompressionType, Writer
@@ -412,8 +412,9 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
             os.sched_setaffinity(0, cpus)   # real time: the engine's CPU, below the engine
         except OSError:
             pass
-    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0":
-        # throughput, not latency: every other task of the machine comes first
+    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0" and (live is None or live.background):
+        # throughput, not latency: every other task of the machine comes first (not with a
+        # live view: a viewer wants the rows while they are new, on a loaded machine too)
         try:
             os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
             os.nice(19)
@@ -425,6 +426,19 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     if lib.rec_ring_attach(ring, ffi.from_buffer(ring_mem), ring_size) != 0:
         conn.send(("error", "recorder: the shared ring is not formatted"))
         return
+    live_view = None   # the live view (live_view.py): before the file, so a taken port leaves none
+    if live is not None:
+        from .live_view import LiveView, LiveViewError
+
+        try:
+            live_view = LiveView(live, name=f"hil-bench {target.name}", inbox_mem=live_inbox,
+                                 inputs_allowed=live.inputs)
+        except LiveViewError as exc:
+            conn.send(("error", str(exc)))
+            return
+        except Exception as exc:  # noqa: BLE001 - a bug here must name itself, not kill the run silently
+            conn.send(("error", f"live view: {type(exc).__name__}: {exc}"))
+            return
     buf = bytearray(READ_BATCH_BYTES)
     cbuf = ffi.from_buffer(buf)
     channel_ids: list[int] = []
@@ -462,6 +476,8 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                 if n == 0:
                     return total
                 total += n
+                if live_view is not None:
+                    live_view.feed(cbuf, buf, n, start_ns)
                 if fast is not None and len(raw_files) <= 1:
                     if len(fast.map) != len(channel_ids):
                         fast.set_channels(channel_ids, seqs)
@@ -490,7 +506,7 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                     messages += 1
             return total
 
-        conn.send(("ready", str(tmp)))
+        conn.send(("ready", str(tmp), live_view.port if live_view is not None else None))
         busy = False
         while True:
             if conn.poll(0 if busy else 0.002):
@@ -512,6 +528,8 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                     _write_outside_chunks(f, Channel(id=cid, topic=topic,
                                                      message_encoding=chans.MESSAGE_ENCODING,
                                                      schema_id=schema_ids[schema_name], metadata={}))
+                    if live_view is not None:
+                        live_view.add_channel(topic, schema_name, chans.file_descriptor_set())
                     channel_ids.append(cid)
                     seqs.append(0)
                     conn.send(("channel_ok", len(channel_ids) - 1))
@@ -526,6 +544,8 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                         continue
                     write_header(side)
                     raw_files[len(channel_ids)] = side
+                    if live_view is not None:
+                        live_view.add_raw()
                     channel_ids.append(-1)
                     seqs.append(0)
                     conn.send(("channel_ok", len(channel_ids) - 1))
@@ -551,6 +571,8 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     except Exception as exc:  # noqa: BLE001 - report, then finalise what we can
         error = f"recorder: {type(exc).__name__}: {exc} (writing {target})"
     finally:
+        if live_view is not None:
+            live_view.stop()
         for side in raw_files.values():
             try:
                 write_end(side, time.monotonic_ns(), closed_by if error is None else
@@ -620,8 +642,12 @@ class ProcessRecorder:
     """Writes one MCAP file through a recorder process. Context manager; always finalised."""
 
     def __init__(self, path: Path, *, force: bool = False, ring_capacity: int = RING_CAPACITY_BYTES,
-                 chunk_size: int = CHUNK_SIZE_BYTES, cpus: tuple[int, ...] = ()):
-        """``cpus``: the CPUs the recorder process may run on (empty: any)."""
+                 chunk_size: int = CHUNK_SIZE_BYTES, cpus: tuple[int, ...] = (), live=None,
+                 live_inbox=None):
+        """``cpus``: the CPUs the recorder process may run on (empty: any). ``live``: a
+        :class:`.live_view.LiveOptions` to serve the channels to Foxglove while recording
+        (:attr:`live_port` is then the port it listens on); ``live_inbox``: the engine's
+        operator-input mailbox (a formatted MAP_SHARED mapping, live.h) it pushes inputs to."""
         import multiprocessing as mp
 
         self.path = Path(path)
@@ -636,7 +662,7 @@ class ProcessRecorder:
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path),
                                                       self.ring_mem, self.ring_size, chunk_size,
-                                                      force, tuple(cpus)),
+                                                      force, tuple(cpus), live, live_inbox),
                                  name="hil-recorder", daemon=False)
         self._proc.start()
         child.close()
@@ -649,6 +675,7 @@ class ProcessRecorder:
         if first[0] != "ready":
             self._proc.join(5.0)
             raise RecorderError(self._child_error(first))
+        self.live_port: int | None = first[2]
 
     @staticmethod
     def _child_error(msg) -> str:

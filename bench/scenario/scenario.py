@@ -187,6 +187,8 @@ class Scenario:
     recording: Any = None                   # hil_bench.scenario.faults.RecordingSettings ([recording])
     post_trip_s: float = 0.0                # a FAULT_CTRL ends the run this long after it
     inverter_comp: InverterComp | None = None   # [controller.inverter_comp]
+    live_inputs: bool = False               # [live] inputs: a viewer may publish operator inputs
+                                            # (bench run --live; docs/foxglove.md)
 
     @property
     def display_path(self) -> str:
@@ -519,6 +521,9 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     link = _link(top)
     faults = parse_faults(top, duration_s)
     recording = parse_recording(top)
+    lv = top.table_of("live")
+    live_inputs = lv.boolean("inputs", False)
+    lv.reject_unknown()
     top.reject_unknown()
 
     return Scenario(
@@ -531,7 +536,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         telemetry_emf=telemetry_emf, raw=raw, text=text,
         send_encoder_angle=send_encoder, realtime=realtime, link=link,
         faults=faults, recording=recording, post_trip_s=post_trip_s,
-        inverter_comp=inverter_comp,
+        inverter_comp=inverter_comp, live_inputs=live_inputs,
     )
 
 

@@ -203,6 +203,7 @@ static uint8_t *ring_begin(engine_t *e, size_t max)
         e->n.rows_dropped++;
         return NULL;
     }
+    e->n.ring_waits++;
     while (p == NULL) {
         struct timespec ts = {0, 100000L};
         int64_t now = eng_now_ns();
@@ -751,6 +752,17 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
     return 0;
 }
 
+int engine_attach_inbox(engine_t *e, void *mem, size_t size)
+{
+    live_inbox_t *b = live_inbox_attach(mem, size);
+    if (b == NULL) {
+        set_message(e, "engine: the operator inputs' mailbox is not formatted");
+        return -1;
+    }
+    e->inbox = b;
+    return 0;
+}
+
 int engine_add_reference(engine_t *e, int kind, const void *config, size_t config_size,
                          uint16_t channel)
 {
@@ -965,23 +977,28 @@ static void queue_resend(engine_t *e, const cycle_t *c)
     queue_sense_group(e, c);
 }
 
+/** A CMD frame (the run's next CMD seq) sent with this cycle's SENSE frames. */
+static void queue_cmd(engine_t *e, int command, double value)
+{
+    hil_cmd_t m;
+    uint8_t buf[8];
+    m.command = (uint16_t)command;
+    m.seq = e->cmd_seq++;
+    m.value = (float)value;
+    if (hil_cmd_pack(buf, &m, sizeof buf) > 0) {
+        queue_frame(e, (uint16_t)HIL_CMD_FRAME_ID, buf);
+    }
+}
+
 /** Events due at cycle k: CMD frames queued, plant inputs set, /events rows. */
 static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
 {
     while (*next_event < e->n_events && e->events[*next_event].cycle <= c->k) {
         const engine_event_t *ev = &e->events[(*next_event)++];
         switch (ev->kind) {
-        case ENGINE_EV_CMD: {
-            hil_cmd_t m;
-            uint8_t buf[8];
-            m.command = (uint16_t)ev->command;
-            m.seq = e->cmd_seq++;
-            m.value = (float)ev->value;
-            if (hil_cmd_pack(buf, &m, sizeof buf) > 0) {
-                queue_frame(e, (uint16_t)HIL_CMD_FRAME_ID, buf);
-            }
+        case ENGINE_EV_CMD:
+            queue_cmd(e, ev->command, ev->value);
             break;
-        }
         case ENGINE_EV_LOAD:
             plant_set_load_torque(e->plant, ev->value);
             break;
@@ -1045,6 +1062,121 @@ static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
             record_event(e, c->t_s, "scenario", ev->text, ev->record_value);
         }
     }
+}
+
+/* ---- operator inputs (live.h) ----------------------------------------------------------------- */
+
+static void operator_refused(engine_t *e, const cycle_t *c, const live_input_t *in,
+                             const char *why)
+{
+    char text[LIVE_INPUT_TEXT + 160];
+    if (why != NULL) {
+        snprintf(text, sizeof text, "%s: refused: %s (cycle %ld)", in->text, why, c->k);
+    } else {
+        snprintf(text, sizeof text, "%s (cycle %ld)", in->text, c->k);
+    }
+    e->n.operator_refused++;
+    record_event(e, c->t_s, "operator_refused", text, in->value);
+}
+
+/** One operator input, applied at cycle c (before its SENSE). */
+static void apply_input(engine_t *e, const cycle_t *c, const live_input_t *in)
+{
+    char text[LIVE_INPUT_TEXT + 64];
+    const int lockstep = e->cfg.mode == ENGINE_LOCKSTEP;
+    switch (in->kind) {
+    case LIVE_IN_SPEED_REF:
+        if (!isfinite(in->value)) {
+            operator_refused(e, c, in, "not a finite speed");
+            return;
+        }
+        queue_cmd(e, (int)HIL_CMD_SET_SPEED_REF, in->value);
+        break;
+    case LIVE_IN_LOAD:
+        if (!isfinite(in->value)) {
+            operator_refused(e, c, in, "not a finite torque");
+            return;
+        }
+        plant_set_load_torque(e->plant, in->value);
+        break;
+    case LIVE_IN_PAUSE:
+        if (!lockstep) {
+            operator_refused(e, c, in, "a real-time run cannot pause: the controller runs on its "
+                                       "own clock");
+            return;
+        }
+        if (e->paused) {
+            operator_refused(e, c, in, "the run is paused already");
+            return;
+        }
+        e->paused = 1;
+        snprintf(text, sizeof text, "%s (cycle %ld)", in->text, c->k);
+        record_event(e, c->t_s, "operator_pause", text, 0.0);
+        return;
+    case LIVE_IN_RESUME:
+        if (!e->paused) {
+            operator_refused(e, c, in, "the run is not paused");
+            return;
+        }
+        e->paused = 0;
+        snprintf(text, sizeof text, "%s (cycle %ld)", in->text, c->k);
+        record_event(e, c->t_s, "operator_resume", text, 0.0);
+        return;
+    case LIVE_IN_REFUSED:
+        operator_refused(e, c, in, NULL);
+        return;
+    default:
+        operator_refused(e, c, in, "unknown input kind");
+        return;
+    }
+    e->n.operator_inputs++;
+    full_rate_from_now(e, e->cfg.post_trigger_cycles);
+    snprintf(text, sizeof text, "%s (cycle %ld)", in->text, c->k);
+    record_event(e, c->t_s, "operator", text, in->value);
+}
+
+/** Every operator input pending now, applied at cycle c. */
+static void take_inputs(engine_t *e, const cycle_t *c)
+{
+    live_input_t in;
+    unsigned n = 0u;
+    if (e->inbox == NULL) {
+        return;
+    }
+    while (n++ < LIVE_INBOX_SLOTS && live_inbox_take(e->inbox, &in)) {
+        apply_input(e, c, &in);
+    }
+}
+
+static int drain_frames(engine_t *e, cycle_t *c, int cycle_open, int *completed);
+static void link_failed(engine_t *e, const cycle_t *c);
+
+/**
+ * Lockstep, paused by an operator before cycle c's SENSE: read the link (heartbeats, a
+ * FAULT_CTRL ends the run as ever) and the mailbox every few ms until a resume or a stop.
+ * 0, or -1 with e->end set.
+ */
+static int hold_while_paused(engine_t *e, cycle_t *c)
+{
+    const int64_t t0 = eng_now_ns();
+    while (e->paused) {
+        int completed = 0;
+        if (stop_asked(e)) {
+            e->end = ENGINE_END_STOPPED;
+            set_message(e, "stopped at cycle %ld while paused by the operator", c->k);
+            return -1;
+        }
+        if (link_poll(e, eng_now_ns() + 5000000LL) < 0) {
+            link_failed(e, c);
+            return -1;
+        }
+        if (drain_frames(e, c, 0, &completed) != 0) {
+            return -1;
+        }
+        take_inputs(e, c);
+    }
+    e->paused_ns += eng_now_ns() - t0;
+    return 0;
 }
 
 /** Sample the plant (it is at t_k), encode the SENSE group. 0, or -1 (ENGINE_END_PLANT set). */
@@ -1811,6 +1943,29 @@ static int exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_
     return 0;
 }
 
+
+static int64_t wait_until(int64_t deadline_ns, int64_t spin_ns);
+
+/** Lockstep paced for a viewer (pace_s > 0): cycle k starts k pace_s after the first, plus the
+ *  time the run was paused (absolute deadlines, no spin: the engine sleeps). The start error
+ *  goes to the jitter histogram and the /timing row. Returns the cycle's start. */
+static int64_t lockstep_pace(engine_t *e, long k, int64_t *start_err_ns)
+{
+    int64_t deadline, now;
+    *start_err_ns = 0;
+    if (!(e->cfg.pace_s > 0.0)) {
+        return eng_now_ns();
+    }
+    if (k == 0) {
+        e->t0_ns = eng_now_ns();
+    }
+    deadline = e->t0_ns + e->paused_ns + (int64_t)llround((double)k * e->cfg.pace_s * 1e9);
+    now = wait_until(deadline, 0);
+    *start_err_ns = now - deadline;
+    hist_add(&e->hist_jitter, (double)*start_err_ns * 1e-3);
+    return now;
+}
+
 static int run_lockstep(engine_t *e)
 {
     const engine_config_t *cfg = &e->cfg;
@@ -1821,14 +1976,22 @@ static int run_lockstep(engine_t *e)
     rv.w_split = cfg->t_delay_s / cfg->ts_s;
     for (k = 0; k < cfg->n_cycles; ++k) {
         cycle_t c;
-        int64_t c0 = eng_now_ns(), sent_ns;
+        int64_t c0, sent_ns, start_err_ns;
         if (stop_asked(e)) {
             e->end = ENGINE_END_STOPPED;
             set_message(e, "stopped at cycle %ld", k);
             return e->end;
         }
+        c0 = lockstep_pace(e, k, &start_err_ns);
         begin_cycle(e, &c, k);
         apply_events(e, &next_event, &c);
+        take_inputs(e, &c);
+        if (e->paused) {
+            if (hold_while_paused(e, &c) != 0) {
+                return e->end;
+            }
+            c0 = eng_now_ns();
+        }
         faults_begin_cycle(e, k);
         if (build_sense(e, &c) != 0) {
             return e->end;
@@ -1853,7 +2016,7 @@ static int run_lockstep(engine_t *e)
             if (e->have_ring && record_full(e, k)) {
                 t.t_s = c.t_s;
                 t.seq = c.seq;
-                t.start_err_us = (double)NAN;
+                t.start_err_us = (cfg->pace_s > 0.0) ? (double)start_err_ns * 1e-3 : (double)NAN;
                 t.rtt_us = (double)(c.duty_t_ns - sent_ns) * 1e-3;
                 t.arrival_us = (double)NAN;
                 t.cycle_us = (double)(c1 - c0) * 1e-3;
@@ -1882,8 +2045,6 @@ static int run_lockstep(engine_t *e)
 }
 
 /* ---- replay ------------------------------------------------------------------------------------ */
-
-static int64_t wait_until(int64_t deadline_ns, int64_t spin_ns);
 
 static double duty_of_raw(const engine_t *e, uint32_t raw)
 {
@@ -2358,6 +2519,7 @@ static int run_realtime(engine_t *e)
             continue;
         }
         apply_events(e, &next_event, &c);
+        take_inputs(e, &c);
         faults_begin_cycle(e, k);
         if (build_sense(e, &c) != 0) {
             return e->end;

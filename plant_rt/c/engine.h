@@ -34,6 +34,14 @@
  *   counted as overruns (rt_overruns): the bench's timing failure, not the controller's. After max_consecutive_misses misses in a row the inverter goes to its safe
  *   state (all legs off: the diodes conduct), FAULT_PLANT (WATCHDOG) is sent and the run ends.
  *
+ * OPERATOR INPUTS (live view, live.h, docs/foxglove.md): with a mailbox attached, every input a
+ *   viewer published is taken at the start of the next cycle, after that cycle's scenario events,
+ *   and applied in it: a speed reference as a CMD frame sent with the cycle's SENSE frames, a
+ *   load torque into the plant before its sample; each writes an /events row naming the cycle
+ *   (kind "operator", or "operator_refused" with the reason). Lockstep only: a pause holds the
+ *   run before the cycle's SENSE (the link is still read: heartbeats, a FAULT_CTRL) until a
+ *   resume or a stop; the pause leaves no trace in the rows but its /events rows.
+ *
  * Frame rules, both modes (docs/protocol.md section 6): frames are handled in arrival order, one
  * at a time, so the outcome never depends on how reads were batched. The first valid DUTY(k)
  * completes cycle k; frames behind it wait for the next cycle. A DUTY for an already completed
@@ -54,6 +62,7 @@
 #include "engine_faults.h"
 #include "engine_link.h"
 #include "engine_refs.h"
+#include "live.h"
 #include "plant.h"
 #include "rec_ring.h"
 #include "rec_schema.h"
@@ -258,7 +267,9 @@ typedef struct {
     long replay_n_frames;
     double pace_s;              /* replay: wall time per ts_s of recorded time (Ts / rate): row k
                                  * starts pace_s / ts_s x (its t_s - row 0's) after the start
-                                 * (absolute deadlines); 0: as fast as possible */
+                                 * (absolute deadlines); lockstep: cycle k starts k pace_s after
+                                 * the first (plus the time the run was paused), for a viewer
+                                 * (bench run --pace); 0: as fast as possible */
     uint16_t ch_replay;         /* /replay/controller or /replay/plant */
     /* serial byte capture (docs/replay.md): every octet of a serial link as a ring record on
      * ch_serial_raw: payload = direction (0 written, 1 read) then the octets; time = eng_now_ns */
@@ -288,6 +299,11 @@ typedef struct {
     uint64_t faults_acted;  /* [[faults]] entries that acted at least once (set at the run's end) */
     uint64_t faults_traced; /* of those, the ones every detection window of which had evidence */
     uint64_t state_rows;    /* /plant/state rows the engine wrote (decimation: fewer than cycles) */
+    uint64_t operator_inputs;   /* live view: operator inputs applied that change the run (a
+                                 * speed reference, a load torque): no claim of the run can PASS */
+    uint64_t operator_refused;  /* live view: operator inputs refused (an /events row each) */
+    uint64_t ring_waits;        /* lockstep: times a row waited for room in the recording ring
+                                 * (the recorder had fallen a whole ring behind) */
 } engine_counters_t;
 
 typedef struct {
@@ -334,6 +350,10 @@ typedef struct engine {
     int hb_state;                /* the state of the controller's last HEARTBEAT_CTRL */
     long cur_k;                  /* the cycle running now */
     double cur_t_s;
+    /* operator inputs of the live view (live.h; NULL: none) */
+    live_inbox_t *inbox;
+    int paused;                  /* lockstep: held by an operator's pause */
+    int64_t paused_ns;           /* lockstep: wall time the run spent paused */
     /* live (read by the bench while it runs) */
     volatile int stop_requested;
     volatile long cycles_done;
@@ -382,6 +402,10 @@ int engine_add_event(engine_t *e, const engine_event_t *ev);
 /** Record cycles [from_k, to_k) in full in a decimated recording (record_every > 1; else a
  *  no-op): the windows the metrics read. 0, or -1 (full). */
 int engine_add_full_rate(engine_t *e, long from_k, long to_k);
+/** Take operator inputs from a live view's mailbox in `mem` (live.h, formatted): every pending
+ *  input at the start of each cycle of the live loop (lockstep and real time). 0, or -1 with
+ *  e->message (not formatted). */
+int engine_attach_inbox(engine_t *e, void *mem, size_t size);
 /** Add a link fault (engine_faults.h). 0, or -1 with e->message (bad values, full, not possible
  *  on this link). */
 int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f);

@@ -38,6 +38,7 @@ add_library(hil_engine STATIC
   ${HIL_ROOT}/plant_rt/c/engine_link.c
   ${HIL_ROOT}/plant_rt/c/engine_refs.c
   ${HIL_ROOT}/plant_rt/c/engine_sil.c
+  ${HIL_ROOT}/plant_rt/c/live.c
   ${HIL_ROOT}/firmware_stub/port/sil/sil_port.c
   ${HIL_ROOT}/plant_rt/c/rec_ring.c
   ${HIL_ROOT}/plant_rt/c/rec_mcap.c

@@ -1,0 +1,471 @@
+"""bench run --live: the Foxglove WebSocket protocol, spoken by a client of our own, during a run.
+
+The client is `websockets` speaking the Foxglove WebSocket protocol by hand (subprotocol
+``foxglove.sdk.v1``, which foxglove-sdk 0.30 serves; ``foxglove.websocket.v1`` offered as well):
+JSON ``serverInfo`` / ``advertise`` / ``subscribe``, binary ``messageData`` (opcode 1, u32
+subscription id, u64 log time, payload). It checks what a viewer relies on against the
+recording the same run wrote: the advertised channels and their schemas are the recording's,
+and a /plant/state message decoded with the *advertised* schema is the recording's row of the
+same time.
+"""
+from __future__ import annotations
+
+import base64
+import fcntl
+import json
+import struct
+import termios
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+import websockets.sync.client as ws_sync   # a test dependency (pyproject [test]): never skipped
+from mcap.reader import make_reader
+
+from hil_bench.loop.runner import Runner
+from hil_bench.record.live_view import LiveOptions
+from hil_bench.scenario import load_scenario
+
+SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+OP_MESSAGE_DATA = 1
+
+
+def _connect(port: int, **kw):
+    deadline = time.monotonic() + 20.0
+    while True:
+        try:
+            return ws_sync.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS,
+                                   open_timeout=5, **kw)
+        except OSError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.02)
+
+
+class Viewer(threading.Thread):
+    """Connects once the live view listens, subscribes to ``topics`` as they are advertised,
+    reads until the server closes (the run's end), or, ``stall``, stops reading once
+    subscribed and only holds the connection open."""
+
+    def __init__(self, port: int, topics: tuple[str, ...] | None, stall: bool = False):
+        super().__init__(daemon=True)
+        self.port, self.topics, self.stall = port, topics, stall
+        self.subprotocol = None
+        self.advertised: dict[int, dict] = {}
+        self.subscribed: dict[int, int] = {}    # subscription id -> channel id
+        self.messages: list[tuple[int, int, bytes]] = []   # (channel id, log time, payload)
+        self.error: BaseException | None = None
+        self.unread_octets = 0
+        self.done = threading.Event()
+        self.release = threading.Event()
+
+    def _subscribe(self, ws, channels) -> None:
+        subs = []
+        for c in channels:
+            if self.topics is None or c["topic"] in self.topics:
+                sid = len(self.subscribed) + 1
+                self.subscribed[sid] = c["id"]
+                subs.append({"id": sid, "channelId": c["id"]})
+        if subs:
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+
+    def run(self) -> None:
+        try:
+            ws = _connect(self.port, max_queue=4 if self.stall else 4096)
+            with ws:
+                self.subprotocol = ws.subprotocol
+                while True:
+                    try:
+                        m = ws.recv(timeout=30)
+                    except Exception:   # noqa: BLE001 - closed by the server: the run's end
+                        break
+                    if isinstance(m, str):
+                        j = json.loads(m)
+                        if j["op"] == "advertise":
+                            for c in j["channels"]:
+                                self.advertised[c["id"]] = c
+                            self._subscribe(ws, j["channels"])
+                        elif j["op"] == "unadvertise":
+                            pass
+                    elif m[0] == OP_MESSAGE_DATA:
+                        sid, t_ns = struct.unpack_from("<IQ", m, 1)
+                        self.messages.append((self.subscribed[sid], t_ns, bytes(m[13:])))
+                        if self.stall and len(self.messages) >= 1:
+                            self._hold(ws)
+                            break
+        except BaseException as exc:  # noqa: BLE001 - the test reports it
+            self.error = exc
+        finally:
+            self.done.set()
+
+    def _hold(self, ws) -> None:
+        """Read nothing more: the server's data for us piles up in the kernel, then in its
+        per-client queue. Measure what lies unread in our socket until the test lets go."""
+        sock = ws.socket
+        while not self.release.wait(0.05):
+            buf = bytearray(4)
+            fcntl.ioctl(sock.fileno(), termios.FIONREAD, buf)
+            self.unread_octets = max(self.unread_octets, struct.unpack("i", buf)[0])
+
+
+def _recording(path: Path):
+    """The recording's channels (topic -> (schema name, encoding, schema data)) and its
+    messages by (topic, log time)."""
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        chans = {c.topic: (summary.schemas[c.schema_id].name, summary.schemas[c.schema_id].encoding,
+                           summary.schemas[c.schema_id].data, c.message_encoding)
+                 for c in summary.channels.values()}
+        rows = {}
+        for _schema, channel, message in reader.iter_messages():
+            rows[(channel.topic, message.log_time)] = message.data
+    return chans, rows
+
+
+def _run(tmp_path: Path, *, live: LiveOptions, pace: float | None, make_viewer, **kw):
+    scn = load_scenario("gong_g2_500rpm")
+    out = tmp_path / "live.mcap"
+    runner = Runner(scn, "stub", out, False, live=live, pace=pace, **kw)
+    viewers = []
+
+    def on_live(port: int) -> None:
+        v = make_viewer(port)
+        v.start()
+        viewers.append(v)
+
+    runner.on_live = on_live
+    result = runner.run()
+    return result, viewers
+
+
+def test_a_viewer_sees_the_recordings_channels_and_decodes_plant_state(tmp_path):
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    result, viewers = _run(tmp_path, live=LiveOptions(port=0), pace=1.0,
+                           make_viewer=lambda port: Viewer(port, ("/plant/state",)))
+    assert result.ok, result.error
+    assert result.cycles_done == result.cycles_planned
+    # --pace 1: cycle k starts k Ts after the first (absolute deadlines): never faster
+    assert result.engine_s >= 0.99 * (result.cycles_done - 1) * result.ts_s, result.engine_s
+    (viewer,) = viewers
+    assert viewer.done.wait(30), "the server did not close the connection at the run's end"
+    assert viewer.error is None, repr(viewer.error)
+    assert viewer.subprotocol in SUBPROTOCOLS
+
+    chans, rows = _recording(result.recording)
+    advertised = {c["topic"]: c for c in viewer.advertised.values()}
+    assert set(advertised) == set(chans)
+    for topic, c in advertised.items():
+        name, encoding, data, msg_encoding = chans[topic]
+        assert (c["schemaName"], c["schemaEncoding"], c["encoding"]) == (name, encoding, msg_encoding)
+        assert base64.b64decode(c["schema"]) == data, topic
+
+    # decode with what the viewer was told, nothing of ours
+    state = advertised["/plant/state"]
+    fds = descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(state["schema"]))
+    pool = descriptor_pool.DescriptorPool()
+    for fd in fds.file:
+        pool.Add(fd)
+    cls = message_factory.GetMessageClass(pool.FindMessageTypeByName(state["schemaName"]))
+    got = [(t, payload) for cid, t, payload in viewer.messages if cid == state["id"]]
+    # 1.5 s paced to real time, 50 Hz: about 75 (fewer on a loaded machine, the first ones
+    # before the viewer subscribed)
+    assert len(got) >= 10, len(got)
+    assert len(got) <= result.wall_s * 50 + 5, f"{len(got)}: the viewer rate is not kept"
+    times = [t for t, _ in got]
+    assert times == sorted(times)
+    for t, payload in got:
+        assert rows[("/plant/state", t)] == payload   # the recording's row of that time
+        msg = cls.FromString(payload)
+        assert msg.ListFields(), "decoded to nothing"
+    last = cls.FromString(got[-1][1])
+    fields = {f.name: v for f, v in last.ListFields()}
+    speed = next(v for k, v in fields.items() if "speed" in k or "omega" in k)
+    assert speed > 10.0, fields   # the motor runs toward 500 rpm by the end
+
+
+def test_a_viewer_that_stops_reading_does_not_hold_the_run(tmp_path):
+    """A client subscribed to every channel, sent every batch's rows (--live-rate very high),
+    that reads nothing: its socket fills, foxglove-sdk drops its oldest messages, and the run
+    and its recording finish whole (a live view that waited on the socket would stall the
+    recorder, then the engine, and the close would time out)."""
+    result, viewers = _run(tmp_path, live=LiveOptions(port=0, rate_hz=1e6, backlog=16),
+                           pace=None, make_viewer=lambda port: Viewer(port, None, stall=True),
+                           ring_bytes=4 * 1024 * 1024)
+    (viewer,) = viewers
+    try:
+        assert result.ok, result.error
+        assert result.cycles_done == result.cycles_planned
+        assert viewer.error is None, repr(viewer.error)
+        assert viewer.messages, "the viewer never got a message: it did not stall anything"
+        assert viewer.unread_octets > 64 * 1024, viewer.unread_octets
+    finally:
+        viewer.release.set()
+        viewer.done.wait(10)
+    _chans, rows = _recording(result.recording)
+    state_rows = sum(1 for topic, _t in rows if topic == "/plant/state")
+    every = load_scenario("gong_g2_500rpm").recording.decimate
+    assert state_rows >= result.cycles_done // every, (state_rows, result.cycles_done)
+
+
+def test_a_taken_port_is_a_clear_error(tmp_path):
+    import socket
+
+    from hil_bench.record.recorder import ProcessRecorder, RecorderError
+
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    s.listen()
+    port = s.getsockname()[1]
+    try:
+        with pytest.raises(RecorderError, match=rf"live view: cannot listen on 127.0.0.1:{port}"):
+            ProcessRecorder(tmp_path / "x.mcap", live=LiveOptions(port=port))
+        assert not (tmp_path / "x.mcap").exists()
+        assert not list(tmp_path.iterdir()), "a refused live view leaves no file"
+    finally:
+        s.close()
+
+
+class Operator(Viewer):
+    """A viewer that advertises /operator/speed_ref (client-publish, JSON) and, once it has seen
+    ``after`` /plant/state messages (the run is going), publishes one speed reference."""
+
+    def __init__(self, port: int, rpm: float, after: int = 5):
+        super().__init__(port, ("/plant/state",))
+        self.rpm, self.after = rpm, after
+        self.capabilities: list[str] = []
+        self.published = False
+
+    def run(self) -> None:
+        try:
+            with _connect(self.port) as ws:
+                while True:
+                    try:
+                        m = ws.recv(timeout=30)
+                    except Exception:   # noqa: BLE001 - closed by the server: the run's end
+                        break
+                    if isinstance(m, str):
+                        j = json.loads(m)
+                        if j["op"] == "serverInfo":
+                            self.capabilities = j.get("capabilities", [])
+                            ws.send(json.dumps({"op": "advertise", "channels": [
+                                {"id": 1, "topic": "/operator/speed_ref", "encoding": "json",
+                                 "schemaName": "hil.OperatorSpeedRef"}]}))
+                        elif j["op"] == "advertise":
+                            for c in j["channels"]:
+                                self.advertised[c["id"]] = c
+                            self._subscribe(ws, j["channels"])
+                    elif m[0] == OP_MESSAGE_DATA:
+                        self.messages.append((0, 0, b""))
+                        if len(self.messages) >= self.after and not self.published:
+                            payload = json.dumps({"rpm": self.rpm}).encode()
+                            ws.send(struct.pack("<BI", 1, 1) + payload)   # client message data
+                            self.published = True
+        except BaseException as exc:  # noqa: BLE001
+            self.error = exc
+        finally:
+            self.done.set()
+
+
+def _operator_run(tmp_path: Path, inputs: bool, rpm: float):
+    from hil_bench.scenario import derive_scenario
+
+    # the same name: its claims (G2) are judged as the bundled scenario's are
+    scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm", [("live.inputs", inputs)])
+    out = tmp_path / "op.mcap"
+    runner = Runner(scn, "stub", out, False, live=LiveOptions(port=0), pace=1.0)
+    viewers = []
+
+    def on_live(port: int) -> None:
+        viewers.append(Operator(port, rpm))
+        viewers[0].start()
+
+    runner.on_live = on_live
+    result = runner.run()
+    assert result.ok, result.error
+    viewers[0].done.wait(30)
+    assert viewers[0].error is None, repr(viewers[0].error)
+    assert "clientPublish" in viewers[0].capabilities
+    assert viewers[0].published
+    return result
+
+
+def _events(path: Path) -> list[tuple[float, str, str]]:
+    from hil_bench.record.recording import load_recording
+
+    ev = load_recording(path, topics=["/events"]).topic("/events")
+    return list(zip(map(float, ev["t_s"]), map(str, ev["kind"]), map(str, ev["text"])))
+
+
+def test_an_operator_speed_reference_is_applied_recorded_and_no_claim_passes(tmp_path):
+    import re
+
+    import numpy as np
+
+    from hil_bench.papers.check import check_recording
+    from hil_bench.record.recording import load_recording
+
+    result = _operator_run(tmp_path, inputs=True, rpm=700.0)
+    rows = [e for e in _events(result.recording) if e[1] == "operator"]
+    assert len(rows) == 1, _events(result.recording)
+    t_s, _, text = rows[0]
+    assert "viewer client" in text and "speed reference 700 rpm" in text, text
+    cycle = int(re.search(r"\(cycle (\d+)\)", text).group(1))
+    assert t_s == pytest.approx(cycle * result.ts_s, abs=1e-9)   # the row's time is its cycle's
+    state = load_recording(result.recording, topics=["/plant/state"]).topic("/plant/state")
+    speed = np.asarray(state["speed_rpm"])
+    assert speed[-1] > 650.0, speed[-1]   # the drive followed the operator, not the scenario
+    report = check_recording(result.recording)
+    assert report.results and all(r.verdict == "INVALID" for r in report.results), \
+        [(r.verdict, r.note) for r in report.results]
+    assert report.integrity.invalid_note == "operator input during the run: see integrity"
+    assert any(p.kind == "operator" for p in report.integrity.problems)
+
+
+def test_an_operator_input_the_scenario_forbids_is_refused_on_events(tmp_path):
+    import numpy as np
+
+    from hil_bench.papers.check import check_recording
+    from hil_bench.record.recording import load_recording
+
+    result = _operator_run(tmp_path, inputs=False, rpm=700.0)
+    events = _events(result.recording)
+    assert not [e for e in events if e[1] == "operator"]
+    refused = [e for e in events if e[1] == "operator_refused"]
+    assert len(refused) == 1 and "[live] inputs = false" in refused[0][2], events
+    speed = load_recording(result.recording, topics=["/plant/state"]).topic("/plant/state")["speed_rpm"]
+    assert abs(float(np.asarray(speed)[-1]) - 500.0) < 20.0
+    report = check_recording(result.recording)
+    assert not any(p.kind == "operator" for p in report.integrity.problems)
+    assert report.results and not any(r.verdict == "INVALID" for r in report.results)
+
+
+class Pauser(Operator):
+    """Publishes a pause, holds it ``hold_s`` of wall time, then a resume."""
+
+    def __init__(self, port: int, hold_s: float):
+        super().__init__(port, 0.0)
+        self.hold_s = hold_s
+
+    def run(self) -> None:
+        try:
+            with _connect(self.port) as ws:
+                while True:
+                    try:
+                        m = ws.recv(timeout=30)
+                    except Exception:   # noqa: BLE001 - the run's end
+                        break
+                    if isinstance(m, str):
+                        j = json.loads(m)
+                        if j["op"] == "serverInfo":
+                            ws.send(json.dumps({"op": "advertise", "channels": [
+                                {"id": 1, "topic": "/operator/pause", "encoding": "json",
+                                 "schemaName": "hil.OperatorPause"},
+                                {"id": 2, "topic": "/operator/resume", "encoding": "json",
+                                 "schemaName": "hil.OperatorResume"}]}))
+                        elif j["op"] == "advertise":
+                            self._subscribe(ws, j["channels"])
+                    elif m[0] == OP_MESSAGE_DATA:
+                        self.messages.append((0, 0, b""))
+                        if len(self.messages) >= self.after and not self.published:
+                            ws.send(struct.pack("<BI", 1, 1) + b"{}")
+                            time.sleep(self.hold_s)
+                            ws.send(struct.pack("<BI", 1, 2) + b"{}")
+                            self.published = True
+        except BaseException as exc:  # noqa: BLE001
+            self.error = exc
+        finally:
+            self.done.set()
+
+
+def test_a_lockstep_run_paused_and_resumed_by_a_viewer_runs_every_cycle(tmp_path):
+    import re
+
+    from hil_bench.scenario import derive_scenario
+
+    scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm", [("live.inputs", True)])
+    runner = Runner(scn, "stub", tmp_path / "p.mcap", False, live=LiveOptions(port=0), pace=1.0)
+    viewers = []
+
+    def on_live(port: int) -> None:
+        viewers.append(Pauser(port, hold_s=1.0))
+        viewers[0].start()
+
+    runner.on_live = on_live
+    result = runner.run()
+    assert result.ok, result.error
+    assert result.cycles_done == result.cycles_planned
+    viewers[0].done.wait(30)
+    assert viewers[0].error is None and viewers[0].published
+    events = _events(result.recording)
+    pause = [e for e in events if e[1] == "operator_pause"]
+    resume = [e for e in events if e[1] == "operator_resume"]
+    assert len(pause) == 1 and len(resume) == 1, events
+    k_pause = int(re.search(r"\(cycle (\d+)\)", pause[0][2]).group(1))
+    k_resume = int(re.search(r"\(cycle (\d+)\)", resume[0][2]).group(1))
+    assert k_pause == k_resume   # nothing ran while paused
+    # paced to real time, plus the second it was held
+    assert result.engine_s >= 0.99 * (result.cycles_done - 1) * result.ts_s + 0.9, result.engine_s
+    assert not [e for e in events if e[1] in ("operator", "operator_refused")]
+
+
+def test_the_mailbox_and_the_picker_in_c():
+    """live.c on its own: the mailbox keeps order and refuses when full; live_pick takes the
+    last record of a LIVE_LAST channel, every record of a LIVE_EVERY one, nothing else."""
+    import mmap
+
+    from hil_bench.plant_rt._plant_c import ffi, lib
+
+    mem = mmap.mmap(-1, int(lib.live_inbox_size()))
+    assert lib.live_inbox_attach(ffi.from_buffer(mem), len(mem)) == ffi.NULL   # not formatted
+    assert lib.live_inbox_format(ffi.from_buffer(mem), len(mem)) == 0
+    box = lib.live_inbox_attach(ffi.from_buffer(mem), len(mem))
+    for i in range(lib.LIVE_INBOX_SLOTS):
+        assert lib.live_inbox_push(box, lib.LIVE_IN_LOAD, 7, float(i), b"x" * 500) == 0
+    assert lib.live_inbox_push(box, lib.LIVE_IN_LOAD, 7, 99.0, b"full") == -1
+    out = ffi.new("live_input_t *")
+    for i in range(lib.LIVE_INBOX_SLOTS):
+        assert lib.live_inbox_take(box, out) == 1
+        assert (out.kind, out.client, out.value) == (lib.LIVE_IN_LOAD, 7, float(i))
+        assert ffi.string(out.text) == b"x" * (lib.LIVE_INPUT_TEXT - 1)   # cut, terminated
+    assert lib.live_inbox_take(box, out) == 0 and lib.live_inbox_pending(box) == 0
+
+    ring_mem = mmap.mmap(-1, int(lib.rec_ring_mapping_size(1 << 16)))
+    lib.rec_ring_format(ffi.from_buffer(ring_mem), len(ring_mem))
+    ring = ffi.new("rec_ring_t *")
+    lib.rec_ring_attach(ring, ffi.from_buffer(ring_mem), len(ring_mem))
+    rows = [(0, 1, b"a0"), (1, 2, b"b0"), (0, 3, b"a1"), (2, 4, b"c0"), (1, 5, b"b1!"),
+            (2, 6, b"c1"), (0, 7, b"a2")]
+    for chan, t, data in rows:
+        assert lib.rec_ring_write(ring, chan, t, data, len(data)) == 0
+    buf = bytearray(1 << 16)
+    n = lib.rec_ring_read(ring, ffi.from_buffer(buf), len(buf))
+    modes = ffi.new("int32_t[]", [lib.LIVE_LAST, lib.LIVE_EVERY, lib.LIVE_SKIP])
+    picks = ffi.new("live_pick_t[]", 8)
+    cut = ffi.new("uint64_t *")
+    got = lib.live_pick(ffi.from_buffer(buf), n, modes, 3, picks, 8, cut)
+    seen = [(picks[i].channel, picks[i].t_ns, bytes(buf[picks[i].offset:picks[i].offset + picks[i].length]))
+            for i in range(got)]
+    assert seen == [(1, 2, b"b0"), (1, 5, b"b1!"), (0, 7, b"a2")]
+    assert lib.live_pick(ffi.from_buffer(buf), n, modes, 3, picks, 2, cut) == 2 and cut[0] == 1
+
+
+def test_bad_live_and_pace_options_are_clear_errors(tmp_path):
+    import subprocess
+    import sys
+
+    from hil_bench.loop.runner import RunAborted
+
+    scn = load_scenario("gong_g2_500rpm")
+    with pytest.raises(RunAborted, match="real-time run is paced by its own clock"):
+        Runner(scn, "stub", tmp_path / "x.mcap", False, realtime=True, pace=1.0)
+    with pytest.raises(RunAborted, match="the pace is > 0"):
+        Runner(scn, "stub", tmp_path / "x.mcap", False, pace=0.0)
+    r = subprocess.run([sys.executable, "-m", "hil_bench", "run", "gong_g2_500rpm", "--live",
+                        "70000", "--out", str(tmp_path / "x.mcap")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "a TCP port is 0..65535" in r.stderr and "Traceback" not in r.stderr
+    assert not list(tmp_path.iterdir())
