@@ -184,8 +184,35 @@ def _cmd_claims(args: argparse.Namespace) -> int:
     return 0
 
 
+def _version() -> str:
+    """pip's form: version, where it runs from, the Python; and whether the C parts are there."""
+    import platform
+
+    from hil_bench.installation import checkout_root, missing_modules, version
+
+    where = Path(__file__).resolve().parent
+    built = "C parts missing: " + ", ".join(missing_modules()) if missing_modules() else "C built"
+    origin = f"checkout {checkout_root()}" if checkout_root() else str(where)
+    return (f"bench (hil-bench) {version()} from {origin} (python "
+            f"{platform.python_version()}; {built})")
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the text is made only when asked for (it looks for the compiled parts)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help=None):  # noqa: A002 - argparse's keyword
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_version())
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="bench", description="HIL bench for sensorless PMSM firmware")
+    p.add_argument("--version", action=_VersionAction, help="show the version, where hil-bench "
+                   "runs from and whether its C parts are built, then exit")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="run a scenario against a controller and record it")
@@ -260,15 +287,38 @@ def build_parser() -> argparse.ArgumentParser:
                    help="reuse recordings already in <out>/recordings (development)")
     k.set_defaults(func=_cmd_claims)
 
-    from hil_bench.replay.cli import add_parser as add_replay_parser
+    try:
+        from hil_bench.replay.cli import add_parser as add_replay_parser
+    except ImportError as exc:   # its options come from the C engine: --help/--version still work
+        from hil_bench.installation import is_native_import_error
 
-    add_replay_parser(sub)
+        if not is_native_import_error(exc):
+            raise
+        q = sub.add_parser("replay", help="rerun a logged capture (needs the compiled C)")
+        q.set_defaults(func=_native_missing(exc))
+    else:
+        add_replay_parser(sub)
     return p
+
+
+def _native_missing(exc: ImportError):
+    def fail(args: argparse.Namespace) -> int:
+        raise exc
+    return fail
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return args.func(args)
+    try:
+        return args.func(args)
+    except ImportError as exc:
+        from hil_bench.installation import how_to_build, is_native_import_error
+
+        if not is_native_import_error(exc):
+            raise
+        Console(stderr=True).print(f"[red]error:[/red] hil-bench's compiled C is missing "
+                                   f"({exc.name or exc}): {how_to_build()}", highlight=False)
+        return 2
 
 
 if __name__ == "__main__":

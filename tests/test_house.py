@@ -1,7 +1,8 @@
 """The house's rules (docs/architecture.md, "The house"), read from the source by
 tools/import_graph.py: no import circle between modules or between sub-packages, and nothing in
-plant_rt, protocol or firmware_stub imports the bench above it; and pyproject.toml installs every
-package of the namespace."""
+plant_rt, protocol or firmware_stub imports the bench above it; pyproject.toml maps the namespace
+over the same folders the graph reads (the wheel holds every package of them:
+tests/test_wheel.py)."""
 from __future__ import annotations
 
 import importlib.util
@@ -46,22 +47,30 @@ def test_the_lower_layers_import_nothing_of_the_bench(graph):
     assert {m: d for m, d in up.items() if d} == {}
 
 
+def namespace_folders() -> dict[str, Path]:
+    """pyproject.toml's map of the namespace onto the repository's folders (scikit-build-core:
+    bench/ by force-include, the others by wheel.packages): dotted name -> folder."""
+    wheel = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["scikit-build"]["wheel"]
+    pairs = [(dest, src) for src, dest in wheel["force-include"].items()]
+    pairs += list(wheel["packages"].items())
+    return {dest.replace("/", "."): ROOT / src for dest, src in pairs}
+
+
 def _package_dirs() -> dict[str, Path]:
-    """Every package of the namespace on disk (a folder with an __init__.py under the folders of
-    pyproject.toml's package-dir): dotted name -> folder."""
-    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    """Every package of the namespace on disk (a folder with an __init__.py under the mapped
+    folders): dotted name -> folder."""
     out: dict[str, Path] = {}
-    for name, folder in project["tool"]["setuptools"]["package-dir"].items():
-        for init in (ROOT / folder).rglob("__init__.py"):
-            rel = init.parent.relative_to(ROOT / folder).parts
+    for name, folder in namespace_folders().items():
+        for init in folder.rglob("__init__.py"):
+            rel = init.parent.relative_to(folder).parts
             out[".".join((name,) + rel)] = init.parent
     return out
 
 
-def test_pyproject_installs_every_package():
-    """pyproject.toml lists its packages by hand: one left out is missing from the wheel."""
-    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    assert listed == set(_package_dirs())
+def test_pyproject_maps_the_folders_the_import_graph_reads(ig):
+    """Packages are found, not listed (every folder is copied whole into the wheel): what must
+    agree is the map of the namespace onto folders, here and in tools/import_graph.py."""
+    assert namespace_folders() == ig.FOLDERS
 
 
 def test_the_graph_sees_every_module_of_the_namespace(ig, graph):
