@@ -15,12 +15,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from hil_bench.papers.check import check_recording, print_report
     from hil_bench.record.recorder import RecorderError
     from hil_bench.record.recording import RecordingError
-    from hil_bench.scenario import ScenarioError, load_scenario
+    from hil_bench.scenario import ScenarioError, derive_scenario, load_scenario
 
     out = Console()
     err = Console(stderr=True)
     try:
-        scn = load_scenario(args.scenario)
+        scn = (derive_scenario(args.scenario, load_scenario(args.scenario).name, args.set,
+                               note="bench run --set") if args.set else load_scenario(args.scenario))
         result = run_scenario(scn, link_spec=args.link, out_path=args.out,
                               progress=not args.no_progress, allow_slow_link=args.allow_slow_link,
                               force=args.force, realtime=True if args.realtime else None,
@@ -184,6 +185,21 @@ def _cmd_claims(args: argparse.Namespace) -> int:
     return 0
 
 
+def _override(text: str) -> tuple[str, object]:
+    """``KEY=VALUE`` of ``bench run --set``: VALUE as a TOML value, else as a plain string."""
+    import tomllib
+
+    key, eq, value = text.partition("=")
+    key = key.strip()
+    if not eq or not key or any(not part.strip() for part in key.split(".")):
+        raise argparse.ArgumentTypeError(f"{text!r}: use KEY=VALUE with a dotted scenario key, "
+                                         f"e.g. plant.inverter_nonlinear=true")
+    try:
+        return key, tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        return key, value.strip()
+
+
 def _version() -> str:
     """pip's form: version, where it runs from, the Python; and whether the C parts are there."""
     import platform
@@ -223,6 +239,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "socketcand interface), 'serial:<port-or-url>[@baud]' or "
                         "'can:<interface>:<channel>[@bitrate][,fd]' for a real drive")
     r.add_argument("--out", type=Path, default=None, help="recording path (.mcap)")
+    r.add_argument("--set", metavar="KEY=VALUE", type=_override, action="append", default=[],
+                   help="override a scenario value by its dotted key (as campaigns do), e.g. "
+                        "--set plant.inverter_nonlinear=true --set controller.params.SMO_K_V=30 "
+                        "--set controller.estimator=SMO_TANH; VALUE is read as TOML (a number, "
+                        "true/false, [array], \"string\"), else as a plain string; repeatable")
     r.add_argument("--force", action="store_true",
                    help="replace an existing --out file and the run's side files beside it "
                         "(<out>.serial.bin, <out>.log)")

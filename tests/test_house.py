@@ -2,7 +2,8 @@
 tools/import_graph.py: no import circle between modules or between sub-packages, and nothing in
 plant_rt, protocol or firmware_stub imports the bench above it; pyproject.toml maps the namespace
 over the same folders the graph reads (the wheel holds every package of them:
-tests/test_wheel.py)."""
+tests/test_wheel.py); and no module hides the API's names (hil_bench.run, .check,
+.load_recording)."""
 from __future__ import annotations
 
 import importlib.util
@@ -71,6 +72,14 @@ def test_pyproject_maps_the_folders_the_import_graph_reads(ig):
     """Packages are found, not listed (every folder is copied whole into the wheel): what must
     agree is the map of the namespace onto folders, here and in tools/import_graph.py."""
     assert namespace_folders() == ig.FOLDERS
+
+
+def test_the_api_names_are_not_hidden_by_modules():
+    """``hil_bench.run`` is the API's function: a sub-package or module named run, check or
+    load_recording would replace it as an attribute once imported."""
+    names = {name.split(".")[1] for name in _package_dirs() if name.count(".") >= 1}
+    names |= {p.stem for p in namespace_folders()["hil_bench"].glob("*.py")}
+    assert names.isdisjoint({"run", "check", "load_recording"})
 
 
 def test_the_graph_sees_every_module_of_the_namespace(ig, graph):

@@ -99,6 +99,7 @@ def test_metadata_entry_points_and_license(wheel, names):
         entry_points = z.read(f"{dist}/entry_points.txt").decode()
         license_text = z.read(f"{dist}/licenses/LICENSE").decode()
     assert meta["Name"] == "hil-bench" and meta["License-Expression"] == "MIT"
+    assert "pandas>=2.0" in meta.get_all("Requires-Dist")
     assert "bench = hil_bench.cli:main" in entry_points
     assert license_text.startswith("MIT License")
 
