@@ -101,6 +101,7 @@ def test_metadata_entry_points_and_license(wheel, names):
     assert meta["Name"] == "hil-bench" and meta["License-Expression"] == "MIT"
     assert "pandas>=2.0" in meta.get_all("Requires-Dist")
     assert "bench = hil_bench.cli:main" in entry_points
+    assert "[pytest11]" in entry_points and "hil_bench = hil_bench.pytest_plugin" in entry_points
     assert license_text.startswith("MIT License")
 
 
