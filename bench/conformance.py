@@ -40,6 +40,7 @@ from hil_bench.protocol.messages import (
     HelloStatus,
     Mode,
     Param,
+    SenseAuxFlag,
     State,
 )
 
@@ -244,7 +245,10 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
     add(Item("6.8", "HELLO asking for ENCODER without the flag ENCODER_VALID: ESTIMATOR_UNSUPPORTED",
              ack is not None and ack["status"] == HelloStatus.ESTIMATOR_UNSUPPORTED,
              "no answer" if ack is None else f"status {_status(HelloStatus, ack['status'])}"))
-    flags = int(HelloFlag.TELEM_EMF)
+    # an encoder drive is asked with ENCODER_VALID and gets the plant's angle in every SENSE_AUX (6.8)
+    enc = est == Estimator.ENCODER
+    enc_flag = int(HelloFlag.ENCODER_VALID) if enc else 0
+    flags = int(HelloFlag.TELEM_EMF) | enc_flag
     ack = _hello(s, estimator=int(est), flags=flags, period_s=ts_s)
     if ack is None:
         add(Item("6.1", f"HELLO (lockstep, {est.name}, TELEM_EMF): HELLO_ACK OK", False, "no HELLO_ACK"))
@@ -338,7 +342,10 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
 
     def cycle_frames(pl, k: int) -> list[tuple[int, bytes]]:
         smp = pl.sample()
-        return [(M["SENSE_AUX"].frame_id, M["SENSE_AUX"].pack_values((k, smp.v_dc_v, 0.0, 0))),
+        valid = enc and bool(smp.enc_valid)
+        aux = (k, smp.v_dc_v, smp.theta_enc_rad if valid else 0.0,
+               int(SenseAuxFlag.THETA_ENC_VALID) if valid else 0)
+        return [(M["SENSE_AUX"].frame_id, M["SENSE_AUX"].pack_values(aux)),
                 (M["SENSE"].frame_id, M["SENSE"].pack_values((k, smp.i_a_a, smp.i_b_a, smp.i_c_a), saturate=True))]
 
     def answer(k: int, frames) -> list[tuple[int, bytes]] | None:
@@ -480,7 +487,7 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
                      f"ISR again"))
 
     # -- a second session without TELEM_EMF (6.1, 6.4, 6.5) --------------------------------------------------
-    ack = _hello(s, estimator=int(est), flags=0, period_s=ts_s)
+    ack = _hello(s, estimator=int(est), flags=enc_flag, period_s=ts_s)
     ok2 = ack is not None and ack["status"] == HelloStatus.OK
     emf_seen, answered2 = 0, 0
     for k2 in range(3):

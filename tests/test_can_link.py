@@ -341,3 +341,95 @@ def test_a_link_opened_from_the_configuration_says_so_and_the_stub_links_ignore_
         assert bus.receive_own_messages is False
     finally:
         bus.shutdown()
+
+
+class _FakeSocketcand:
+    """A socketcand gateway on 127.0.0.1 that greets, opens, enters rawmode and then sends what the
+    test gives it (bounded: one client, closed by the test)."""
+
+    def __init__(self):
+        import socket
+        import threading
+
+        self.srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self.srv.bind(("127.0.0.1", 0))
+        self.srv.listen(1)
+        self.port = self.srv.getsockname()[1]
+        self.conn = None
+        self._ready = threading.Event()
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self):
+        self.srv.settimeout(10.0)
+        for _ in range(3):          # the bench probes the port first (a connection closed at once)
+            conn, _ = self.srv.accept()
+            conn.settimeout(10.0)
+            try:
+                conn.sendall(b"< hi >")
+                if not conn.recv(256):                      # < open can0 >
+                    conn.close()
+                    continue
+                conn.sendall(b"< ok >")
+                conn.recv(256)                              # < rawmode >
+                conn.sendall(b"< ok >")
+            except OSError:
+                conn.close()
+                continue
+            self.conn = conn
+            self._ready.set()
+            return
+
+    def send(self, data: bytes):
+        assert self._ready.wait(10.0)
+        self.conn.sendall(data)
+
+    def close(self):
+        for s in (self.conn, self.srv):
+            if s is not None:
+                s.close()
+
+
+MALFORMED_LINES = [b"< frame ZZZ 1.000000 0102 >",                      # id not hex
+                   b"< frame 040 notatime 0102 >",                       # bad timestamp
+                   b"< frame 040 1.000000 0\xc3\xa9 >",                  # non-ASCII octets
+                   b"< frame 040 1.000000 010 >",                        # odd number of hex digits
+                   b"< frame 040 1.000000 010203040506070809 >"]         # 9 octets on classic CAN
+
+
+@pytest.mark.parametrize("bad", MALFORMED_LINES)
+def test_a_malformed_socketcand_line_is_a_counted_receive_error_not_the_end(bad, caplog, capsys):
+    """Issue 19, point 3: a gateway's malformed line is counted (rx_malformed), reported once on the
+    link's logger, the frames around it pass, and nothing raises or prints a traceback."""
+    gw = _FakeSocketcand()
+    try:
+        opened = open_link(f"can:socketcand:can0,host=127.0.0.1,port={gw.port}")
+        link = opened.link
+        try:
+            with caplog.at_level(logging.WARNING):
+                gw.send(b"< frame 050 1.000000 0102030405060708 >" + bad +
+                        b"< frame 051 1.000100 0807060504030201 >")
+                got = []
+                for _ in range(20):
+                    got += link.recv(0.05)
+                    if len(got) >= 2:
+                        break
+                assert got == [(0x050, bytes(range(1, 9))), (0x051, bytes(range(8, 0, -1)))]
+                assert link.stats()["rx_malformed"] == 1
+                gw.send(bad)                                 # a second one: counted, not re-reported
+                for _ in range(5):
+                    link.recv(0.05)
+                assert link.stats()["rx_malformed"] == 2
+        finally:
+            opened.close()
+    finally:
+        gw.close()
+    reports = [r.getMessage() for r in caplog.records if "cannot parse" in r.getMessage()]
+    assert len(reports) == 1 and "rx_malformed" in reports[0], reports
+    out = capsys.readouterr()
+    assert "Traceback" not in out.out + out.err + caplog.text
+    assert not [r for r in caplog.records if r.levelno >= logging.ERROR], caplog.text
+
+
+def test_rx_malformed_is_a_link_counter_a_scenario_may_allow():
+    from hil_bench.record.integrity import ALLOWABLE_COUNTERS, LINK_COUNTERS
+    assert "rx_malformed" in LINK_COUNTERS and "rx_malformed" in ALLOWABLE_COUNTERS

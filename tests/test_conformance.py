@@ -118,3 +118,13 @@ def test_a_controller_that_reruns_its_isr_on_a_repeat_fails_though_its_bytes_mat
     assert after.ok is False and "cycle 151 differs from the session without the repeat" in after.detail, \
         result.text()
     assert not result.passed
+
+
+def test_an_encoder_drive_can_pass_the_kit():
+    """Issue 19, point 8: ``--estimator ENCODER`` asks with ENCODER_VALID in HELLO and sends the
+    plant's encoder angle with THETA_ENC_VALID in every SENSE_AUX (6.8), so a drive closing its
+    loop on the encoder (the stub asked for ENCODER) passes every item."""
+    result = run_conformance("stub", cycles=300, estimator="ENCODER")
+    failed = [f"{i.section} {i.text}: {i.detail}" for i in result.items if i.ok is False]
+    assert result.aborted is None and not failed, (result.aborted, failed)
+    assert any("TELEM.estimator = ENCODER" in i.text and i.ok for i in result.items)

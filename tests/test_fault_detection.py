@@ -14,6 +14,7 @@ docs/faults.md); the bench sees it in the plant's fault status.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -352,3 +353,26 @@ def test_every_plant_fault_kind_has_a_detection_test():
     from hil_bench.plant_rt.plant import FAULT_KINDS
 
     assert set(COVERAGE) == set(FAULT_KINDS), set(FAULT_KINDS) ^ set(COVERAGE)
+
+
+def test_a_locked_rotor_under_the_sensorless_smo_is_a_stall(tmp_path):
+    """Issue 19, point 9: the bundled campaign's locked rotor, closed by Gong's tanh SMO. With the
+    rotor held the observer's frame swings (angle error 0.8-2.4 rad within 10 ms) and the q current
+    in that frame dips below 0.9 IQ_MAX_A in 20-50 % of the periods; the stall check judges the
+    current's magnitude averaged over its window (frame-free), so it trips STALL within the
+    campaign's 150 ms, the plant's current stays below the over-current trip, every leg goes off."""
+    from hil_bench.faults.campaign import load_campaign, run_campaign
+
+    src = (Path(__file__).resolve().parents[1] / "bench" / "campaigns" / "g2_protection.toml").read_text()
+    head = src.split("# ---- the plant")[0].replace('name = "g2_protection"', 'name = "locked"')
+    camp_path = tmp_path / "locked.toml"
+    camp_path.write_text(head + '\n[[runs]]\nlabel = "locked rotor"\n'
+                         'faults = [{kind = "locked_rotor", t_s = 1.2}]\n'
+                         'limits = {detection_time_s = 0.15}\n')
+    camp = load_campaign(camp_path)
+    (res,) = run_campaign(camp, tmp_path / "out")
+    assert res.verdict == "PASS", res.reasons
+    (o,) = res.outcomes
+    assert o.detected_by == "FAULT_CTRL STALL" and 0.1 <= o.detection_s <= 0.15, (o.detected_by,
+                                                                                  o.detection_s)
+    assert o.duties_after_trip == 0 and o.state_after == "FAULT"

@@ -154,3 +154,30 @@ def test_an_empty_file_is_said_to_be_empty(tmp_path):
     empty.write_bytes(b"")
     with pytest.raises(RecoverError, match="empty file \\(0 octets\\): nothing was recorded"):
         recover(empty)
+
+
+@pytest.mark.parametrize("damage", ["magic", "magic_and_header"])
+def test_a_damaged_magic_is_passed_by_scanning_for_records(recording, tmp_path, damage):
+    """Issue 19, point 3/4: the first 4 octets (or the whole magic and the header record) damaged,
+    every chunk intact: every message is recovered, the damage is reported where it is."""
+    original = _valid_mcap(recording)
+    data = bytearray(recording.read_bytes())
+    n = 4 if damage == "magic" else 8 + 9 + int.from_bytes(data[9:17], "little")
+    for i in range(n):
+        data[i] ^= 0x5A
+    damaged = tmp_path / f"{damage}.mcap"
+    damaged.write_bytes(bytes(data))
+    report = recover(damaged, tmp_path / f"{damage}_fixed.mcap")
+    assert report.chunks_ok == len(_chunk_offsets(recording)) and report.chunks_bad == 0
+    assert report.skipped[0][0] == 0 and "magic" in report.skipped[0][2]
+    assert report.bytes_skipped == (8 if damage == "magic" else n)
+    assert _valid_mcap(tmp_path / f"{damage}_fixed.mcap") == original
+    assert "run" in load_recording(tmp_path / f"{damage}_fixed.mcap").metadata
+
+
+def test_a_file_without_magic_or_any_record_is_not_an_mcap_file(tmp_path):
+    junk = tmp_path / "noise.mcap"
+    junk.write_bytes(bytes(range(256)) * 64)
+    with pytest.raises(RecoverError, match="not an MCAP file: no MCAP magic at the start and no "
+                                           "intact MCAP record anywhere in its 16384 octets"):
+        recover(junk)

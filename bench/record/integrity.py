@@ -42,7 +42,7 @@ LINK_COUNTERS: tuple[str, ...] = (
     "crc_errors", "cobs_errors", "length_errors", "overruns", "bytes_discarded", "seq_mismatch",
     "telem_missing", "unknown_ids",
     "duplicates", "retries", "rows_dropped", "late_duty", "missed_duty", "estimator_mismatch", "bad_duties",
-    "rt_overruns",
+    "rt_overruns", "rx_malformed",
 )
 #: what a scenario may allow: everything but an estimator mismatch, which invalidates the claims anyway
 ALLOWABLE_COUNTERS: tuple[str, ...] = tuple(c for c in LINK_COUNTERS if c != "estimator_mismatch")

@@ -7,7 +7,9 @@ A reader that streams an MCAP file stops at the first bad record, so 8 flipped b
 file lose its second half. This tool works at the MCAP record level (the ``mcap`` library's record
 classes and chunk CRCs) and does not look inside messages, so it works for any message encoding:
 
-1. **Scan.** From the magic on, read one record at a time (opcode, length, body). A record is *intact*
+1. **Scan.** From the magic on (when the magic itself is damaged, from the first intact record a scan
+   finds: the magic is 8 octets of framing, the records after it carry their own lengths and CRCs), read
+   one record at a time (opcode, length, body). A record is *intact*
    when its body parses and writes back to exactly the same octets with the library's own encoder
    (which also re-computes an attachment's CRC), and a chunk also decompresses to its declared size with
    a matching CRC and holds only intact records. A record that is not intact is skipped: by its length
@@ -207,9 +209,9 @@ def _resync(buf, pos: int, size: int):
     return size
 
 
-def _scan(buf, size: int, report: Report) -> Iterator[tuple[int, object]]:
-    """(offset, record) for every intact record; chunks as (chunk, inner records)."""
-    pos = len(MAGIC)
+def _scan(buf, size: int, report: Report, start: int = len(MAGIC)) -> Iterator[tuple[int, object]]:
+    """(offset, record) for every intact record from ``start``; chunks as (chunk, inner records)."""
+    pos = start
     while pos < size:
         if pos == size - len(MAGIC) and bytes(buf[pos:]) == MAGIC:
             return
@@ -264,25 +266,42 @@ def recover(source: str | Path, output: str | Path | None = None, force: bool = 
         report.size = size = source.stat().st_size
         if size == 0:
             raise RecoverError(f"{source}: empty file (0 octets): nothing was recorded in it")
-        if size < len(MAGIC) or f.read(len(MAGIC)) != MAGIC:
-            raise RecoverError(f"{source}: not an MCAP file (no MCAP magic at the start)")
-        if size == len(MAGIC):
+        magic_ok = size >= len(MAGIC) and f.read(len(MAGIC)) == MAGIC
+        if size == len(MAGIC) and magic_ok:
             raise RecoverError(f"{source}: holds nothing but the MCAP magic")
         buf = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
         try:
-            return _recover(buf, size, report, output, force)
+            start = len(MAGIC) if magic_ok else _start_without_magic(buf, size, report)
+            return _recover(buf, size, report, output, force, start)
         finally:
             buf.close()
 
 
-def _recover(buf, size: int, report: Report, output: Path, force: bool = False) -> Report:
+def _start_without_magic(buf, size: int, report: Report) -> int:
+    """The first intact record of a file whose magic is damaged (a flipped bit in the first octets
+    must not lose every intact chunk after it); the damaged start is reported as skipped."""
+    if size > len(MAGIC) and _parse(buf, len(MAGIC), size)[0] is not None:
+        start = len(MAGIC)                      # only the magic is damaged
+    else:
+        start = _resync(buf, -1, size)          # the header too: scan for the first intact record
+    if start >= size:
+        raise RecoverError(f"{report.source}: not an MCAP file: no MCAP magic at the start and no intact "
+                           f"MCAP record anywhere in its {size} octets")
+    report.skipped.append((0, start, "MCAP magic damaged" + ("" if start == len(MAGIC) else
+                                                             " and no intact record before this offset")))
+    report.bytes_skipped += start
+    return start
+
+
+def _recover(buf, size: int, report: Report, output: Path, force: bool = False,
+             start: int = len(MAGIC)) -> Report:
     header: Header | None = None
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     chunk_offsets: list[int] = []
     loose_messages = 0
     extras: list[object] = []           # metadata and attachments, in file order
-    for offset, record in _scan(buf, size, report):
+    for offset, record in _scan(buf, size, report, start):
         if isinstance(record, tuple):
             chunk_offsets.append(offset)
             report.chunks_ok += 1

@@ -132,7 +132,7 @@ static int protect(controller_t *c, const ctrl_sample_t *s)
 }
 
 /* motion checks (encoder, stall) after the current loop; 1 = tripped */
-static int protect_motion(controller_t *c, const ctrl_sample_t *s, fw_vec2_t i_ab, fw_vec2_t i_dq)
+static int protect_motion(controller_t *c, const ctrl_sample_t *s, fw_vec2_t i_ab)
 {
     const ctrl_config_t *k = &c->cfg;
     ctrl_protect_motion_t m;
@@ -140,7 +140,7 @@ static int protect_motion(controller_t *c, const ctrl_sample_t *s, fw_vec2_t i_a
     m.speed_control = c->state == CTRL_STATE_CLOSED_LOOP && c->mode == CTRL_MODE_SPEED;
     m.i_q_limit_a = k->iq_max_a;
     m.i_q_ref_a = c->iq_ref_a;
-    m.i_q_a = i_dq.y;
+    m.i_mag_a = sqrtf(i_ab.x * i_ab.x + i_ab.y * i_ab.y);
     m.omega_m_hat_rad_s = c->est.omega_e_rad_s / k->pole_pairs;
     m.speed_err_rad_s = c->speed_ref_rad_s - m.omega_m_hat_rad_s;
     m.encoder_used = (int)k->estimator == CTRL_EST_ENCODER && c->state == CTRL_STATE_CLOSED_LOOP;
@@ -604,7 +604,7 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     c->prot_id_ref_a = c->id_ref_a;
     c->prot_iq_ref_a = c->iq_ref_a;
     c->prot_theta_rad = theta + omega_e * k->ts_s;
-    if (protect_motion(c, s, i_ab_meas, i_dq)) { /* encoder plausibility, stall (ctrl_protect.h) */
+    if (protect_motion(c, s, i_ab_meas)) { /* encoder plausibility, stall (ctrl_protect.h) */
         goto finish;
     }
 

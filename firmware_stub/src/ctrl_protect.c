@@ -78,6 +78,7 @@ void ctrl_protect_reset(ctrl_protect_t *p)
     p->t_stall_s = 0.0f;
     p->stall_dir = 0;
     p->stall_err0_rad_s = 0.0f;
+    p->stall_i_int_as = 0.0f;
     p->code = CTRL_PROTECT_NONE;
     p->detail = 0;
 }
@@ -256,36 +257,40 @@ int ctrl_protect_motion_step(ctrl_protect_t *p, const ctrl_protect_motion_t *in)
         p->enc_prev_rad = in->theta_enc_rad;
         p->enc_armed = 1;
     }
-    /* stall: full torque delivered, and the speed does not come closer to its reference */
+    /* stall: at the current limit, that current delivered (on average over the window, by its
+     * magnitude: frame-free), and the speed does not come closer to its reference */
     if (in->speed_control && k->stall_time_s > 0.0f && in->i_q_limit_a > 0.0f &&
-        fw_is_finite(in->i_q_ref_a) && fw_is_finite(in->i_q_a) && fw_is_finite(in->speed_err_rad_s)) {
+        fw_is_finite(in->i_q_ref_a) && fw_is_finite(in->i_mag_a) && fw_is_finite(in->speed_err_rad_s)) {
         const float lim = in->i_q_limit_a * 0.9999f;
         const int dir = (in->i_q_ref_a >= lim) ? 1 : ((in->i_q_ref_a <= -lim) ? -1 : 0);
-        const int delivered = dir != 0 &&
-                              (float)dir * in->i_q_a >= CTRL_PROTECT_STALL_I_RATIO * in->i_q_limit_a;
-        if (delivered && dir == p->stall_dir) {
+        if (dir != 0 && dir == p->stall_dir) {
             p->t_stall_s += ts;
+            p->stall_i_int_as += fabsf(in->i_mag_a) * ts;
             if (p->t_stall_s >= k->stall_time_s - 0.5f * ts) {
+                const float mean_i = p->stall_i_int_as / p->t_stall_s;
                 /* progress toward the reference over the window (the error's sign is dir's) */
                 const float progress = (float)dir * (p->stall_err0_rad_s - in->speed_err_rad_s);
-                if (progress < k->stall_speed_rad_s) {
+                if (mean_i >= CTRL_PROTECT_STALL_I_RATIO * in->i_q_limit_a &&
+                    progress < k->stall_speed_rad_s) {
                     const float w = fminf(fmaxf(in->omega_m_hat_rad_s * 1000.0f, -2.0e9f), 2.0e9f);
                     return trip(p, CTRL_PROTECT_STALL, fw_is_finite(w) ? (int32_t)w : 0);
                 }
-                p->t_stall_s = 0.0f;   /* accelerating: judge the next window from here */
+                /* accelerating, or the current not delivered (a voltage limit): judge the next
+                 * window from here */
+                p->t_stall_s = 0.0f;
+                p->stall_i_int_as = 0.0f;
                 p->stall_err0_rad_s = in->speed_err_rad_s;
             }
-        } else if (delivered) {
-            p->stall_dir = dir;
-            p->t_stall_s = 0.0f;
-            p->stall_err0_rad_s = in->speed_err_rad_s;
         } else {
-            p->stall_dir = 0;
+            p->stall_dir = dir;        /* reached (or left) the limit: a window starts here */
             p->t_stall_s = 0.0f;
+            p->stall_i_int_as = 0.0f;
+            p->stall_err0_rad_s = in->speed_err_rad_s;
         }
     } else {
         p->stall_dir = 0;
         p->t_stall_s = 0.0f;
+        p->stall_i_int_as = 0.0f;
     }
     return CTRL_PROTECT_NONE;
 }

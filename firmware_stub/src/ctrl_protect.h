@@ -38,11 +38,15 @@
  *                 back-EMF of the voltage balance (v - R i - L di/dt, averaged over that time)
  *                 exceeds enc_emf_ratio * V_dc,nom / sqrt(3): the rotor turns, the encoder does
  *                 not. detail = 5 * 10^7 + mean |EMF| [mV]. A locked rotor has no EMF: STALL.
- *   STALL         speed control: the speed loop at its current limit, the measured torque
- *                 current at >= CTRL_PROTECT_STALL_I_RATIO of it in the same direction (the
- *                 torque is delivered: not a voltage limit), and over stall_time_s the speed
- *                 error shrank by less than stall_speed_rad_s (locked rotor, a load beyond the
- *                 drive's torque). detail = speed estimate [mrad/s, mechanical, signed].
+ *   STALL         speed control: the speed loop at its current limit for stall_time_s, the
+ *                 measured current's magnitude |i_alpha_beta| averaged over that window at
+ *                 >= CTRL_PROTECT_STALL_I_RATIO of the limit (the current is delivered: not a
+ *                 voltage limit), and the speed error shrank by less than stall_speed_rad_s
+ *                 (locked rotor, a load beyond the drive's torque). The magnitude, not the q
+ *                 component, and its mean, not every sample: both are frame-free, so the check
+ *                 holds when a sensorless observer's frame swings on a locked rotor (its q
+ *                 current then dips below the limit in 20-50 % of the periods).
+ *                 detail = speed estimate [mrad/s, mechanical, signed].
  * A threshold of 0 switches its check off (i_trip_a excepted).
  */
 #ifndef CTRL_PROTECT_H
@@ -68,8 +72,9 @@
 #define CTRL_PROTECT_DETAIL_SUM 3
 #define CTRL_PROTECT_DETAIL_ENC_LOST 4
 #define CTRL_PROTECT_DETAIL_ENC_FROZEN 5
-/** Stall: the measured torque current must reach this fraction of the limit (the current loop
- *  delivers what the speed loop asks: a rotor held at the voltage limit is not stalled). */
+/** Stall: the measured current magnitude, averaged over the window, must reach this fraction of
+ *  the limit (the current loop delivers what the speed loop asks: a rotor held at the voltage
+ *  limit is not stalled). */
 #define CTRL_PROTECT_STALL_I_RATIO 0.9f
 
 /** Thresholds (SI). A zero switches that check off (see the top of this file). */
@@ -106,7 +111,7 @@ typedef struct {
     int speed_control;     /**< closed-loop speed control: the stall check applies */
     float i_q_limit_a;     /**< the speed loop's output limit [A] */
     float i_q_ref_a;       /**< the speed loop's output [A] */
-    float i_q_a;           /**< measured q current in the controller's frame [A] */
+    float i_mag_a;         /**< |i_alpha_beta| measured this period [A] (frame-free) */
     float speed_err_rad_s; /**< speed reference - estimate [rad/s, mechanical] */
     float omega_m_hat_rad_s; /**< speed estimate [rad/s, mechanical] (detail) */
     int encoder_used;      /**< the angle comes from the encoder: the encoder checks apply */
@@ -138,6 +143,7 @@ typedef struct {
     float t_stall_s;
     int stall_dir;             /**< +1 / -1: at the upper / lower limit, 0: not at the limit */
     float stall_err0_rad_s;    /**< speed error at the start of the stall window */
+    float stall_i_int_as;      /**< integral of |i| over the stall window [A s] */
     int code;                  /**< latched fault (CTRL_PROTECT_*), 0 = none */
     int32_t detail;
 } ctrl_protect_t;

@@ -17,8 +17,13 @@ Received frames:
 * error frames (SocketCAN error classes, socketcand ``< error >``): counted (``error_frames``);
   controller state changes (error warning/passive) are counted (``bus_state_changes``); a bus-off
   ends the run with :class:`LinkError`;
-* a line the interface cannot parse (python-can's slcan raises ValueError on a malformed line):
-  counted (``rx_malformed``) and skipped.
+* a line the interface cannot parse (python-can's slcan raises ValueError on a malformed line; a
+  socketcand gateway's line with an id, timestamp or data that is not what socketcand sends, or
+  octets that are not ASCII): counted (``rx_malformed``, a link counter like a bad CRC on serial:
+  a problem of the run unless ``[link] allow`` allows it), reported once on the logger, skipped;
+  the frames around it pass. python-can's socketcand interface turns such a line into a CanError
+  carrying its traceback and keeps the line in its buffer, so the socketcand bus here is python-can's
+  with its own receive parser (:class:`SocketcandBus`).
 
 An adapter that vanishes (USB unplugged, socketcand server gone, stub killed) raises LinkError on the
 next read or write.
@@ -36,6 +41,7 @@ from pathlib import Path
 from typing import Callable
 
 import can
+from can.interfaces.socketcand.socketcand import SocketCanDaemonBus
 
 from hil_bench.protocol import budget
 from hil_bench.protocol.messages import BY_ID
@@ -213,8 +219,11 @@ def open_can_bus(spec: CanSpec, handshake_timeout_s: float = HANDSHAKE_TIMEOUT_S
             socket.setdefaulttimeout(handshake_timeout_s)
         # the spec is complete (with_python_can_config merged the configuration once): python-can
         # must not add to it (a ~/.canrc with fd = True would change a stub link's frames)
-        bus = can.Bus(interface=spec.interface, channel=spec.channel, ignore_config=True,
-                      **kwargs)
+        if spec.interface == "socketcand":
+            bus = SocketcandBus(channel=spec.channel, **kwargs)
+        else:
+            bus = can.Bus(interface=spec.interface, channel=spec.channel, ignore_config=True,
+                          **kwargs)
         if spec.interface == "slcan" and spec.fd:
             bus.set_bitrate(spec.bitrate, spec.data_bitrate)   # S<n> + Y<n> (CANable 2.0 style)
     except can.CanInterfaceNotImplementedError as exc:
@@ -228,6 +237,81 @@ def open_can_bus(spec: CanSpec, handshake_timeout_s: float = HANDSHAKE_TIMEOUT_S
     if sock is not None:
         sock.settimeout(None)
     return bus
+
+
+#: what socketcand sends in rawmode (its README): "< frame <id> <secs>.<usecs> <hex data> >" with a
+#: 3-digit (11-bit) or 8-digit (29-bit) hex id, "< error <id> <secs>.<usecs> ... >"
+_SC_FRAME = re.compile(rb"< frame ([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8}) ([0-9]+\.[0-9]+) ?((?:[0-9A-Fa-f]{2}){0,8}) >")
+_SC_ERROR = re.compile(rb"< error ([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8}) ([0-9]+\.[0-9]+)[ -~]* >")
+_SC_IGNORED = (b"< ok >", b"< echo >")
+_SC_LINE_MAX = 200          #: longer without a closing '>' is not a socketcand line (python-can: 200)
+
+
+class SocketcandBus(SocketCanDaemonBus):
+    """python-can's socketcand bus (connect, handshake, send) with a receive path that never raises
+    on what a gateway sends: a line that is not a frame, an error or an ok is kept in ``malformed``
+    (its octets, for the link to count and report) and skipped; the frames around it pass."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._rx = bytearray()
+        self._frames: list[can.Message] = []
+        self.malformed: list[bytes] = []
+
+    def _recv_internal(self, timeout):
+        if not self._frames:
+            sock = self._SocketCanDaemonBus__socket
+            try:
+                if not select.select([sock], [], [], timeout)[0]:
+                    return None, False
+                data = sock.recv(4096)
+            except OSError as exc:
+                raise can.CanError(f"Failed to receive: {exc}") from None
+            if not data:
+                return None, False        # the server closed: CanLink._check_peer says so
+            self._rx += data
+            self._parse()
+        return (self._frames.pop(0) if self._frames else None), False
+
+    def _parse(self) -> None:
+        buf = self._rx
+        while buf:
+            start = buf.find(b"<")
+            if start < 0:
+                if buf.strip():
+                    self.malformed.append(bytes(buf))
+                buf.clear()
+                break
+            if buf[:start].strip():
+                self.malformed.append(bytes(buf[:start]))
+            end = buf.find(b">", start)
+            if end < 0:
+                if len(buf) - start > _SC_LINE_MAX:
+                    self.malformed.append(bytes(buf[start:]))
+                    buf.clear()
+                else:
+                    del buf[:start]       # a line split across TCP segments: wait for the rest
+                break
+            line = bytes(buf[start:end + 1])
+            del buf[:end + 1]
+            msg = self._message(line)
+            if msg is not None:
+                self._frames.append(msg)
+            elif line not in _SC_IGNORED:
+                self.malformed.append(line)
+
+    def _message(self, line: bytes) -> can.Message | None:
+        m = _SC_FRAME.fullmatch(line)
+        if m is not None:
+            return can.Message(timestamp=float(m.group(2)), arbitration_id=int(m.group(1), 16),
+                               data=bytes.fromhex(m.group(3).decode("ascii")),
+                               is_extended_id=len(m.group(1)) != 3, is_rx=True, channel=self.channel)
+        m = _SC_ERROR.fullmatch(line)
+        if m is not None:          # socketcand sends no error class: python-can's one zero octet
+            return can.Message(timestamp=float(m.group(2)), arbitration_id=int(m.group(1), 16) & 0x1FFFFFFF,
+                               is_error_frame=True, data=b"\0", is_extended_id=True, is_rx=True,
+                               channel=self.channel)
+        return None
 
 
 def _socketcand_socket(bus: can.BusABC) -> socket.socket | None:
@@ -306,17 +390,25 @@ class CanLink(Link):
     # -- receiving ----------------------------------------------------------------------------------
     def _recv(self, timeout_s: float) -> can.Message | None:
         try:
-            return self.bus.recv(timeout_s)
+            msg = self.bus.recv(timeout_s)
+            bad = getattr(self.bus, "malformed", None)
+            while bad:
+                self._on_malformed(repr(bad.pop(0))[1:])
+            return msg
         except can.CanError as exc:
             raise self._failure(f"the CAN adapter stopped working ({type(exc).__name__}: {exc}); "
                                 f"unplugged, crashed or closed?") from None
         except (ValueError, IndexError, UnicodeDecodeError) as exc:
-            self.counters.extra["rx_malformed"] += 1
-            self._warn_once("malformed", 0, f"{self.description}: the interface received a line it "
-                                            f"cannot parse ({type(exc).__name__}: {exc}); skipped")
+            self._on_malformed(f"{type(exc).__name__}: {exc}")
             return None
         except OSError as exc:
             raise self._failure(f"reading failed ({exc}); the adapter is gone") from None
+
+    def _on_malformed(self, what: str) -> None:
+        self.counters.extra["rx_malformed"] += 1
+        self._warn_once("malformed", 0, f"{self.description}: the interface received a line it cannot "
+                                        f"parse ({what[:120]}); skipped and counted in rx_malformed "
+                                        f"(further ones only counted)")
 
     def _recv_more(self) -> can.Message | None:
         if self._poll_fd is None:
