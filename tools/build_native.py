@@ -22,7 +22,10 @@ tests/test_loop_sanitized.py runs the closed loop on it)::
     UBSAN_OPTIONS=halt_on_error=1 PYTHONPATH=build-asan/python python ...
 
 (from the repository root, or with an absolute PYTHONPATH from anywhere: the root holds no
-``hil_bench`` that could come first on ``sys.path``). The interpreter is not instrumented:
+``hil_bench`` that could come first on ``sys.path``). The editable install's import redirect
+(scikit-build-core's, first on ``sys.meta_path``) would still serve ``hil_bench`` from the
+checkout: the import root's ``sitecustomize.py``, which Python runs at start-up from
+PYTHONPATH, takes it out. The interpreter is not instrumented:
 ASan's runtime must be loaded first (LD_PRELOAD), and leak detection is off because CPython
 keeps memory until exit by design.
 """
@@ -110,6 +113,17 @@ def sanitized_farm(package: str) -> Path:
     return _install(built, farm / built.name)
 
 
+SITECUSTOMIZE = '''"""build-asan/python/ (tools/build_native.py --sanitize): this import root's hil_bench, with
+the sanitized modules, must be the one imported. Python runs this at start-up when
+PYTHONPATH=build-asan/python; it takes the checkout's editable-install import redirect (which
+maps hil_bench onto the checkout's folders, ahead of PYTHONPATH) out of sys.meta_path."""
+import sys
+
+sys.meta_path[:] = [f for f in sys.meta_path
+                    if not type(f).__module__.startswith("_editable_skbc_hil_bench")]
+'''
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sanitize", action="store_true",
@@ -117,6 +131,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     build_dir = ROOT / ("build-asan" if args.sanitize else "build")
     cmake_build(build_dir, args.sanitize)
+    if args.sanitize:
+        SANITIZED_ROOT.mkdir(parents=True, exist_ok=True)
+        (SANITIZED_ROOT / "sitecustomize.py").write_text(SITECUSTOMIZE)
     for package in packages_with_modules():
         if args.sanitize:
             target = sanitized_farm(package)
