@@ -1,5 +1,6 @@
 """Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``, ``bench recover``,
-``bench conformance``, ``bench campaign`` (bench/faults/campaign.py), ``bench replay`` (bench/replay/cli.py)."""
+``bench conformance``, ``bench campaign`` (bench/faults/campaign.py), ``bench sweep``
+(bench/sweep/), ``bench replay`` (bench/replay/cli.py)."""
 from __future__ import annotations
 
 import argparse
@@ -133,7 +134,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     out_dir = Path(args.out) if args.out else Path("reports") / "campaigns" / camp.name
     t0 = time.monotonic()
     results = run_campaign(camp, out_dir, jobs=args.jobs, link=args.link, keep_all=args.keep_all,
-                           console=err)
+                           console=err, scheduler=args.scheduler)
     md = write_report(camp, results, out_dir, time.monotonic() - t0)
     out = Console()
     for r in results:
@@ -149,6 +150,40 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     return 1 if n_bad else 0
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from hil_bench.cluster import Executor
+    from hil_bench.sweep import SweepError, load_sweep
+    from hil_bench.sweep.plots import plot_sweep
+    from hil_bench.sweep.run import RESULTS, describe, run_sweep
+
+    err = Console(stderr=True)
+    try:
+        sw = load_sweep(args.sweep, quick=args.quick)
+    except SweepError as exc:
+        err.print(f"[red]error:[/red] {exc}")
+        return 2
+    if args.time_limit_s is not None:
+        sw.time_limit_s = args.time_limit_s
+    out_dir = Path(args.out) if args.out else Path("reports") / "sweeps" / sw.name
+    try:
+        executor = Executor(args.scheduler, args.workers, progress=not args.no_progress,
+                            console=err, label=sw.name)
+    except (OSError, TimeoutError) as exc:
+        err.print(f"[red]error:[/red] cannot reach the Dask scheduler {args.scheduler}: {exc}")
+        return 2
+    with executor:
+        err.print(f"{sw.name}: {len(sw.points)} runs over {sw.link} ({sw.method}"
+                  f"{', --quick' if sw.quick else ''}) on the {executor.where}")
+        rows, did = run_sweep(sw, out_dir, executor, err)
+    timing = {"wall_s": did["wall_s"], "where": executor.where}
+    paths = [] if args.no_plots else plot_sweep(sw, rows, out_dir, timing)
+    out = Console()
+    out.print(f"{did['ran']} runs in {did['wall_s']:.1f} s, {did['skipped']} already in the table; "
+              f"table {out_dir / RESULTS} ({len(rows)} rows: {describe(rows)})"
+              + (f"; plots {out_dir / 'plots'}, {out_dir / 'report.html'}" if paths else ""))
+    return 1 if any(r.get("status") == "error" for r in rows) else 0
+
+
 def _cmd_claims(args: argparse.Namespace) -> int:
     from hil_bench.papers.claims import CLAIMS, METRICS
 
@@ -158,7 +193,7 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
             rep = run_report(args.out, only=only, jobs=args.jobs, beyond=not args.no_beyond,
-                             reuse=args.reuse, beyond_quick=args.quick)
+                             reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler)
         except ValueError as exc:
             Console(stderr=True).print(f"[red]error:[/red] {exc}")
             return 2
@@ -225,6 +260,16 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
+def add_executor_args(p: argparse.ArgumentParser) -> None:
+    """Where the runs go (hil_bench.cluster): the same options on every command that spreads runs."""
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="an existing Dask scheduler (its workers need hil-bench installed; "
+                        "docs/sweeps.md); default: a local cluster, one worker per core")
+    p.add_argument("--workers", type=int, default=None,
+                   help="local cluster: worker processes (default: one per core)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="bench", description="HIL bench for sensorless PMSM firmware")
     p.add_argument("--version", action=_VersionAction, help="show the version, where hil-bench "
@@ -234,7 +279,8 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a scenario against a controller and record it")
     r.add_argument("scenario", help="scenario file or bundled scenario name")
     r.add_argument("--link", default="stub",
-                   help="'stub' (default: the C firmware stub on a new pty), "
+                   help="'stub' (default: the C firmware stub on a new pty), 'sil' (the "
+                        "firmware's C in this process: software in the loop), "
                         "'stub-slcan' / 'stub-socketcand' (the stub behind python-can's slcan or "
                         "socketcand interface), 'serial:<port-or-url>[@baud]' or "
                         "'can:<interface>:<channel>[@bitrate][,fd]' for a real drive")
@@ -283,11 +329,25 @@ def build_parser() -> argparse.ArgumentParser:
                                         "detection and reaction against the file's limits")
     g.add_argument("campaign", help="campaign TOML (e.g. bench/campaigns/g2_protection.toml)")
     g.add_argument("--out", help="report folder (default reports/campaigns/<name>)")
-    g.add_argument("--jobs", type=int, default=1, help="runs in parallel (default 1)")
+    g.add_argument("--jobs", type=int, default=None,
+                   help="local Dask cluster: worker processes (default: one per core)")
+    g.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run on an existing Dask scheduler instead (docs/sweeps.md)")
     g.add_argument("--link", default=None, help="link of every run (default: the file's, or stub)")
     g.add_argument("--keep-all", action="store_true",
                    help="keep every run's recording (default: only the runs that did not PASS)")
     g.set_defaults(func=_cmd_campaign)
+    w = sub.add_parser("sweep", help="run a base scenario over axes of its keys on a Dask cluster "
+                                     "(local by default): one Parquet table, plots")
+    w.add_argument("sweep", help="sweep TOML (e.g. bench/sweeps/observers_speed_load.toml)")
+    w.add_argument("--out", help="folder of results.parquet, plots/, report.html (default "
+                                 "reports/sweeps/<name>); a table already there is resumed")
+    w.add_argument("--quick", action="store_true", help="the file's coarse [quick] version")
+    add_executor_args(w)
+    w.add_argument("--time-limit-s", type=float, default=None,
+                   help="per run (default: the file's time_limit_s, else 600 s)")
+    w.add_argument("--no-plots", action="store_true", help="the table only")
+    w.set_defaults(func=_cmd_sweep)
     s = sub.add_parser("scenarios", help="list the bundled scenarios")
     s.set_defaults(func=_cmd_scenarios)
     k = sub.add_parser("claims", help="list the paper claims; --run: reproduce them all and "
@@ -298,7 +358,10 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--out", type=Path, default=Path("reports/claims"),
                    help="report folder (default reports/claims)")
     k.add_argument("--jobs", type=int, default=None,
-                   help="runs in parallel (default: the number of cores, at most 4)")
+                   help="local Dask cluster: worker processes (default: the number of cores, "
+                        "at most 4)")
+    k.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run on an existing Dask scheduler instead (docs/sweeps.md)")
     k.add_argument("--no-beyond", action="store_true",
                    help="skip the studies beyond the papers (error vs speed, initial position "
                         "over 360 deg, parameter sensitivity, speed reversal)")

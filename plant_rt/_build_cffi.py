@@ -18,11 +18,12 @@ from cffi import FFI
 C_DIR = Path(__file__).resolve().parent / "c"
 SOURCES = ("pmsm_machine.c", "inverter.c", "mechanics.c", "sensor.c", "plant.c", "plant_fault.c",
            # the cycle engine and the recording ring / schema (engine.h, rec_ring.h, rec_schema.h)
-           "engine.c", "engine_faults.c", "engine_link.c", "engine_refs.c", "rec_ring.c",
-           "rec_schema.c", "rec_mcap.c")
+           "engine.c", "engine_faults.c", "engine_link.c", "engine_refs.c", "engine_sil.c",
+           "rec_ring.c", "rec_schema.c", "rec_mcap.c")
 ROOT = C_DIR.parents[1]
 FW_SRC = ROOT / "firmware_stub" / "src"
 PROTOCOL_C = ROOT / "protocol" / "c"
+SIL_PORT = ROOT / "firmware_stub" / "port" / "sil"   # software in the loop (--link sil)
 
 CDEF = """
 #define MECH_LOAD_TABLE_MAX 32
@@ -219,6 +220,12 @@ size_t rec_encode_event(uint8_t *out, size_t cap, const rec_event_t *m);
 size_t rec_encode_frames(uint8_t *out, size_t cap, const rec_frames_t *m);
 
 typedef struct { double scale, offset, raw_min, raw_max; } engine_signal_t;
+typedef struct {
+    void *ctx;
+    void (*write)(void *ctx, const uint8_t *data, size_t n, int64_t now_ns);
+    size_t (*read)(void *ctx, uint8_t *out, size_t cap, int64_t now_ns);
+    void (*restart)(void *ctx, int64_t now_ns);
+} eng_link_peer_t;
 typedef struct { uint16_t id, dlc; uint8_t data[64]; } engine_replay_frame_t;
 typedef struct {
     double t_s; uint32_t first_frame; uint32_t n_frames; uint32_t seq;
@@ -231,7 +238,7 @@ typedef struct {
     int mode; int duty_update; long n_cycles; double ts_s; double t_delay_s;
     int pole_pairs; double rpm_per_rad_s; int dual_sampling; int send_encoder; int telem_emf;
     int estimator_expected; uint16_t cmd_seq_start;
-    int link_kind; int link_fd; int can_brs; double retry_timeout_s; int max_retries;
+    int link_kind; int link_fd; eng_link_peer_t link_peer; int can_brs; double retry_timeout_s; int max_retries;
     int max_consecutive_bad_duties; int max_consecutive_misses; double guard_s;
     int rt_priority; int rt_cpu; int rt_mlock; double spin_s; int busy_wait;
     double recorder_stall_s; int stats_every_cycles; int record_frames;
@@ -308,12 +315,28 @@ int engine_add_event(engine_t *e, const engine_event_t *ev);
 int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f);
 int engine_run(engine_t *e);
 void engine_request_stop(engine_t *e);
+int engine_add_full_rate(engine_t *e, long from_k, long to_k);
 double engine_hist_percentile(const engine_hist_t *h, double q);
 void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extra);
 int engine_send(engine_t *e, uint16_t id, const uint8_t *data, uint16_t dlc);
 size_t eng_ref_config_size(int kind);
 void eng_link_feed(eng_link_t *l, const uint8_t *data, size_t n);
 void eng_link_push(eng_link_t *l, uint16_t id, const uint8_t *data, uint16_t dlc);
+
+/* software in the loop (firmware_stub/port/sil/sil_port.h, engine_sil.h) */
+typedef struct {
+    uint32_t frames_rx, cycles, unknown_ids, length_errors, seq_errors, config_rejected,
+             not_ready, repeats, cmd_seq_gaps;
+} hil_session_stats_t;
+typedef struct { int hello_done; hil_session_stats_t stats; ...; } hil_session_t;
+typedef struct { hil_session_t session; hil_deframer_t deframer; size_t tx_len; int hb_always;
+                 unsigned long tx_overflows, restarts; ...; } sil_port_t;
+void sil_port_init(sil_port_t *p, int hb_always, int64_t now_ns);
+void sil_port_restart(sil_port_t *p, int64_t now_ns);
+void sil_port_write(sil_port_t *p, const uint8_t *data, size_t n, int64_t now_ns);
+size_t sil_port_read(sil_port_t *p, uint8_t *out, size_t cap, int64_t now_ns);
+unsigned long sil_port_rx_errors(const sil_port_t *p);
+void engine_sil_peer(sil_port_t *p, eng_link_peer_t *peer);
 """
 
 #: compile and link flags of the sanitized build (tools/build_native.py --sanitize)
@@ -328,19 +351,24 @@ def make_builder(sanitize: bool = False) -> FFI:
     builder.cdef(CDEF + ENGINE_CDEF)
     builder.set_source(
         "hil_bench.plant_rt._plant_c",
-        '#include "plant.h"\n#include "engine.h"\n#include "rec_mcap.h"\n',
+        '#include "plant.h"\n#include "engine.h"\n#include "engine_sil.h"\n#include "rec_mcap.h"\n',
         sources=[str(C_DIR / name) for name in SOURCES]
         # the reference estimators are the firmware's own library; the engine frames with the
         # protocol's codec
         + sorted(str(p) for p in FW_SRC.glob("*.c"))
-        + [str(PROTOCOL_C / "hil_msgs.c"), str(PROTOCOL_C / "hil_framing.c")],
-        include_dirs=[str(C_DIR), str(FW_SRC), str(PROTOCOL_C)],
+        + [str(PROTOCOL_C / "hil_msgs.c"), str(PROTOCOL_C / "hil_framing.c"),
+           str(SIL_PORT / "sil_port.c")],
+        include_dirs=[str(C_DIR), str(FW_SRC), str(PROTOCOL_C), str(SIL_PORT)],
         # ISO C (-std=c99): no FMA contraction, so -O3 and LTO give the same results as -O2;
         # -flto=auto: LTO's link step in parallel under make's jobserver (plain -flto warns
         # "using serial compilation")
         extra_compile_args=(SANITIZE_COMPILE_ARGS if sanitize
-                            else ["-O3", "-std=c99", "-flto=auto", "-ffp-contract=off"]),
-        extra_link_args=SANITIZE_LINK_ARGS if sanitize else ["-O3", "-flto=auto"],
+                            else ["-O3", "-std=c99", "-flto=auto", "-ffp-contract=off",
+                                  "-fno-semantic-interposition"]),
+        # -fno-semantic-interposition: calls between the module's own C files inline under LTO
+        # (nothing outside the module interposes them); no effect on floating-point results
+        extra_link_args=(SANITIZE_LINK_ARGS if sanitize
+                         else ["-O3", "-flto=auto", "-fno-semantic-interposition"]),
         libraries=["m"],
     )
     return builder

@@ -119,8 +119,10 @@ class Engine:
     def __init__(self, plant, *, ts_s: float, n_cycles: int, link_fd: int = -1,
                  link_kind: str = "serial", mode: int = LOCKSTEP, ring=None,
                  channels: dict[str, int] | None = None, source: str = "plant",
-                 replay_cycles=None, replay_frames=None, **options):
-        """``plant``: a plant_rt Plant (None for the replays without one). ``source`` and
+                 replay_cycles=None, replay_frames=None, sil=None, **options):
+        """``plant``: a plant_rt Plant (None for the replays without one). ``sil``: a
+        ``sil_port_t *`` (bench/loop/links/sil.py): the controller runs in this process, on the
+        engine's thread, instead of behind ``link_fd``. ``source`` and
         the replay arrays (REPLAY_CYCLE_DTYPE / REPLAY_FRAME_DTYPE): see engine.h "Replay";
         with a replay, n_cycles is the number of rows."""
         cfg = ffi.new("engine_config_t *")
@@ -131,6 +133,8 @@ class Engine:
         cfg.n_cycles = n_cycles
         cfg.link_fd = link_fd
         cfg.link_kind = LINK_KIND[link_kind]
+        if sil is not None:
+            lib.engine_sil_peer(sil, ffi.addressof(cfg, "link_peer"))
         for key, value in options.items():
             if key == "duty_update":
                 value = DUTY_UPDATE[value]
@@ -155,6 +159,7 @@ class Engine:
                                          ffi.from_buffer(replay_frames))
             cfg.replay_n_frames = len(replay_frames)
         self._cfg = cfg
+        self._sil = sil
         self._plant = plant
         self._e = ffi.new("engine_t *")
         self._ring = ring
@@ -223,6 +228,11 @@ class Engine:
         ev.fault_name = name.encode()[:23]
         ev.detect_within_s = detect_within_s
         if lib.engine_add_event(self._e, ev) != 0:
+            raise ValueError(ffi.string(self._e.message).decode())
+
+    def add_full_rate(self, from_cycle: int, to_cycle: int) -> None:
+        """Cycles [from_cycle, to_cycle) recorded in full in a decimated recording."""
+        if lib.engine_add_full_rate(self._e, int(from_cycle), int(to_cycle)) != 0:
             raise ValueError(ffi.string(self._e.message).decode())
 
     def add_link_fault(self, *, index: int, name: str, kind: str, direction: int,

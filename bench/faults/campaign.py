@@ -1,7 +1,8 @@
 """Fault campaigns: a base scenario and a list (or grid) of faults, one run each, a table of what
 the controller did with them, judged against the limits the campaign file states.
 
-    bench campaign bench/campaigns/g2_protection.toml [--jobs N] [--out DIR] [--keep-all]
+    bench campaign bench/campaigns/g2_protection.toml [--jobs N] [--scheduler ADDR] [--out DIR]
+                   [--keep-all]
 
 A campaign file (TOML; docs/faults.md "Campaigns")::
 
@@ -319,50 +320,33 @@ def _run_case(camp: Campaign, case_index: int, out_dir: str, link: str) -> dict:
             "wall_s": time.monotonic() - t0, "outcomes": outcomes}
 
 
-def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int = 1, link: str | None = None,
-                 keep_all: bool = False, console=None) -> list[CaseResult]:
-    """Run every case with a progress bar; keep the recordings of the runs that did not PASS."""
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
+def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int | None = None,
+                 link: str | None = None, keep_all: bool = False, console=None,
+                 scheduler: str | None = None, progress: bool = True) -> list[CaseResult]:
+    """Run every case on the executor (hil_bench.cluster: a local Dask cluster of ``jobs``
+    workers, or ``scheduler``); keep the recordings of the runs that did not PASS."""
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from hil_bench.cluster import Executor, TaskFailure
     from hil_bench.record.recorder import SIDE_SUFFIXES
 
     console = console or Console(stderr=True)
     rec_dir = out_dir / "recordings"
     rec_dir.mkdir(parents=True, exist_ok=True)
     results: dict[int, CaseResult] = {}
-    import sys
-
-    sys.stdout.flush()
-    sys.stderr.flush()
-    with Progress(TextColumn(f"[bold]{camp.name}[/bold] {{task.description}}"), BarColumn(),
-                  MofNCompleteColumn(), TimeElapsedColumn(), console=console,
-                  disable=not console.is_terminal) as progress:
-        task = progress.add_task("", total=len(camp.cases))
+    with Executor(scheduler, jobs, progress=progress, console=console, label=camp.name) as ex:
 
         def finished():
-            """(case index, result) as the runs end: in this process (jobs = 1) or in workers."""
-            args = [(camp, i, str(rec_dir), link or camp.link)
+            """(case index, result) as the runs end, on whichever worker."""
+            args = [(str(i), (camp, i, str(rec_dir.resolve()), link or camp.link))
                     for i in range(len(camp.cases))]
-            if jobs <= 1:
-                for a in args:
-                    progress.update(task, description=camp.cases[a[1]].name)
-                    try:
-                        yield a[1], _run_case(*a)
-                    except Exception as exc:  # noqa: BLE001 - the bench's failure, said
-                        yield a[1], {"error": f"{type(exc).__name__}: {exc}", "end": "BENCH",
+            for key, res in ex.map(_run_case, args,
+                                   describe=lambda k: camp.cases[int(k)].name):
+                if isinstance(res, TaskFailure):   # the bench's failure, said
+                    yield int(key), {"error": res.error.splitlines()[0], "end": "BENCH",
                                      "recording": None, "wall_s": 0.0}
-                return
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
-                futs = {pool.submit(_run_case, *a): a[1] for a in args}
-                for fut in as_completed(futs):
-                    try:
-                        yield futs[fut], fut.result()
-                    except Exception as exc:  # noqa: BLE001 - a dead worker: the bench's failure
-                        yield futs[fut], {"error": f"worker failed: {type(exc).__name__}: {exc}",
-                                          "end": "BENCH", "recording": None, "wall_s": 0.0}
+                else:
+                    yield int(key), res.value
 
         for i, r in finished():
             case = camp.cases[i]
@@ -377,7 +361,6 @@ def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int = 1, link: str | No
                     p.unlink(missing_ok=True)
                 rec = None
             results[i] = CaseResult(case, rec, verdict, reasons, outs, r["error"], r["wall_s"])
-            progress.update(task, advance=1, description=case.name)
             if not console.is_terminal:
                 console.print(f"  {case.name}: {verdict}" + (f" ({reasons[0]})" if reasons else ""))
     if not any(rec_dir.iterdir()):

@@ -18,7 +18,8 @@ def schedule(engine, faults: tuple[FaultSpec, ...], ts_s: float, *,
     """Put the scenario's link faults on the engine's injector, and return the plant faults and
     controller resets as (cycle, keyword arguments of Engine.add_fault_event), in cycle order:
     the caller merges them with the scenario's other events (the engine takes events in cycle
-    order)."""
+    order). ``controller_pid``: the stub's process (SIGUSR1 restarts it), 0 for the firmware in
+    this process (``--link sil``: the engine restarts it by a call), None for a real drive."""
     from hil_bench.plant_rt import engine as eng
     from hil_bench.plant_rt.plant import FAULT_KINDS
 
@@ -38,8 +39,8 @@ def schedule(engine, faults: tuple[FaultSpec, ...], ts_s: float, *,
         elif fs.target == "controller":
             if controller_pid is None:
                 raise ValueError(f"faults[{fs.index}]: a controller_reset needs the firmware stub "
-                                 f"as the controller (--link stub...): the bench restarts it with "
-                                 f"SIGUSR1; a real drive has no such line")
+                                 f"as the controller (--link stub... or --link sil): the bench "
+                                 f"restarts it; a real drive has no such line")
             events.append((k_on, 0, dict(kind=eng.EV_CONTROLLER_RESET, index=fs.index,
                                          name=fs.kind, pid=controller_pid,
                                          detect_within_s=fs.detect_within_s,

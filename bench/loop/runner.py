@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
+from hil_bench.cluster.limits import expired
 from hil_bench.installation import checkout_root, version
 from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
@@ -64,6 +65,7 @@ class RunResult:
     timing: dict = field(default_factory=dict)
     realtime_notes: str = ""
     ts_s: float = 0.0              # the control period [s]
+    timed_out: bool = False        # ended by the executor's per-run time limit
 
     @property
     def ok(self) -> bool:
@@ -149,6 +151,11 @@ def _is_stub_link(link_spec: str) -> bool:
     return link_spec == "stub" or link_spec.startswith("stub-")
 
 
+def _is_sil_link(link_spec: str) -> bool:
+    """The firmware in this process (``sil``: software in the loop, links/sil.py)."""
+    return link_spec == "sil"
+
+
 def realtime_cpus(engine_cpu: int | None, stub_cpu: int | None) -> tuple[int | None, int | None]:
     """The CPU layout of a real-time run (docs/realtime.md): the engine (and the recorder, below
     it) on the last CPU this process may use, the stub on the first; the kernel's workers that
@@ -172,8 +179,12 @@ class Runner:
                  progress: bool = True, stub_args: tuple[str, ...] = (),
                  allow_slow_link: bool = False, force: bool = False,
                  realtime: bool | None = None, record: bool = True, cpu: int | None = None,
-                 ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None):
-        """``recorder_cpus``: overrides where the recorder runs (hil_bench.perf.loop compares)."""
+                 ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None,
+                 full_rate_s: tuple[tuple[float, float], ...] = ()):
+        """``recorder_cpus``: overrides where the recorder runs (hil_bench.perf.loop compares).
+        ``full_rate_s``: time windows [s] recorded in full when the scenario's recording is
+        decimated (the windows its metrics read: hil_bench.sweep)."""
+        self.full_rate_s = tuple(full_rate_s)
         self.scn = scenario
         self._recorder_cpus_override = recorder_cpus
         self.mode = "realtime" if (realtime if realtime is not None else
@@ -207,7 +218,7 @@ class Runner:
             if stub_cpu is not None:
                 self.stub_args += ("--cpu", str(stub_cpu))
         self._check_faults_fit_the_link(scenario, link_spec)
-        if scenario.faults and _is_stub_link(link_spec):
+        if scenario.faults and (_is_stub_link(link_spec) or _is_sil_link(link_spec)):
             # the stub reports its receive errors while cycles flow (HEARTBEAT_CTRL, protocol
             # 6.7 "may"): faults on the frames it receives then leave a trace on the bench
             self.stub_args += ("--heartbeat-always",)
@@ -226,14 +237,15 @@ class Runner:
     @staticmethod
     def _check_faults_fit_the_link(scn: Scenario, link_spec: str) -> None:
         """Faults this link cannot carry are refused before any process or device is touched."""
-        is_stub = _is_stub_link(link_spec)
+        is_stub = _is_stub_link(link_spec) or _is_sil_link(link_spec)
         is_can = link_spec.startswith(("can:", *STUB_CAN_MODES))
         for fs in scn.faults:
             where = f"{scn.display_path}: faults[{fs.index}] ({fs.kind})"
             if fs.kind == "controller_reset" and not is_stub:
                 raise RunAborted(f"{where}: a controller_reset needs the firmware stub as the "
-                                 f"controller (--link stub...): the bench restarts it with SIGUSR1; "
-                                 f"a real drive has no such line")
+                                 f"controller (--link stub... or --link sil): the bench restarts "
+                                 f"it (SIGUSR1 to the stub, a call in process); a real drive has "
+                                 f"no such line")
             if fs.kind == "bitflip" and is_can and fs.direction & 1:
                 raise RunAborted(f"{where}: on CAN a corrupted frame is destroyed by the bus's CRC "
                                  f"and retransmitted by the sender's controller: a bit flip towards "
@@ -468,7 +480,9 @@ class Runner:
                                           "stub": self._stub_cpu()})
                               if self.mode == "realtime" else ""),
             "link": opened.link.description,
-            "controller": f"hil_stub {stub.executable}" if stub is not None else self.link_spec,
+            "controller": (f"hil_stub {stub.executable}" if stub is not None else
+                           "firmware_stub/src in process (software in the loop)"
+                           if _is_sil_link(self.link_spec) else self.link_spec),
             "git_revision": git_revision(),
             "hil_bench_version": version(),
             "python": platform.python_version(),
@@ -568,9 +582,12 @@ class Runner:
         e = eng.Engine(self.plant, ts_s=self.ts_s, n_cycles=self.n_cycles, link_fd=link.fd,
                        link_kind=link.kind,
                        mode=eng.REALTIME if self.mode == "realtime" else eng.LOCKSTEP,
-                       ring=rec.ring_mem if self.record else None, channels=channels, **options)
+                       ring=rec.ring_mem if self.record else None, channels=channels,
+                       sil=link.sil, **options)
         for (_, kind, est), chan in zip(self.references, self.ch_refs):
             e.add_reference(int(kind), est, chan.index)
+        for t0_s, t1_s in self.full_rate_s:
+            e.add_full_rate(max(0, math.floor(t0_s / self.ts_s) - 1), math.ceil(t1_s / self.ts_s) + 1)
         self._schedule_events(e)
         # what the Python link received but did not use: the engine continues from there
         py_link = opened.link
@@ -589,9 +606,10 @@ class Runner:
         from .fault_events import schedule
 
         stub = getattr(getattr(self, "opened", None), "stub", None)
+        # the stub restarts on SIGUSR1 to its pid; the in-process firmware by a call (pid 0)
+        pid = stub.proc.pid if stub is not None else 0 if _is_sil_link(self.link_spec) else None
         try:
-            fault_events = schedule(e, self.scn.faults, self.ts_s,
-                                    controller_pid=stub.proc.pid if stub is not None else None)
+            fault_events = schedule(e, self.scn.faults, self.ts_s, controller_pid=pid)
         except ValueError as exc:
             raise RunAborted(f"{self.scn.display_path}: {exc}") from None
         # the engine takes events in cycle order: the scenario's and the faults' merged
@@ -644,6 +662,13 @@ class Runner:
                     result.interrupted = True
                     break
                 result.cycles_done = e.cycles_done
+                limit_s = expired()
+                if limit_s is not None:
+                    # the executor's per-run time limit (hil_bench.cluster): a hung run ends
+                    e.request_stop()
+                    e.join()
+                    result.timed_out = True
+                    break
                 if progress is not None:
                     progress.update(result.cycles_done, e.speed_rpm)
                 if not rec.alive():
@@ -659,7 +684,10 @@ class Runner:
         result.end = r.end_name
         result.realtime_notes = "; ".join(n for n in (r.rt_notes, self._throttling_note(),
                                                       self._stub_rt_notes()) if n)
-        if result.interrupted:
+        if result.timed_out:
+            result.error = (f"time limit of {expired():g} s per run exceeded at cycle "
+                            f"{r.cycles_done}: the run was ended")
+        elif result.interrupted:
             result.error = f"interrupted by the user at cycle {r.cycles_done}"
         elif r.end == eng.END_CONTROLLER_FAULT:
             try:

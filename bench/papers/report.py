@@ -3,7 +3,8 @@
     .venv/bin/bench claims --run [--only Y1,G2] [--out reports/claims] [--jobs N] [--no-beyond]
 
 Steps: plan the runs (hil_bench.papers.claims.CLAIMS, plus the studies beyond the papers,
-bench/papers/beyond.py), run them against the C stub in parallel (one process per run, ``--jobs``
+bench/papers/beyond.py), run them against the C stub in parallel (on hil_bench.cluster's executor: ``--jobs`` local workers
+or ``--scheduler``
 at a time, rich progress on the terminal), measure each quantity on its recording
 (hil_bench.papers.claims.measure), compute the studies (bench/papers/studies.py), draw the plots
 (bench/papers/report_plots.py) and write ``<out>/report.md``, ``<out>/report.html`` (self-contained:
@@ -20,7 +21,6 @@ import os
 import platform
 import time
 import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -116,10 +116,11 @@ def default_jobs() -> int:
     return max(1, min(os.cpu_count() or 1, 4))
 
 
-def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | None = None,
-            reuse: bool = False) -> dict[str, RunOutcome]:
-    """Run every scenario (``jobs`` in parallel) with a progress bar; returns outcomes by run id."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+def execute(runs: dict[str, Run], rec_dir: Path, jobs: int | None,
+            console: Console | None = None, reuse: bool = False,
+            scheduler: str | None = None) -> dict[str, RunOutcome]:
+    """Run every scenario on the executor (hil_bench.cluster: a local Dask cluster of ``jobs``
+    workers, or ``scheduler``) with a progress bar; returns outcomes by run id."""
 
     rec_dir.mkdir(parents=True, exist_ok=True)
     outcomes: dict[str, RunOutcome] = {}
@@ -131,29 +132,21 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int, console: Console | N
         else:
             todo.append((rid, run, path))
     console = console or Console(stderr=True)
-    import sys
-    sys.stdout.flush()          # a forked worker must not inherit (and repeat) buffered output
-    sys.stderr.flush()
-    with Progress(TextColumn("[bold]claims[/bold] {task.description}"), BarColumn(),
-                  MofNCompleteColumn(), TimeElapsedColumn(), console=console,
-                  disable=not console.is_terminal) as progress:
-        task = progress.add_task("", total=len(todo))
-        with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
-            futs = {pool.submit(_run_one, run, str(path)): (rid, run, path)
-                    for rid, run, path in todo}
-            running = {rid for rid, _, _ in todo[:jobs]}
-            progress.update(task, description=", ".join(sorted(running))[:60])
-            for fut in as_completed(futs):
-                rid, run, path = futs[fut]
-                try:
-                    ok, err, wall, cycles = fut.result()
-                except Exception as exc:  # noqa: BLE001 - a dead worker
-                    ok, err, wall, cycles = False, f"worker failed: {exc}", 0.0, 0
-                outcomes[rid] = RunOutcome(run, path, ok, err, wall, cycles)
-                progress.update(task, advance=1, description=rid)
-                if not console.is_terminal:
-                    console.print(f"  {rid}: {'ok' if ok else 'ended: ' + err.splitlines()[0]}"
-                                  f" ({wall:.1f} s)")
+    from hil_bench.cluster import Executor, TaskFailure
+
+    by_id = {rid: (run, path) for rid, run, path in todo}
+    with Executor(scheduler, jobs, progress=True, console=console, label="claims") as ex:
+        args = [(rid, (run, str(path.resolve()))) for rid, run, path in todo]
+        for rid, res in ex.map(_run_one, args):
+            run, path = by_id[rid]
+            if isinstance(res, TaskFailure):    # a dead worker, every retry: the bench's failure
+                ok, err, wall, cycles = False, f"worker failed: {res.error}", 0.0, 0
+            else:
+                ok, err, wall, cycles = res.value
+            outcomes[rid] = RunOutcome(run, path, ok, err, wall, cycles)
+            if not console.is_terminal:
+                console.print(f"  {rid}: {'ok' if ok else 'ended: ' + err.splitlines()[0]}"
+                              f" ({wall:.1f} s)")
     # a run the bench broke (not the controller: a link that timed out on a loaded machine, a
     # dead stub) is run once more, alone; the report says so. A controller fault is a result.
     for rid, o in list(outcomes.items()):
@@ -502,7 +495,7 @@ def write_html(rep: Report) -> Path:
 
 def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = None,
                beyond: bool = True, reuse: bool = False, console: Console | None = None,
-               beyond_quick: bool = False) -> Report:
+               beyond_quick: bool = False, scheduler: str | None = None) -> Report:
     t0 = time.monotonic()
     console = console or Console(stderr=True)
     out_dir = Path(out_dir)
@@ -526,7 +519,8 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
     rep = Report(out_dir, claims, jobs=jobs)
     console.print(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
                   + (" and the studies beyond the papers" if beyond else ""))
-    rep.outcomes = execute(runs, out_dir / "recordings", jobs, console, reuse=reuse)
+    rep.outcomes = execute(runs, out_dir / "recordings", jobs, console, reuse=reuse,
+                           scheduler=scheduler)
     from .studies import STUDIES
     for c in claims:
         for s in c.studies:

@@ -57,13 +57,26 @@ def dumps(doc: dict[str, Any]) -> str:
     return "\n".join(lines).lstrip("\n") + "\n"
 
 
+_INDEXED = re.compile(r"(.+)\[(\d+)\]\Z")
+
+
 def set_dotted(doc: dict[str, Any], dotted: str, value: Any) -> dict[str, Any]:
-    """A copy of ``doc`` with ``a.b.c`` set to ``value`` (tables created as needed)."""
+    """A copy of ``doc`` with ``a.b.c`` set to ``value`` (tables created as needed); a part may
+    index an existing array of tables: ``events[1].load_torque_nm``."""
     out = copy.deepcopy(doc)
     node = out
     parts = dotted.split(".")
     for p in parts[:-1]:
-        node = node.setdefault(p, {})
+        m = _INDEXED.match(p)
+        if m:
+            items = node.get(m.group(1)) if isinstance(node, dict) else None
+            i = int(m.group(2))
+            if not isinstance(items, list) or i >= len(items):
+                raise ValueError(f"{dotted}: no {m.group(1)}[{i}] in the scenario "
+                                 f"({len(items) if isinstance(items, list) else 0} there)")
+            node = items[i]
+        else:
+            node = node.setdefault(p, {})
         if not isinstance(node, dict):
             raise ValueError(f"{dotted}: {p} is not a table")
     node[parts[-1]] = value

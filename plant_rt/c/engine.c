@@ -318,7 +318,7 @@ static void trace_act(engine_t *e, int index, long extra_cycles)
     if (index < 0 || index >= ENGINE_MAX_TRACES) {
         return;
     }
-    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+    for (i = 0; i < e->n_traces; ++i) {
         if (i != index && e->traces[i].state == 1 && e->traces[i].seen_k >= 0 &&
             e->traces[i].seen_k < e->cur_k) {
             trace_close(e, i, NULL);
@@ -376,7 +376,7 @@ static void trace_close(engine_t *e, int index, const char *ended)
 static void traces_step(engine_t *e)
 {
     int i;
-    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+    for (i = 0; i < e->n_traces; ++i) {
         engine_trace_t *t = &e->traces[i];
         if (t->state != 1) {
             continue;
@@ -616,7 +616,8 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
                                 cfg->source == ENGINE_SOURCE_REPLAY_PLANT;
         const int needs_rows = cfg->source != ENGINE_SOURCE_PLANT;
         if ((needs_plant && plant == NULL) || !(cfg->ts_s > 0.0) || cfg->n_cycles < 0 ||
-            (needs_link && cfg->link_fd < 0) || (needs_rows && cfg->replay_cycles == NULL) ||
+            (needs_link && cfg->link_fd < 0 && cfg->link_peer.write == NULL) ||
+            (needs_rows && cfg->replay_cycles == NULL) ||
             (cfg->source == ENGINE_SOURCE_REPLAY_CONTROLLER && cfg->replay_frames == NULL) ||
             cfg->source < ENGINE_SOURCE_PLANT || cfg->source > ENGINE_SOURCE_REPLAY_ESTIMATORS ||
             !(cfg->sig_i.scale > 0.0) || !(cfg->sig_vdc.scale > 0.0) || cfg->duty_raw_full == 0u) {
@@ -646,14 +647,26 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
         }
         e->have_ring = 1;
     }
-    if (cfg->link_fd >= 0) {
+    if (cfg->link_peer.write != NULL) {
+        if (cfg->link_peer.read == NULL || cfg->link_kind != ENG_LINK_SERIAL) {
+            set_message(e, "engine: an in-process controller needs read and write, on the serial "
+                        "framing");
+            return -1;
+        }
+        hil_deframer_init(&e->link.deframer);
+        eng_link_attach_peer(&e->link, &cfg->link_peer);
+    } else if (cfg->link_fd >= 0) {
         eng_link_init(&e->link, cfg->link_fd, cfg->link_kind);
     } else {
         hil_deframer_init(&e->link.deframer);
         e->link.fd = -1;
     }
     e->link.fd_brs = cfg->can_brs;
-    if (cfg->capture_serial && e->have_ring && cfg->link_fd >= 0 &&
+    if (!e->have_ring) {
+        e->cfg.record_frames = 0; /* the frames' text is only ever recorded */
+    }
+    if (cfg->capture_serial && e->have_ring &&
+        (cfg->link_fd >= 0 || cfg->link_peer.write != NULL) &&
         cfg->link_kind == ENG_LINK_SERIAL) {
         e->link.tap = serial_tap;
         e->link.tap_ctx = e;
@@ -709,6 +722,9 @@ static int trace_setup(engine_t *e, int index, const char *name, const char *tar
         return -1;
     }
     t = &e->traces[index];
+    if (index >= e->n_traces) {
+        e->n_traces = index + 1;
+    }
     snprintf(t->name, sizeof t->name, "%s", name);
     snprintf(t->target, sizeof t->target, "%s", target);
     t->window_cycles = (long)ceil(detect_within_s / e->cfg.ts_s);
@@ -724,6 +740,21 @@ static void add_full_rate_window(engine_t *e, long from, long to)
         e->full_rate[e->n_full_rate][1] = to + e->cfg.post_trigger_cycles;
         e->n_full_rate++;
     }
+}
+
+int engine_add_full_rate(engine_t *e, long from_k, long to_k)
+{
+    if (e->cfg.record_every <= 1) {
+        return 0; /* every cycle is recorded anyway */
+    }
+    if (e->n_full_rate >= ENGINE_MAX_EVENTS + ENGINE_MAX_LINK_FAULTS || to_k < from_k) {
+        set_message(e, "engine: too many full-rate windows, or one that ends before it starts");
+        return -1;
+    }
+    e->full_rate[e->n_full_rate][0] = from_k;
+    e->full_rate[e->n_full_rate][1] = to_k;
+    e->n_full_rate++;
+    return 0;
 }
 
 int engine_add_event(engine_t *e, const engine_event_t *ev)
@@ -744,8 +775,10 @@ int engine_add_event(engine_t *e, const engine_event_t *ev)
             return -1;
         }
     }
-    if (ev->kind == ENGINE_EV_CONTROLLER_RESET && ev->command <= 1) {
-        set_message(e, "engine: a controller reset needs the controller's process id");
+    if (ev->kind == ENGINE_EV_CONTROLLER_RESET && ev->command <= 1 &&
+        e->link.peer.restart == NULL) {
+        set_message(e, "engine: a controller reset needs the controller's process id (or an "
+                    "in-process controller)");
         return -1;
     }
     if (is_fault) {
@@ -909,9 +942,16 @@ static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
             break;
         case ENGINE_EV_CONTROLLER_RESET: {
             char text[128];
-            const int rc = kill((pid_t)ev->command, SIGUSR1);
-            snprintf(text, sizeof text, "SIGUSR1 to process %d%s", ev->command,
-                     rc == 0 ? "" : " failed: the process is gone");
+            int rc = 0;
+            if (e->link.peer.restart != NULL) {
+                /* software in the loop: the power cycle happens here, before this cycle's SENSE */
+                e->link.peer.restart(e->link.peer.ctx, eng_now_ns());
+                snprintf(text, sizeof text, "in-process controller restarted (power cycle)");
+            } else {
+                rc = kill((pid_t)ev->command, SIGUSR1);
+                snprintf(text, sizeof text, "SIGUSR1 to process %d%s", ev->command,
+                         rc == 0 ? "" : " failed: the process is gone");
+            }
             record_fault(e, (int32_t)c->seq, ev->fault_index, "controller", ev->fault_name, "",
                          rc == 0 ? "on" : "refused", text, 0.0);
             if (rc == 0) {
@@ -1305,6 +1345,9 @@ static void record_cycle(engine_t *e, cycle_t *c)
     const double theta = s->theta_e_rad;
     if (!e->have_ring) {
         text_reset(e->rx_text, &e->rx_len);
+        if (c->have_telem && c->st >= 0) {
+            e->last_state = c->st; /* a restart is told by it, recorded or not */
+        }
         return;
     }
     if (!record_full(e, c->k)) {
@@ -1401,8 +1444,8 @@ static void step_references(engine_t *e, const cycle_t *c, ref_voltage_t *v, int
     const engine_config_t *cfg = &e->cfg;
     const double inv_sqrt3 = 1.0 / sqrt(3.0);
     int i;
-    if (e->n_refs == 0) {
-        return;
+    if (e->n_refs == 0 || !e->have_ring) {
+        return; /* a reference's only output is its recorded rows: unrecorded, nobody reads it */
     }
     if (v->have_prev && v->have_older) {
         const double i_al = (2.0 * c->s_i[0] - c->s_i[1] - c->s_i[2]) * (1.0 / 3.0);
@@ -1496,7 +1539,7 @@ static void rtt_evidence(engine_t *e, const cycle_t *c, int64_t sent_ns)
     if (!has_link_faults(e) || !c->have_duty) {
         return;
     }
-    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+    for (i = 0; i < e->n_traces; ++i) {
         engine_trace_t *t = &e->traces[i];
         if (t->state == 1 && t->delay_s > 0.0 &&
             (double)(c->duty_t_ns - sent_ns) * 1e-9 >= t->delay_s) {
@@ -2291,7 +2334,7 @@ static void traces_end(engine_t *e)
     const int evidence = e->end == ENGINE_END_NO_DUTY || e->end == ENGINE_END_CONTROLLER_FAULT ||
                          e->end == ENGINE_END_WATCHDOG || e->end == ENGINE_END_LINK ||
                          e->end == ENGINE_END_BAD_DUTIES || e->end == ENGINE_END_PROTOCOL;
-    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+    for (i = 0; i < e->n_traces; ++i) {
         if (e->traces[i].state == 1) {
             trace_close(e, i, evidence ? e->message : NULL);
         }

@@ -100,7 +100,8 @@ typedef enum {
     ENGINE_EV_NOTE = 3,       /* only the /events row */
     ENGINE_EV_PLANT_FAULT = 4,       /* plant_set_fault(fault_kind, phase, phase2, level, value) */
     ENGINE_EV_PLANT_FAULT_CLEAR = 5, /* plant_clear_fault(fault_kind, fault_phase) */
-    ENGINE_EV_CONTROLLER_RESET = 6   /* SIGUSR1 to process `command` (the stub restarts) */
+    ENGINE_EV_CONTROLLER_RESET = 6   /* restart the controller: SIGUSR1 to process `command` (the
+                                      * stub), or the in-process controller's power cycle */
 } engine_event_kind_t;
 
 typedef struct {
@@ -206,6 +207,9 @@ typedef struct {
     /* the link */
     int link_kind;             /* eng_link_kind_t */
     int link_fd;
+    eng_link_peer_t link_peer; /* software in the loop: the controller in this process (its
+                                * write != NULL; link_fd unused, serial framing); controller
+                                * restarts call its restart() instead of signalling a process */
     int can_brs;
     double retry_timeout_s;    /* lockstep: wait this long for DUTY before re-sending SENSE */
     int max_retries;           /* lockstep: re-sends of one cycle's SENSE */
@@ -289,6 +293,7 @@ typedef struct engine {
     /* the trace of every fault of the scenario (by its [[faults]] index): the counters that
      * moved between the fault's first action and the end of its detection window */
     engine_trace_t traces[ENGINE_MAX_TRACES];
+    int n_traces;                /* traces[0..n_traces) may be set up */
     /* full-rate recording windows [start, end) in cycles (faults), and after a trip */
     long full_rate[ENGINE_MAX_EVENTS + ENGINE_MAX_LINK_FAULTS][2];
     int n_full_rate;
@@ -345,6 +350,9 @@ int engine_add_reference(engine_t *e, int kind, const void *config, size_t confi
                          uint16_t channel);
 /** Add a scheduled event; events must be added in cycle order. 0 or -1 (full, out of order). */
 int engine_add_event(engine_t *e, const engine_event_t *ev);
+/** Record cycles [from_k, to_k) in full in a decimated recording (record_every > 1; else a
+ *  no-op): the windows the metrics read. 0, or -1 (full). */
+int engine_add_full_rate(engine_t *e, long from_k, long to_k);
 /** Add a link fault (engine_faults.h). 0, or -1 with e->message (bad values, full, not possible
  *  on this link). */
 int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f);

@@ -33,6 +33,13 @@ void eng_link_init(eng_link_t *l, int fd, int kind)
     }
 }
 
+void eng_link_attach_peer(eng_link_t *l, const eng_link_peer_t *peer)
+{
+    l->peer = *peer;
+    l->fd = -1;
+    l->kind = ENG_LINK_SERIAL;
+}
+
 static void fail(eng_link_t *l, const char *what, int err)
 {
     if (l->error[0] == '\0') {
@@ -123,7 +130,17 @@ int eng_link_flush(eng_link_t *l, int64_t deadline_ns)
         l->txlen = 0u;
         return -1;
     }
-    if (l->kind == ENG_LINK_SERIAL) {
+    if (l->peer.write != NULL) {
+        /* software in the loop: the controller takes the octets now, on this thread */
+        const int64_t now = eng_now_ns();
+        if (l->txlen > 0u) {
+            l->peer.write(l->peer.ctx, l->txbuf, l->txlen, now);
+            if (l->tap != NULL) {
+                l->tap(l->tap_ctx, 0, l->txbuf, l->txlen, now);
+            }
+            l->c.bytes_tx += l->txlen;
+        }
+    } else if (l->kind == ENG_LINK_SERIAL) {
         size_t off = 0u;
         while (off < l->txlen) {
             ssize_t n = write(l->fd, l->txbuf + off, l->txlen - off);
@@ -212,22 +229,30 @@ static int read_available(eng_link_t *l)
             if (max > sizeof buf) {
                 max = sizeof buf;
             }
-            n = read(l->fd, buf, max);
-            if (n < 0) {
-                if (errno == EINTR) {
-                    continue;
-                }
-                if (errno == EAGAIN) {
+            if (l->peer.read != NULL) {
+                now = eng_now_ns();
+                n = (ssize_t)l->peer.read(l->peer.ctx, buf, max, now);
+                if (n == 0) {
                     return 0;
                 }
-                fail(l, "read", errno);
-                return -1;
+            } else {
+                n = read(l->fd, buf, max);
+                if (n < 0) {
+                    if (errno == EINTR) {
+                        continue;
+                    }
+                    if (errno == EAGAIN) {
+                        return 0;
+                    }
+                    fail(l, "read", errno);
+                    return -1;
+                }
+                if (n == 0) {
+                    fail(l, "read", 0);
+                    return -1;
+                }
+                now = eng_now_ns();
             }
-            if (n == 0) {
-                fail(l, "read", 0);
-                return -1;
-            }
-            now = eng_now_ns();
             if (l->tap != NULL) {
                 l->tap(l->tap_ctx, 1, buf, (size_t)n, now);
             }
@@ -295,8 +320,39 @@ static int read_available(eng_link_t *l)
     }
 }
 
+/* Software in the loop: what the controller sent is there at once; if nothing is, nothing will
+ * come before the deadline but a heartbeat, so sleep until it (as ppoll on a silent descriptor
+ * would) and look once more. */
+static int peer_poll(eng_link_t *l, int64_t deadline_ns)
+{
+    int slept = 0;
+    for (;;) {
+        struct timespec ts;
+        if (l->rxq_count == 0u && l->error[0] == '\0') {
+            (void)read_available(l);
+        }
+        if (l->rxq_count > 0u) {
+            return (int)l->rxq_count;
+        }
+        if (l->error[0] != '\0') {
+            return -1;
+        }
+        if (slept || eng_now_ns() >= deadline_ns) {
+            return 0;
+        }
+        ts.tv_sec = (time_t)(deadline_ns / 1000000000LL);
+        ts.tv_nsec = (long)(deadline_ns % 1000000000LL);
+        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR) {
+        }
+        slept = 1;
+    }
+}
+
 int eng_link_poll(eng_link_t *l, int64_t deadline_ns)
 {
+    if (l->peer.read != NULL) {
+        return peer_poll(l, deadline_ns);
+    }
     for (;;) {
         struct pollfd p;
         struct timespec ts;

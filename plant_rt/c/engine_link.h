@@ -10,6 +10,9 @@
  * anomaly is counted (framing errors by the deframer; on CAN: error frames, remote frames,
  * 29-bit ids, malformed reads) and nothing is ever decoded from a rejected frame.
  *
+ * Or, software in the loop, the same serial framing to a controller in this process
+ * (eng_link_peer_t): no descriptor, no system call but the clock.
+ *
  * Host-only C99 + POSIX (poll, read, write, clock_gettime). No heap.
  */
 #ifndef ENGINE_LINK_H
@@ -43,9 +46,23 @@ typedef struct {
     uint64_t error_frames, remote_frames, ext_ids, rx_malformed, send_failures, bus_state_changes;
 } eng_link_counters_t;
 
+/**
+ * A controller in this process instead of a descriptor (software in the loop, `--link sil`):
+ * the serial octets the engine writes go to write(), the octets the controller sent come from
+ * read(), both at once on the engine's thread; restart() is the controller's power cycle. The
+ * framing, the queues, the counters and the capture tap are those of a serial descriptor.
+ */
+typedef struct {
+    void *ctx;
+    void (*write)(void *ctx, const uint8_t *data, size_t n, int64_t now_ns);
+    size_t (*read)(void *ctx, uint8_t *out, size_t cap, int64_t now_ns);
+    void (*restart)(void *ctx, int64_t now_ns);
+} eng_link_peer_t;
+
 typedef struct {
     int fd;
     eng_link_kind_t kind;
+    eng_link_peer_t peer;       /* peer.write != NULL: the in-process controller (fd unused) */
     int fd_brs;                 /* CAN FD: bit rate switch on sent frames */
     hil_deframer_t deframer;    /* serial receiver (its counters are the framing counters) */
     eng_frame_t rxq[ENG_LINK_RXQ];
@@ -67,6 +84,8 @@ int64_t eng_now_ns(void);
 
 /** Attach to fd (made non-blocking). kind: eng_link_kind_t. */
 void eng_link_init(eng_link_t *l, int fd, int kind);
+/** Put an in-process controller on the link (serial framing; replaces any descriptor). */
+void eng_link_attach_peer(eng_link_t *l, const eng_link_peer_t *peer);
 /** Queue one frame for the next flush. Returns 0, or -1 if the burst is full or the frame invalid. */
 int eng_link_queue(eng_link_t *l, uint16_t id, const uint8_t *data, uint16_t dlc);
 /** Write everything queued, waiting for room until deadline_ns. Returns 0, or -1 (l->error says

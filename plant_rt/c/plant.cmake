@@ -28,17 +28,21 @@ target_include_directories(test_plant_nonideal PRIVATE ${HIL_ROOT}/tests/c)
 add_test(NAME plant_nonideal COMMAND test_plant_nonideal)
 
 # The cycle engine (host only, POSIX): link I/O, sensor -> SENSE, DUTY validation, plant step,
-# reference estimators (the firmware's library) and the recording ring, once per cycle in C.
+# reference estimators (the firmware's library) and the recording ring, once per cycle in C; and
+# software in the loop, the firmware's SIL port (firmware_stub/port/sil) as its in-process
+# controller.
 add_library(hil_engine STATIC
   ${HIL_ROOT}/plant_rt/c/engine.c
   ${HIL_ROOT}/plant_rt/c/engine_faults.c
   ${HIL_ROOT}/plant_rt/c/engine_link.c
   ${HIL_ROOT}/plant_rt/c/engine_refs.c
+  ${HIL_ROOT}/plant_rt/c/engine_sil.c
+  ${HIL_ROOT}/firmware_stub/port/sil/sil_port.c
   ${HIL_ROOT}/plant_rt/c/rec_ring.c
   ${HIL_ROOT}/plant_rt/c/rec_mcap.c
   ${HIL_ROOT}/plant_rt/c/rec_schema.c
 )
-target_include_directories(hil_engine PUBLIC ${HIL_ROOT}/plant_rt/c)
+target_include_directories(hil_engine PUBLIC ${HIL_ROOT}/plant_rt/c ${HIL_ROOT}/firmware_stub/port/sil)
 target_compile_options(hil_engine PRIVATE ${HIL_STRICT_FLAGS} -ffp-contract=off)
 target_link_libraries(hil_engine PUBLIC hil_plant hil_fw hil_protocol m)
 

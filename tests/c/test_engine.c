@@ -3,7 +3,8 @@
  * @brief The cycle engine in C alone: the recording ring, the protobuf row encoders, the link
  * layer, and closed loops between the engine and the firmware's own HIL session (the stub's
  * portable part) in a second thread over a socketpair -- lockstep and real time, a silent and a
- * noisy controller. Built and run under ASan + UBSan by `make sanitize` like every C test, so the
+ * noisy controller; and the same session in the engine's own thread (software in the loop,
+ * engine_sil.h). Built and run under ASan + UBSan by `make sanitize` like every C test, so the
  * whole per-cycle path of both sides runs under the sanitizers.
  */
 #define _GNU_SOURCE
@@ -18,6 +19,7 @@
 
 #include "check.h"
 #include "engine.h"
+#include "engine_sil.h"
 #include "hil_framing.h"
 #include "hil_msgs.h"
 #include "hil_session.h"
@@ -133,7 +135,10 @@ static void ctrl_frame(ctrl_thread_t *c, uint16_t id, const hil_octet_t *data)
     hil_session_on_frame(&c->session, &f);
 }
 
-static void ctrl_configure(ctrl_thread_t *c, uint16_t mode)
+typedef void (*frame_sink_t)(void *ctx, uint16_t id, const hil_octet_t *data);
+
+/* The bench's set-up of a run (HELLO, CONFIG, SET_SPEED_REF, RUN), frame by frame into sink. */
+static void setup_frames(frame_sink_t sink, void *ctx, uint16_t mode)
 {
     static const struct { unsigned id; float v; } params[] = {
         {HIL_PARAM_RS_OHM, 0.6383f}, {HIL_PARAM_LD_H, 2e-3f}, {HIL_PARAM_LQ_H, 2e-3f},
@@ -147,11 +152,6 @@ static void ctrl_configure(ctrl_thread_t *c, uint16_t mode)
     hil_hello_t h;
     hil_cmd_t cmd;
     size_t i;
-    hil_port_t port;
-    port.ctx = c;
-    port.send = ctrl_send;
-    hil_session_init(&c->session, &port);
-    c->setup = 1;
     h.proto_version = (uint16_t)HIL_PROTO_VERSION;
     h.mode = mode;
     h.period_us = hil_hello_period_us_encode(100.0f);
@@ -159,24 +159,39 @@ static void ctrl_configure(ctrl_thread_t *c, uint16_t mode)
     h.flags = 0u;
     h.session = 0x1234u;
     (void)hil_hello_pack(buf, &h, sizeof buf);
-    ctrl_frame(c, HIL_HELLO_FRAME_ID, buf);
+    sink(ctx, HIL_HELLO_FRAME_ID, buf);
     for (i = 0u; i < sizeof params / sizeof params[0]; ++i) {
         hil_config_t cf;
         cf.param_id = (uint16_t)params[i].id;
         cf.config_seq = (uint16_t)(i + 1u);
         cf.value = params[i].v;
         (void)hil_config_pack(buf, &cf, sizeof buf);
-        ctrl_frame(c, HIL_CONFIG_FRAME_ID, buf);
+        sink(ctx, HIL_CONFIG_FRAME_ID, buf);
     }
     cmd.command = (uint16_t)HIL_CMD_SET_SPEED_REF;
     cmd.seq = 1u;
     cmd.value = 300.0f / 9.5492966f;
     (void)hil_cmd_pack(buf, &cmd, sizeof buf);
-    ctrl_frame(c, HIL_CMD_FRAME_ID, buf);
+    sink(ctx, HIL_CMD_FRAME_ID, buf);
     cmd.command = (uint16_t)HIL_CMD_RUN;
     cmd.seq = 2u;
     (void)hil_cmd_pack(buf, &cmd, sizeof buf);
-    ctrl_frame(c, HIL_CMD_FRAME_ID, buf);
+    sink(ctx, HIL_CMD_FRAME_ID, buf);
+}
+
+static void ctrl_sink(void *ctx, uint16_t id, const hil_octet_t *data)
+{
+    ctrl_frame((ctrl_thread_t *)ctx, id, data);
+}
+
+static void ctrl_configure(ctrl_thread_t *c, uint16_t mode)
+{
+    hil_port_t port;
+    port.ctx = c;
+    port.send = ctrl_send;
+    hil_session_init(&c->session, &port);
+    c->setup = 1;
+    setup_frames(ctrl_sink, c, mode);
     c->setup = 0;
 }
 
@@ -266,6 +281,29 @@ typedef struct {
     char message[ENGINE_MESSAGE];
 } loop_result_t;
 
+static void loop_config(engine_config_t *cfg, int mode, long n_cycles, const plant_params_t *pp)
+{
+    engine_default_config(cfg);
+    wire_constants(cfg);
+    cfg->mode = mode;
+    cfg->n_cycles = n_cycles;
+    cfg->ts_s = pp->ts_s;
+    cfg->t_delay_s = pp->t_delay_s;
+    cfg->pole_pairs = 4;
+    cfg->estimator_expected = HIL_EST_SMO_SIGN;
+    cfg->link_kind = ENG_LINK_SERIAL;
+    cfg->rt_priority = 0;
+    cfg->rt_mlock = 0;
+    cfg->max_consecutive_misses = 100000;
+    cfg->ch_state = 0;
+    cfg->ch_sense = 1;
+    cfg->ch_telem = 2;
+    cfg->ch_frames = 3;
+    cfg->ch_events = 4;
+    cfg->ch_timing = 5;
+    cfg->ch_stats = 6;
+}
+
 static loop_result_t closed_loop(int mode, long n_cycles, long silent_from, long noisy_from)
 {
     static plant_t plant;
@@ -290,26 +328,8 @@ static loop_result_t closed_loop(int mode, long n_cycles, long silent_from, long
     ctrl_configure(ctrl, (uint16_t)mode);
     CHECK(ctrl->session.ctrl.state != CTRL_STATE_IDLE, "the controller runs");
     pthread_create(&th, NULL, ctrl_main, ctrl);
-    engine_default_config(&cfg);
-    wire_constants(&cfg);
-    cfg.mode = mode;
-    cfg.n_cycles = n_cycles;
-    cfg.ts_s = pp.ts_s;
-    cfg.t_delay_s = pp.t_delay_s;
-    cfg.pole_pairs = 4;
-    cfg.estimator_expected = HIL_EST_SMO_SIGN;
+    loop_config(&cfg, mode, n_cycles, &pp);
     cfg.link_fd = sv[0];
-    cfg.link_kind = ENG_LINK_SERIAL;
-    cfg.rt_priority = 0;
-    cfg.rt_mlock = 0;
-    cfg.max_consecutive_misses = 100000;
-    cfg.ch_state = 0;
-    cfg.ch_sense = 1;
-    cfg.ch_telem = 2;
-    cfg.ch_frames = 3;
-    cfg.ch_events = 4;
-    cfg.ch_timing = 5;
-    cfg.ch_stats = 6;
     CHECK(rec_ring_format(ring, map) == 0, "ring");
     CHECK(engine_init(&eng, &cfg, &plant, ring, map) == 0, "engine_init: %s", eng.message);
     res.end = engine_run(&eng);
@@ -399,6 +419,106 @@ static void test_realtime_closed_loop(void)
     CHECK(r.speed_rpm > 20.0, "the rotor turns: %.1f rpm", r.speed_rpm);
 }
 
+/* ---- software in the loop: the same session called from the engine's thread (engine_sil.h) --- */
+
+static void sil_sink(void *ctx, uint16_t id, const hil_octet_t *data)
+{
+    hil_octet_t wire[HIL_FRAME_MAX_WIRE];
+    const size_t n = hil_frame_encode(wire, sizeof wire, id, data, 8u);
+    sil_port_write((sil_port_t *)ctx, wire, n, eng_now_ns());
+}
+
+static loop_result_t sil_loop(int mode, long n_cycles, long reset_at)
+{
+    static plant_t plant;
+    static engine_t eng;
+    static sil_port_t sil;
+    plant_params_t pp;
+    engine_config_t cfg;
+    loop_result_t res;
+    hil_octet_t answers[4096];
+    size_t n, i;
+    int acks = 0;
+    hil_deframer_t d;
+    memset(&res, 0, sizeof res);
+    plant_params(&pp);
+    CHECK(plant_init(&plant, &pp) == 0, "plant");
+    /* the set-up through the serial framing, as the bench's Python does before the run */
+    sil_port_init(&sil, 0, eng_now_ns());
+    setup_frames(sil_sink, &sil, (uint16_t)mode);
+    n = sil_port_read(&sil, answers, sizeof answers, eng_now_ns());
+    hil_deframer_init(&d);
+    for (i = 0u; i < n; ++i) {
+        hil_frame_t f;
+        if (hil_deframer_push(&d, answers[i], &f) == 1 &&
+            (f.id == HIL_HELLO_ACK_FRAME_ID || f.id == HIL_CONFIG_ACK_FRAME_ID)) {
+            acks++;
+        }
+    }
+    CHECK(acks == 18, "HELLO_ACK and 17 CONFIG_ACK come back framed: %d", acks);
+    CHECK(sil.session.ctrl.state != CTRL_STATE_IDLE, "the in-process controller runs");
+    loop_config(&cfg, mode, n_cycles, &pp);
+    engine_sil_peer(&sil, &cfg.link_peer);
+    CHECK(engine_init(&eng, &cfg, &plant, NULL, 0u) == 0, "engine_init: %s", eng.message);
+    if (reset_at >= 0) {
+        engine_event_t ev;
+        memset(&ev, 0, sizeof ev);
+        ev.cycle = reset_at;
+        ev.kind = ENGINE_EV_CONTROLLER_RESET;
+        ev.command = 0; /* no process: the in-process controller's restart */
+        strcpy(ev.fault_name, "controller_reset");
+        ev.detect_within_s = 0.2;
+        CHECK(engine_add_event(&eng, &ev) == 0, "reset event: %s", eng.message);
+    }
+    res.end = engine_run(&eng);
+    res.cycles = eng.cycles_done;
+    res.speed_rpm = plant.y[2] * 60.0 / 6.283185307179586;
+    res.n = eng.n;
+    memcpy(res.message, eng.message, sizeof res.message);
+    CHECK(mode != ENGINE_LOCKSTEP ||
+              sil.session.stats.cycles == (uint32_t)(reset_at >= 0 ? 0 : n_cycles),
+          "the firmware ran the cycles: %lu", (unsigned long)sil.session.stats.cycles);
+    return res;
+}
+
+static void test_sil_closed_loop_is_the_threaded_one(void)
+{
+    /* the same firmware behind a socketpair in a thread, and in the engine's thread: the same
+     * plant trajectory to the bit (both lockstep; the timing of the exchange does not matter) */
+    loop_result_t a = closed_loop(ENGINE_LOCKSTEP, 3000, -1, -1);
+    loop_result_t b = sil_loop(ENGINE_LOCKSTEP, 3000, -1);
+    CHECK(b.end == ENGINE_END_DONE, "end %d: %s", b.end, b.message);
+    CHECK(b.cycles == 3000 && b.n.retries == 0u && b.n.seq_mismatch == 0u &&
+              b.n.telem_missing == 0u, "a clean run");
+    CHECK(memcmp(&a.speed_rpm, &b.speed_rpm, sizeof a.speed_rpm) == 0,
+          "same speed to the bit: %.17g vs %.17g rpm", a.speed_rpm, b.speed_rpm);
+    CHECK(b.speed_rpm > 100.0, "the rotor turns: %.1f rpm", b.speed_rpm);
+}
+
+static void test_sil_restart_at_its_cycle(void)
+{
+    /* the power cycle happens before the SENSE of cycle 1000: no session, no answer, the run
+     * ends there naming silence, and the heartbeat with its counter from 0 is seen */
+    loop_result_t r = sil_loop(ENGINE_LOCKSTEP, 3000, 1000);
+    CHECK(r.end == ENGINE_END_NO_DUTY, "end %d: %s", r.end, r.message);
+    CHECK(r.cycles == 1000, "cycles %ld", r.cycles);
+    CHECK(r.n.ctrl_resets == 1u, "restart counted: %llu (heartbeats %llu)", (unsigned long long)r.n.ctrl_resets, (unsigned long long)r.n.heartbeats_rx);
+}
+
+static void test_sil_realtime(void)
+{
+    loop_result_t r = sil_loop(ENGINE_REALTIME, 2000, -1);
+    const double lost = (double)(r.n.missed_duty + r.n.rt_overruns) / (double)(r.cycles ? r.cycles : 1);
+    if (r.end != ENGINE_END_DONE || lost > 0.01) {
+        /* the controller answers within the engine's cycle: what is lost here is the machine's
+         * (periods the engine itself was descheduled through), not the loop's */
+        printf("test_sil_realtime: skipped: this machine could not keep real time (%.1f %% of "
+               "%ld periods lost): %s\n", 100.0 * lost, r.cycles, r.message);
+        return;
+    }
+    CHECK(r.cycles == 2000 && r.speed_rpm > 20.0, "the rotor turns: %.1f rpm", r.speed_rpm);
+}
+
 int main(void)
 {
     test_ring();
@@ -408,5 +528,8 @@ int main(void)
     test_what_arrived_instead_is_named();
     test_line_noise_is_counted_and_survived();
     test_realtime_closed_loop();
+    test_sil_closed_loop_is_the_threaded_one();
+    test_sil_restart_at_its_cycle();
+    test_sil_realtime();
     return check_summary("engine");
 }

@@ -4,6 +4,9 @@
 spec                                                            meaning
 ==============================================================  ================================================
 ``stub`` (default)                                              start the C firmware stub on a new pty
+``sil``                                                         software in the loop: the firmware's C in this
+                                                                process, called from the engine's thread, the
+                                                                serial framing in memory (links/sil.py)
 ``serial:<port-or-url>[@baud]``                                 a real drive on a UART, or any pyserial URL
                                                                 (``socket://host:port``); default 3 000 000 baud
 ``can:<interface>:<channel>[@bitrate][,fd][,data_bitrate=N]``   a drive on any python-can interface (socketcan,
@@ -208,6 +211,10 @@ def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
 
         stub = StubProcess(stub_args)
         return OpenedLink(stub.link, stub)
+    if kind == "sil" and not tail:
+        from .sil import open_sil_link
+
+        return OpenedLink(open_sil_link(stub_args), None)
     if kind in STUB_CAN_MODES:
         from .stub import StubProcess
 
@@ -227,7 +234,7 @@ def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
         from .can_link import open_can_link
 
         return OpenedLink(open_can_link(parse_can_spec(spec), capture_path), None)
-    raise LinkError(f"unknown link spec {spec!r}: use 'stub', 'serial:<port>[@baud]', "
+    raise LinkError(f"unknown link spec {spec!r}: use 'stub', 'sil', 'serial:<port>[@baud]', "
                     f"'can:<interface>:<channel>[@bitrate][,fd]', 'stub-slcan', 'stub-socketcand' or "
                     f"'stub-socketcan[:<iface>]'")
 

@@ -4,6 +4,8 @@
   reads and writes the serial framing on it directly.
 * SocketCAN (python-can's ``socketcan`` interface): the bus's raw CAN socket; the engine reads
   and writes ``struct can_frame`` / ``canfd_frame`` on it directly.
+* Software in the loop (``--link sil``): no descriptor; the engine calls the firmware's SIL port
+  in its own thread (``sil``, plant_rt/c/engine_sil.h).
 * Every other backend (python-can's slcan, socketcand, pcan, kvaser, vector, ...; pyserial URL
   handlers without a descriptor such as ``rfc2217://``): a bridge. The engine gets one end of
   a ``socketpair``; two Python threads move data between the other end and the backend
@@ -32,11 +34,12 @@ CANFD_BRS = 0x01
 class EngineLink:
     """What the engine is handed: a descriptor, its kind, and a way to stop what feeds it."""
 
-    def __init__(self, fd: int, kind: str, description: str, bridge=None):
+    def __init__(self, fd: int, kind: str, description: str, bridge=None, sil=None):
         self.fd = fd
         self.kind = kind                 # "serial", "can" or "canfd"
         self.description = description
         self.bridge = bridge
+        self.sil = sil                   # software in the loop: the firmware's sil_port_t (fd -1)
 
     @property
     def error(self) -> str | None:
@@ -178,9 +181,12 @@ class ByteBridge(_Bridge):
 def engine_link_for(link: Link) -> EngineLink:
     """The descriptor the engine uses for ``link`` (a bridge where the backend has none)."""
     from .serial_link import FdTransport, PySerialTransport, SerialLink
+    from .sil import SilTransport
 
     if isinstance(link, SerialLink):
         t = link.transport
+        if isinstance(t, SilTransport):
+            return EngineLink(-1, "serial", link.description, sil=t.port)
         if isinstance(t, FdTransport):
             return EngineLink(t.fd, "serial", link.description)
         if isinstance(t, PySerialTransport):

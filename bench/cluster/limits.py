@@ -1,0 +1,30 @@
+"""A per-run time limit the executor sets around a task, which the runner's watch loop honours
+(hil_bench.loop.runner: the engine is asked to stop, the run ends STOPPED and says why).
+
+Kept free of Dask so that the runner can import it on any machine."""
+from __future__ import annotations
+
+import contextvars
+import time
+from contextlib import contextmanager
+
+_deadline: contextvars.ContextVar[tuple[float, float] | None] = contextvars.ContextVar(
+    "hil_bench_run_deadline", default=None)
+
+
+@contextmanager
+def time_limit(seconds: float | None):
+    """Within this block a run that is still going after ``seconds`` is ended (None: no limit)."""
+    token = _deadline.set((time.monotonic() + seconds, seconds) if seconds else None)
+    try:
+        yield
+    finally:
+        _deadline.reset(token)
+
+
+def expired() -> float | None:
+    """The limit [s] if it has passed, else None."""
+    d = _deadline.get()
+    if d is None or time.monotonic() < d[0]:
+        return None
+    return d[1]
