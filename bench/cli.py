@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -28,15 +29,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
                               force=args.force, realtime=True if args.realtime else None,
                               cpu=args.cpu)
     except (ScenarioError, LinkError, RunAborted, RecorderError) as exc:
-        err.print(f"[red]error:[/red] {exc}")
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     except ValueError as exc:  # e.g. ProfileError
-        err.print(f"[red]error:[/red] {exc}")
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     tm = result.timing
     out.print(f"ran {result.cycles_done}/{result.cycles_planned} cycles ({result.mode}) in "
               f"{result.wall_s:.2f} s ({result.cycles_done / max(result.wall_s, 1e-9):.0f} "
-              f"cycles/s); recording {result.recording}")
+              f"cycles/s); recording {escape(str(result.recording))}")
     if result.mode == "realtime" and tm:
         out.print(f"real time: period start error p50 {tm['jitter_p50_us']:.1f} us, p99 "
                   f"{tm['jitter_p99_us']:.1f} us, p99.9 {tm['jitter_p999_us']:.1f} us, max "
@@ -45,21 +46,29 @@ def _cmd_run(args: argparse.Namespace) -> int:
                   f"(rate {tm['miss_rate']:.2e}), {tm['late']} late, {tm['overruns']} periods "
                   f"lost by the bench (overruns); lost rate {tm['lost_rate']:.2e}")
         if result.realtime_notes:
-            err.print(f"[yellow]real-time setup:[/yellow] {result.realtime_notes} "
+            err.print(f"[yellow]real-time setup:[/yellow] {escape(result.realtime_notes)} "
                       f"(the run went on without it: timing figures are best effort)")
     elif tm:
         out.print(f"cycle time p50 {tm['cycle_p50_us']:.1f} us, p99 {tm['cycle_p99_us']:.1f} us, "
                   f"max {tm['cycle_max_us']:.1f} us")
     if result.error:
-        err.print(f"[red]run ended early:[/red] {result.error}")
+        err.print(f"[red]run ended early:[/red] {escape(result.error)}")
     if result.cycles_done == 0:
         return 130 if result.interrupted else 1   # nothing ran: nothing to check
+    if result.interrupts_while_closing and not result.interrupted:
+        err.print(f"interrupted while the recording was being finalised (it is complete): "
+                  f"`bench check {escape(str(result.recording))}` checks it")
+        return 130
     try:
         report = check_recording(result.recording)
+        print_report(report, out)
     except RecordingError as exc:
-        err.print(f"[red]error:[/red] {exc}")
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
-    print_report(report, out)
+    except KeyboardInterrupt:
+        err.print(f"interrupted while checking the recording (it is finalised): "
+                  f"`bench check {escape(str(result.recording))}` checks it again")
+        return 130
     if result.interrupted:
         return 130
     if result.error:
@@ -74,17 +83,21 @@ def _cmd_check(args: argparse.Namespace) -> int:
     err = Console(stderr=True)
     path = Path(args.recording)
     if not path.exists():
-        err.print(f"[red]error:[/red] {path}: no such file")
+        err.print(f"[red]error:[/red] {escape(str(path))}: no such file")
         return 2
     if path.is_dir():
-        err.print(f"[red]error:[/red] {path}: is a directory, not a recording")
+        err.print(f"[red]error:[/red] {escape(str(path))}: is a directory, not a recording")
         return 2
     try:
         report = check_recording(path)
     except RecordingError as exc:
-        err.print(f"[red]error:[/red] {exc}\n(a damaged recording: `bench recover "
-                  f"{path} -o FIXED.mcap` copies every intact chunk)")
+        hint = (f"\n(a damaged recording: `bench recover {path} -o FIXED.mcap` copies every "
+                f"intact chunk)") if exc.damaged else ""
+        err.print(f"[red]error:[/red] {escape(str(exc) + hint)}")
         return 2
+    except KeyboardInterrupt:
+        err.print("interrupted by the user")
+        return 130
     print_report(report)
     return 1 if (args.strict and not report.all_pass) else 0
 
@@ -95,7 +108,7 @@ def _cmd_recover(args: argparse.Namespace) -> int:
     try:
         report = recover(args.recording, args.out, force=args.force)
     except RecoverError as exc:
-        Console(stderr=True).print(f"[red]error:[/red] {exc}")
+        Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     print(report.text())
     return 0
@@ -129,7 +142,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     try:
         camp = load_campaign(args.campaign)
     except CampaignError as exc:
-        err.print(f"[red]error:[/red] {exc}")
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     out_dir = Path(args.out) if args.out else Path("reports") / "campaigns" / camp.name
     t0 = time.monotonic()
@@ -142,11 +155,11 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         faults = ", ".join((f"{o.kind} detected after {o.detection_s * 1e3:.1f} ms by "
                             f"{o.detected_by}") if o.detected else f"{o.kind} NOT detected"
                            for o in r.outcomes) or r.run_error
-        out.print(f"{r.case.name:40s} [{colour}]{r.verdict:7s}[/{colour}] {faults}"
-                  + (f" -- {'; '.join(r.reasons)}" if r.reasons else ""))
+        out.print(f"{escape(r.case.name):40s} [{colour}]{r.verdict:7s}[/{colour}] {escape(faults)}"
+                  + (f" -- {escape('; '.join(r.reasons))}" if r.reasons else ""))
     n_bad = sum(1 for r in results if r.verdict != "PASS")
-    out.print(f"{len(results)} runs, {len(results) - n_bad} PASS; table {md}, "
-              f"{md.with_suffix('.csv').with_name('results.csv')}")
+    out.print(f"{len(results)} runs, {len(results) - n_bad} PASS; table {escape(str(md))}, "
+              f"{escape(str(md.with_name('results.csv')))}")
     return 1 if n_bad else 0
 
 
@@ -185,7 +198,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _cmd_claims(args: argparse.Namespace) -> int:
-    from hil_bench.papers.claims import CLAIMS, METRICS
+    from hil_bench.claims.model import METRIC_DEFINITIONS
+    from hil_bench.claims.registry import CLAIMS
 
     if args.run:
         from hil_bench.papers.report import run_report
@@ -193,23 +207,30 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
             rep = run_report(args.out, only=only, jobs=args.jobs, beyond=not args.no_beyond,
-                             reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler)
+                             reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler,
+                             residual=not args.no_residual)
         except ValueError as exc:
-            Console(stderr=True).print(f"[red]error:[/red] {exc}")
+            Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
             return 2
         from hil_bench.papers.report import claim_verdict
         out = Console()
         for c in rep.claims:
             rows = [r for r in rep.rows if r.claim == c.id]
-            out.print(f"{c.id:3s} {claim_verdict(rows):17s} {c.text[:90]}")
-        out.print(f"report: {rep.out_dir / 'report.md'}, {rep.out_dir / 'report.html'} "
-                  f"({rep.wall_s:.0f} s)")
+            out.print(escape(f"{c.id:3s} {claim_verdict(rows):17s} {c.text[:90]}"))
+        if rep.residual:
+            from hil_bench.papers.residual import summary
+            out.print("inverter-compensation residual: " + ", ".join(
+                f"{cid} holds up to " + ("none" if r is None else f"{100 * r:g} %")
+                for cid, r in summary(rep.residual).items()))
+        out.print(escape(f"report: {rep.out_dir / 'report.md'}, {rep.out_dir / 'report.html'} "
+                         f"({rep.wall_s:.0f} s)"))
         return 0
     for c in CLAIMS.values():
         print(f"{c.id}  {c.paper}: {c.text}")
         for q in c.quantities:
             unit = q.unit
-            definition = METRICS[q.metric][1] if q.metric in METRICS else q.metric
+            definition = (METRIC_DEFINITIONS[q.metric][1] if q.metric in METRIC_DEFINITIONS
+                          else q.metric)
             tag = " [diagnostic]" if q.diagnostic else ""
             print(f"      {q.key}{tag}: paper {q.paper_value} {unit}; rule {q.rule_text()} "
                   f"({q.rule.source}); {definition}")
@@ -367,6 +388,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "over 360 deg, parameter sensitivity, speed reversal)")
     k.add_argument("--quick", action="store_true",
                    help="the studies beyond the papers on a coarse grid (fewer runs)")
+    k.add_argument("--no-residual", action="store_true",
+                   help="skip the inverter-compensation residual study of Y1, Y2, Y8, H1, H2, H3 "
+                        "(each claim's runs at residuals 0 .. 100 %%, docs/inverter_comp.md)")
     k.add_argument("--reuse", action="store_true",
                    help="reuse recordings already in <out>/recordings (development)")
     k.set_defaults(func=_cmd_claims)
@@ -392,9 +416,16 @@ def _native_missing(exc: ImportError):
 
 
 def main(argv: list[str] | None = None) -> int:
+    import signal
+
     args = build_parser().parse_args(argv)
     try:
-        return args.func(args)
+        rc = args.func(args)
+    except KeyboardInterrupt:
+        # a run's recording is finalised by the runner whatever is pressed (DeferredInterrupts);
+        # anywhere else a Ctrl-C ends the command, without a traceback
+        Console(stderr=True).print("interrupted by the user")
+        rc = 130
     except ImportError as exc:
         from hil_bench.installation import how_to_build, is_native_import_error
 
@@ -403,6 +434,11 @@ def main(argv: list[str] | None = None) -> int:
         Console(stderr=True).print(f"[red]error:[/red] hil-bench's compiled C is missing "
                                    f"({exc.name or exc}): {how_to_build()}", highlight=False)
         return 2
+    if rc == 130:
+        # the command ends because the user interrupted it: a further Ctrl-C (the user pressing
+        # again) must not turn the exit into a KeyboardInterrupt at interpreter shutdown
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return rc
 
 
 if __name__ == "__main__":

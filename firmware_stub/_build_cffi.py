@@ -26,8 +26,10 @@ SANITIZE_LINK_ARGS = ["-fsanitize=address,undefined"]
 def make_builder(sanitize: bool = False) -> FFI:
     """The module's builder; ``sanitize``: -fsanitize=address,undefined instead of -O2."""
     builder = FFI()
-    # fw_common first: the other declarations use its types
-    cdefs = sorted(HERE.glob("cdef/*.cdef"), key=lambda p: (p.stem != "fw_common", p.stem))
+    # fw_common first: the other declarations use its types; the controller last: it holds the
+    # other modules' state structs
+    cdefs = sorted(HERE.glob("cdef/*.cdef"),
+                   key=lambda p: (p.stem != "fw_common", p.stem == "controller", p.stem))
     builder.cdef("\n".join(p.read_text() for p in cdefs))
     headers = "".join(f'#include "{h.name}"\n' for h in sorted(SRC.glob("*.h")))
     sources = sorted(str(p) for p in SRC.glob("*.c"))

@@ -3,10 +3,12 @@
 * :class:`SmoSigmoid` - Yuan's improved SMO (sigmoid switching, intermediate variable H),
   ``firmware_stub/src/est_smo_sigmoid.[ch]``;
 * :class:`SmoTanh` - Gong's tanh SMO without LPF, ``est_smo_tanh.[ch]``;
+* :class:`SmoSta` - the super-twisting (second-order) SMO, Hou's comparator ("the improved SMO
+  method mentioned in [8]") without [8]'s online resistance estimate, ``est_smo_sta.[ch]``;
 * :class:`DelayComp` - Gong's dual-sampling delay estimate and current pre-compensation,
   ``est_delay_comp.[ch]``;
-* factories :func:`smo_sigmoid_for`, :func:`smo_tanh_for` (profile, ts_s, **config), with the gains
-  derived from the profile by the papers' rules when not given.
+* factories :func:`smo_sigmoid_for`, :func:`smo_tanh_for`, :func:`smo_sta_for` (profile, ts_s,
+  **config), with the gains derived from the profile by the papers' rules when not given.
 
 The SMOs' ``step`` takes the currents sampled at t_k and the alpha-beta voltage applied over
 the previous period and returns :class:`hil_bench.firmware_stub.estimators.EstimatorOutput`. Outputs are
@@ -47,7 +49,7 @@ class _Smo:
         if getattr(lib, f"est_{self._c_name}_init")(self._s, self._cfg) != 0:
             fields = ", ".join(f"{k}={getattr(self._cfg, k)}" for k, _ in
                                ffi.typeof(f"est_{self._c_name}_config_t").fields)
-            hint = self._invalid_hint if not self._cfg.k_v > 0 else ""
+            hint = self._invalid_hint if not getattr(self._cfg, "k_v", 1.0) > 0 else ""
             raise ValueError(f"{cls}: invalid configuration{hint} ({fields})")
         self._step_c = getattr(lib, f"est_{self._c_name}_step")
         self._reset_c = getattr(lib, f"est_{self._c_name}_reset")
@@ -109,6 +111,16 @@ class SmoTanh(_Smo):
 
     name = "SMO_TANH"
     _c_name = "smo_tanh"
+
+
+class SmoSta(_Smo):
+    """Super-twisting SMO (Hou's comparator, his ref. [8], without [8]'s resistance estimate).
+    ``k1_v``, ``k2_v_s`` <= 0 (default) select the speed-adaptive gains of the STA's condition
+    (:func:`sta_gains`)."""
+
+    name = "SMO_STA"
+    _c_name = "smo_sta"
+    _invalid_hint = ""
 
 
 class DelayCompOutput(NamedTuple):
@@ -229,6 +241,17 @@ def tanh_xi_deadbeat_a(ce: float, psi_f_wb: float, pole_pairs: int, omega_m_max_
                                           rs_ohm, ls_h, ts_s)
 
 
+def sta_gains(rs_ohm: float, ls_h: float, psi_f_wb: float, ts_s: float, omega_e_rad_s: float,
+              **config: float) -> tuple[float, float]:
+    """The STA SMO's adaptive gains (k1 [V/sqrt(A)], k2 [V/s]) at an electrical speed."""
+    cfg = ffi.new("est_smo_sta_config_t *")
+    lib.est_smo_sta_default_config(cfg, rs_ohm, ls_h, psi_f_wb, ts_s)
+    _configure(cfg, config, "sta_gains")
+    k1, k2 = ffi.new("float *"), ffi.new("float *")
+    lib.est_smo_sta_gains(cfg, omega_e_rad_s, k1, k2)
+    return k1[0], k2[0]
+
+
 # -- factories ---------------------------------------------------------------------------------
 def _rated_omega_m(profile: Any) -> float:
     return float(profile.rated["speed_rad_s"])
@@ -273,7 +296,13 @@ def smo_tanh_for(profile: Any, ts_s: float, **config: float) -> SmoTanh:
     return SmoTanh(profile.rs_ohm, profile.lq_h, profile.psi_f_wb, ts_s, **config)
 
 
-__all__ = ["SmoSign", "SmoSigmoid", "SmoTanh", "DelayComp", "DelayCompOutput", "EstimatorOutput",
+def smo_sta_for(profile: Any, ts_s: float, **config: float) -> SmoSta:
+    """Hou's comparator for a motor profile (Ls = Lq, the extended-EMF form): the C defaults
+    (speed-adaptive gains with margin 1.5) unless given."""
+    return SmoSta(profile.rs_ohm, profile.lq_h, profile.psi_f_wb, ts_s, **config)
+
+
+__all__ = ["SmoSign", "SmoSigmoid", "SmoTanh", "SmoSta", "smo_sta_for", "sta_gains", "DelayComp", "DelayCompOutput", "EstimatorOutput",
            "smo_sigmoid_for", "smo_tanh_for", "sigmoid_gain_for", "tanh_gain_for",
            "sigmoid_min_gain_v", "sigmoid_max_slope_per_a", "tanh_boundary_layer_a",
            "tanh_min_f", "tanh_gain_rule_v", "tanh_stability_bound_v",

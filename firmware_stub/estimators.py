@@ -12,7 +12,7 @@ from typing import Any, Callable
 
 from ._binding import EstimatorOutput
 from .est_hfi import hfi_for
-from .est_smo import SmoSign, smo_sigmoid_for, smo_tanh_for
+from .est_smo import SmoSign, smo_sigmoid_for, smo_sta_for, smo_tanh_for
 
 
 def smo_sign_for(profile, ts_s: float, **config: float) -> SmoSign:
@@ -24,7 +24,7 @@ def smo_sign_for(profile, ts_s: float, **config: float) -> SmoSign:
 #: several times as NAME:label with a configuration each (e.g. "SMO_TANH:m1")
 REFERENCE_ESTIMATORS: dict[str, Callable[..., Any]] = {
     "SMO_SIGN": smo_sign_for, "SMO_SIGMOID": smo_sigmoid_for, "SMO_TANH": smo_tanh_for,
-    "HFI_SDFT": hfi_for,
+    "HFI_SDFT": hfi_for, "SMO_STA": smo_sta_for,
 }
 
 __all__ = ["EstimatorOutput", "SmoSign", "REFERENCE_ESTIMATORS", "smo_sign_for"]

@@ -219,12 +219,14 @@ typedef struct { double t_s; int32_t seq; const char *tx; const char *rx; } rec_
 size_t rec_encode_event(uint8_t *out, size_t cap, const rec_event_t *m);
 size_t rec_encode_frames(uint8_t *out, size_t cap, const rec_frames_t *m);
 
+#define ENGINE_MAX_EVENTS ...
+#define ENGINE_MAX_LINK_FAULTS ...
+#define ENGINE_MAX_TRACES ...
 typedef struct { double scale, offset, raw_min, raw_max; } engine_signal_t;
 typedef struct {
     void *ctx;
     void (*write)(void *ctx, const uint8_t *data, size_t n, int64_t now_ns);
     size_t (*read)(void *ctx, uint8_t *out, size_t cap, int64_t now_ns);
-    void (*restart)(void *ctx, int64_t now_ns);
 } eng_link_peer_t;
 typedef struct { uint16_t id, dlc; uint8_t data[64]; } engine_replay_frame_t;
 typedef struct {
@@ -252,7 +254,7 @@ typedef struct {
     const engine_replay_frame_t *replay_frames; long replay_n_frames; double pace_s;
     uint16_t ch_replay;
     int capture_serial; uint16_t ch_serial_raw;
-    uint16_t ch_faults; long post_trip_cycles;
+    uint16_t ch_faults; long post_trip_cycles; double late_grace_s;
     long record_every; long pre_trigger_cycles, post_trigger_cycles;
     ...;
 } engine_config_t;
@@ -274,7 +276,9 @@ typedef struct {
 } engine_link_fault_t;
 typedef struct {
     int state; char name[24]; char target[12]; long first_k, close_k, seen_k;
-    long window_cycles; double delay_s; uint64_t rtt_seen; ...;
+    long window_cycles; double delay_s; uint64_t rtt_seen;
+    int planned; int refused; long acted_k, evidence_k; uint32_t windows, untraced_windows;
+    uint64_t matched, acted; uint64_t rtt_n, rtt_c; double rtt_p, rtt_var; ...;
 } engine_trace_t;
 typedef struct {
     uint64_t seq_mismatch, bad_duties, telem_missing, unknown_ids, heartbeats_rx, length_errors;
@@ -282,6 +286,7 @@ typedef struct {
     uint64_t rows_dropped, rt_overruns;
     uint64_t ctrl_rx_errors, ctrl_resets, ctrl_faults, duties_after_trip;
     uint64_t faults_injected, faults_untraced;
+    uint64_t faults_acted, faults_traced;
     uint64_t state_rows;
 } engine_counters_t;
 typedef struct {
@@ -332,7 +337,6 @@ typedef struct { int hello_done; hil_session_stats_t stats; ...; } hil_session_t
 typedef struct { hil_session_t session; hil_deframer_t deframer; size_t tx_len; int hb_always;
                  unsigned long tx_overflows, restarts; ...; } sil_port_t;
 void sil_port_init(sil_port_t *p, int hb_always, int64_t now_ns);
-void sil_port_restart(sil_port_t *p, int64_t now_ns);
 void sil_port_write(sil_port_t *p, const uint8_t *data, size_t n, int64_t now_ns);
 size_t sil_port_read(sil_port_t *p, uint8_t *out, size_t cap, int64_t now_ns);
 unsigned long sil_port_rx_errors(const sil_port_t *p);

@@ -16,7 +16,7 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass
 
-from hil_bench.protocol.messages import DUTY_RAW_OFF, MESSAGES, SenseAuxFlag, State
+from hil_bench.protocol.messages import DUTY_RAW_OFF, MESSAGES, Fault, SenseAuxFlag, State
 
 from ._plant_c import ffi, lib
 
@@ -31,6 +31,13 @@ EV_PLANT_FAULT, EV_PLANT_FAULT_CLEAR, EV_CONTROLLER_RESET = 4, 5, 6
 LINK_FAULT_KIND = {"drop": 1, "duplicate": 2, "reorder": 3, "bitflip": 4, "delay": 5, "stall": 6,
                    "garbage": 7}
 
+#: what one engine holds (plant_rt/c/engine.h): scheduled events (a scenario event is one per
+#: thing it sets, a plant fault one, two with until_s, a controller reset one), link faults, and
+#: faults with a trace (every [[faults]] entry)
+MAX_EVENTS = int(lib.ENGINE_MAX_EVENTS)
+MAX_LINK_FAULTS = int(lib.ENGINE_MAX_LINK_FAULTS)
+MAX_TRACES = int(lib.ENGINE_MAX_TRACES)
+
 END_NAMES = {0: "DONE", 1: "STOPPED", 2: "LINK", 3: "NO_DUTY", 4: "CONTROLLER_FAULT",
              5: "BAD_DUTIES", 6: "WATCHDOG", 7: "PLANT", 8: "CONFIG", 9: "PROTOCOL"}
 END_DONE, END_STOPPED, END_CONTROLLER_FAULT, END_WATCHDOG = 0, 1, 4, 6
@@ -38,7 +45,8 @@ END_DONE, END_STOPPED, END_CONTROLLER_FAULT, END_WATCHDOG = 0, 1, 4, 6
 COUNTERS = ("seq_mismatch", "bad_duties", "telem_missing", "unknown_ids", "heartbeats_rx",
             "length_errors", "duplicates", "stale_frames", "retries", "late_duty", "missed_duty",
             "estimator_mismatch", "rows_dropped", "rt_overruns", "ctrl_rx_errors", "ctrl_resets",
-            "ctrl_faults", "duties_after_trip", "faults_injected", "faults_untraced", "state_rows")
+            "ctrl_faults", "duties_after_trip", "faults_injected", "faults_untraced",
+            "faults_acted", "faults_traced", "state_rows")
 
 
 def _signal(cfg_sig, msg: str, name: str) -> None:
@@ -111,6 +119,18 @@ class EngineResult:
     rt_mlock: bool
     rt_pinned: bool
     rt_notes: str
+
+    def end_text(self) -> str:
+        """The engine's end message; for a controller fault with the fault's name, the cycle
+        (seq) the controller reported it in and its detail (FAULT_CTRL)."""
+        if self.end != END_CONTROLLER_FAULT:
+            return self.message
+        try:
+            name = Fault(self.fault_code).name
+        except ValueError:
+            name = f"unknown code {self.fault_code}"
+        return (f"{self.message}: controller reported fault {name} at seq {self.fault_seq} "
+                f"(detail {self.fault_detail})")
 
 
 class Engine:
@@ -208,15 +228,16 @@ class Engine:
 
     def add_fault_event(self, cycle: int, kind: int, *, index: int, name: str,
                         fault_kind: int = 0, phase: int = 0, phase2: int = 0, level: int = 0,
-                        value: float = 0.0, pid: int = 0, detect_within_s: float = 0.2,
+                        value: float = 0.0, detect_within_s: float = 0.2,
                         text: str = "") -> None:
         """A plant fault switched on (EV_PLANT_FAULT) or off (EV_PLANT_FAULT_CLEAR), or a
-        controller reset (EV_CONTROLLER_RESET: SIGUSR1 to ``pid``), at a cycle; ``index`` is
-        the scenario's [[faults]] entry, whose trace the engine records on /faults."""
+        controller reset (EV_CONTROLLER_RESET: CMD RESTART with the frames of that cycle), at a
+        cycle; ``index`` is the scenario's [[faults]] entry, whose trace the engine records on
+        /faults."""
         ev = ffi.new("engine_event_t *")
         ev.cycle = cycle
         ev.kind = kind
-        ev.command = pid
+        ev.command = 0
         ev.value = value
         ev.record = 0
         ev.text = text.encode()[:95]
@@ -331,6 +352,24 @@ class Engine:
                   "remote_frames", "rx_malformed", "send_failures", "bus_state_changes"):
             out[k] = int(getattr(e.link.c, k))
         out["can_unknown_ids"] = int(e.link.c.ext_ids)
+        return out
+
+    def fault_states(self) -> list[dict]:
+        """What became of each fault of the run (the engine's own account, engine_trace_t): the
+        first action's cycle (-1: it never acted), the first evidence's (-1: none), the detection
+        windows closed and those without evidence, whether the plant refused it, and for a link
+        fault the frames that met its window and message and those it acted on."""
+        out = []
+        for index in range(MAX_TRACES):
+            t = self._e.traces[index]
+            if not t.planned:
+                continue
+            out.append({"index": index, "name": ffi.string(t.name).decode(errors="replace"),
+                        "target": ffi.string(t.target).decode(errors="replace"),
+                        "acted_cycle": int(t.acted_k), "evidence_cycle": int(t.evidence_k),
+                        "windows": int(t.windows), "untraced_windows": int(t.untraced_windows),
+                        "refused": bool(t.refused), "matched": int(t.matched),
+                        "acted": int(t.acted)})
         return out
 
     def percentile(self, which: str, q: float) -> float:

@@ -129,6 +129,29 @@ PARAMS: tuple[ParamInfo, ...] = (
        "for this long with less progress than PROT_STALL_SPEED_RAD_S is a STALL"),
     _p("PROT_STALL_SPEED_RAD_S", "rad/s", "real", "stall: the least the speed error must shrink over "
        "PROT_STALL_TIME_S at the limit, mechanical"),
+    # super-twisting SMO (SMO_STA, firmware_stub/src/est_smo_sta.h: Hou's comparator)
+    _p("SMO_STA_K1_V", "V/A^0.5", "real", "super-twisting SMO proportional gain k1; <= 0: from the speed "
+       "estimate by the algorithm's convergence condition"),
+    _p("SMO_STA_K2_V_S", "V/s", "real", "super-twisting SMO integral gain k2; <= 0: from the speed estimate"),
+    # inverter-error feed-forward (firmware_stub/src/inv_comp.h, docs/inverter_comp.md)
+    _p("INV_COMP_ENABLE", "-", "enum", "inverter dead-time and device-drop feed-forward on the duties and "
+       "the observers' voltage",
+       ((0, "off"), (1, "on, currents extrapolated to the middle of the interval the duties act on"),
+        (2, "on, sampled currents"), (3, "on, the current loop's reference currents"),
+        (4, "on, current-vector method: the measured vector low-passed in the rotating frame (with HF "
+            "injection plus the injection's current, predicted at its frequency)"))),
+    _p("INV_COMP_DEAD_TIME_S", "s", "real", "the drive's estimate of the inverter's effective dead time "
+       "(below half the PWM period)"),
+    _p("INV_COMP_V_SWITCH_V", "V", "real", "estimate of the switch on-state threshold drop"),
+    _p("INV_COMP_R_SWITCH_OHM", "ohm", "real", "estimate of the switch on-state slope resistance"),
+    _p("INV_COMP_V_DIODE_V", "V", "real", "estimate of the diode forward threshold drop"),
+    _p("INV_COMP_R_DIODE_OHM", "ohm", "real", "estimate of the diode slope resistance"),
+    _p("INV_COMP_BAND_A", "A", "real", "zero-crossing current: i_c = C_node V_dc / t_dt (capacitive shape) "
+       "or the half-width of the linear band; > 0"),
+    _p("INV_COMP_SHAPE", "-", "enum", "zero-crossing shape of the compensation",
+       ((0, "linear band"), (1, "capacitive commutation (the plant's model)"))),
+    _p("INV_COMP_I_BW_RAD_S", "rad/s", "real", "current-vector method (INV_COMP_ENABLE = 4): bandwidth of the "
+       "low-pass on the measured current vector in the rotating frame (a filter frequency)"),
 )
 
 BY_NAME: dict[str, ParamInfo] = {p.name: p for p in PARAMS}

@@ -1,5 +1,6 @@
-"""The claims registry (bench/papers/claims.py): all 19 claims, every rule with a source and none of the
-old unsourced '~' tolerances, every run's scenario loads, every window inside its run, relations
+"""The claims registry (bench/claims/: the data and its definitions; bench/papers/claims.py: the
+evaluation): all 19 claims, every rule with a source and none of the old unsourced '~'
+tolerances, every run's scenario loads, every window inside its run, relations
 over existing quantities (labels agreeing with their operators, ties below one telemetry LSB not
 resolved); the fault diagnosis and the over-current trip below every ADC's full scale; three
 short runaway runs end as named over-currents; and the TOML writer behind derived scenarios."""
@@ -9,6 +10,8 @@ import tomllib
 import numpy as np
 import pytest
 
+from hil_bench.claims import expand, model, registry
+from hil_bench.papers import claim_metrics
 from hil_bench.papers import claims as cl
 from hil_bench.papers.report import scenario_for
 from hil_bench.scenario import tomlw
@@ -17,12 +20,12 @@ PAPER_IDS = [f"Y{i}" for i in range(1, 9)] + ["H1", "H2", "H3"] + [f"G{i}" for i
 
 
 def test_every_paper_claim_is_registered():
-    assert list(cl.CLAIMS) == PAPER_IDS
+    assert list(registry.CLAIMS) == PAPER_IDS
 
 
 @pytest.mark.parametrize("cid", PAPER_IDS)
 def test_claim_is_consistent(cid):
-    c = cl.CLAIMS[cid]
+    c = registry.CLAIMS[cid]
     assert c.quantities
     run_ids = {r.id for r in c.runs}
     keys = [q.key for q in c.quantities]
@@ -32,7 +35,7 @@ def test_claim_is_consistent(cid):
         assert q.rule.source.strip(), q.key                   # every rule says where it comes from
         if q.rule.kind == "within":
             assert q.rule.lo < q.rule.hi
-        assert q.metric in cl.METRICS or q.metric in ("study", "derived"), q.key
+        assert q.metric in claim_metrics.METRICS or q.metric in ("study", "derived"), q.key
         assert set(q.runs) <= run_ids, (q.key, q.runs)
         if q.study:
             assert q.study in c.studies
@@ -43,23 +46,24 @@ def test_claim_is_consistent(cid):
 
 
 def test_no_unsourced_percent_tolerances_remain():
-    text = open(cl.__file__).read()
+    text = "".join((registry.HERE / f).read_text() for f in registry.FILES)
+    text += open(expand.__file__).read()
     assert '"~"' not in text and "tolerance" not in [f.name for f in
-                                                        cl.Quantity.__dataclass_fields__.values()]
+                                                        model.Quantity.__dataclass_fields__.values()]
 
 
-@pytest.mark.parametrize("run", list(cl.all_runs().values()), ids=lambda r: r.id)
+@pytest.mark.parametrize("run", list(registry.all_runs().values()), ids=lambda r: r.id)
 def test_every_run_builds_and_its_windows_fit(run):
     scn = scenario_for(run)
     assert scn.name == run.name
-    for c in cl.CLAIMS.values():
+    for c in registry.CLAIMS.values():
         for q in c.quantities:
             if run.id in q.runs and q.window_s is not None:
                 assert 0 <= q.window_s[0] < q.window_s[1] <= scn.duration_s + 1e-9, (q.key, run.id)
 
 
 def test_derived_scenario_keeps_everything_else_and_names_the_override():
-    run = cl.CLAIMS["H3"].run("H3.bias.45deg.nodt")
+    run = registry.CLAIMS["H3"].run("H3.bias.45deg.nodt")
     scn = scenario_for(run)
     assert scn.plant_overrides["inverter_nonlinear"] == 0
     assert scn.initial_theta_e_rad == pytest.approx(math.radians(45))
@@ -87,51 +91,51 @@ def test_toml_writer_round_trips():
 
 
 def test_relations_and_derived_values():
-    rel = cl.Relation("r", "falls", ("a", "b", "c"), ">", "", "src")
+    rel = model.Relation("r", "falls", ("a", "b", "c"), ">", "", "src")
     assert cl.relate(rel, {"a": 3.0, "b": 2.0, "c": 1.0})[1] == "PASS"
     assert cl.relate(rel, {"a": 3.0, "b": 2.0, "c": 2.5})[1] == "FAIL"
     assert cl.relate(rel, {"a": 3.0, "b": 2.0})[1] == "FAIL"            # missing: not a pass
     assert cl.relate(rel, {"a": 3.0, "b": 2.0, "c": 1.0}, frozenset({"b"}))[1] == \
         "NOT REPRODUCIBLE"
-    eq = cl.Relation("e", "equal", ("a", "b"), "=", "", "src", tol=0.005)
+    eq = model.Relation("e", "equal", ("a", "b"), "=", "", "src", tol=0.005)
     assert cl.relate(eq, {"a": 4.081, "b": 4.084})[1] == "PASS"
     assert cl.relate(eq, {"a": 4.08, "b": 4.09})[1] == "FAIL"
-    zero = cl.Relation("z", "positive", ("#0", "a"), "<", "", "src")
+    zero = model.Relation("z", "positive", ("#0", "a"), "<", "", "src")
     assert cl.relate(zero, {"a": -20.0})[1] == "FAIL"
-    q = cl.Quantity("d", "", "derived", 1.0, cl.compared("s"),
+    q = model.Quantity("d", "", "derived", 1.0, model.compared("s"),
                     params=(("op", "pct"), ("a", "on"), ("b", "off")))
     assert cl.derive(q, {"on": 1.08, "off": 1.15}) == pytest.approx(-6.087, abs=1e-3)
 
 
 def test_rules():
-    assert cl.at_most(0.1, "s").verdict(0.1) == "PASS"
-    assert cl.at_most(0.1, "s").verdict(0.11) == "FAIL"
-    assert cl.at_most(0.1, "s").verdict(math.nan) == "FAIL"
-    w = cl.within(1.5, 2.5, "s")
+    assert model.at_most(0.1, "s").verdict(0.1) == "PASS"
+    assert model.at_most(0.1, "s").verdict(0.11) == "FAIL"
+    assert model.at_most(0.1, "s").verdict(math.nan) == "FAIL"
+    w = model.within(1.5, 2.5, "s")
     assert (w.verdict(1.5), w.verdict(2.5), w.verdict(1.46)) == ("PASS", "FAIL", "FAIL")
-    assert cl.compared("s").verdict(123.0) == "COMPARED"
+    assert model.compared("s").verdict(123.0) == "COMPARED"
 
 
 def test_relation_label_must_match_its_operator():
     with pytest.raises(ValueError, match="does not match"):
-        cl.Relation("x", "with <= without", ("a", "b"), "<", "", "src")
-    cl.Relation("x", "with < without", ("a", "b"), "<", "", "src")       # fine
+        model.Relation("x", "with <= without", ("a", "b"), "<", "", "src")
+    model.Relation("x", "with < without", ("a", "b"), "<", "", "src")       # fine
 
 
 def test_relation_below_one_lsb_is_not_resolved():
     """A tie (or any difference under one LSB of what the values came from) cannot decide an
     ordering: NOT RESOLVED, never FAIL; one LSB or more decides it."""
-    lsb = cl.speed_lsb_rpm(4)
+    lsb = claim_metrics.speed_lsb_rpm(4)
     assert lsb == pytest.approx(0.1 / 4 * 60 / (2 * math.pi))           # 0.239 rpm
-    assert cl.speed_lsb_rpm(3) == pytest.approx(0.3183, abs=1e-4)
-    rel = cl.Relation("r", "with < without", ("on", "off"), "<", "", "src")
+    assert claim_metrics.speed_lsb_rpm(3) == pytest.approx(0.3183, abs=1e-4)
+    rel = model.Relation("r", "with < without", ("on", "off"), "<", "", "src")
     res = {"on": lsb, "off": lsb}
     assert cl.relate(rel, {"on": 0.3773, "off": 0.3773}, resolutions=res)[1] == "NOT RESOLVED"
     assert cl.relate(rel, {"on": 0.30, "off": 0.3773}, resolutions=res)[1] == "NOT RESOLVED"
     assert cl.relate(rel, {"on": 1.049 + lsb, "off": 1.049}, resolutions=res)[1] == "FAIL"
     assert cl.relate(rel, {"on": 1.049, "off": 1.049 + lsb}, resolutions=res)[1] == "PASS"
     assert cl.relate(rel, {"on": 0.3773, "off": 0.3773})[1] == "FAIL"      # exact values: a tie
-    chain = cl.Relation("c", "falls", ("a", "b", "c"), ">", "", "src")
+    chain = model.Relation("c", "falls", ("a", "b", "c"), ">", "", "src")
     r = {"a": 0.1, "b": 0.1, "c": 0.1}
     # one pair resolved and wrong outweighs an unresolved one
     assert cl.relate(chain, {"a": 3.0, "b": 3.05, "c": 1.0}, resolutions=r)[1] == "NOT RESOLVED"
@@ -139,16 +143,16 @@ def test_relation_below_one_lsb_is_not_resolved():
 
 
 def test_derived_ratio_and_rule_on_derived_rows():
-    q = cl.Quantity("d", "", "derived", "1/3", cl.compared("s"),
+    q = model.Quantity("d", "", "derived", "1/3", model.compared("s"),
                     params=(("op", "ratio"), ("a", "g"), ("b", "s")))
     assert cl.derive(q, {"g": 7.0, "s": 23.0}) == pytest.approx(7 / 23)
-    faster = cl.CLAIMS["Y5"].quantities[[q.key for q in cl.CLAIMS["Y5"].quantities]
+    faster = registry.CLAIMS["Y5"].quantities[[q.key for q in registry.CLAIMS["Y5"].quantities]
                                         .index("Y5.faster")]
     assert faster.verdict(3.0) == "PASS" and faster.verdict(3.34) == "FAIL"   # '2-3 cycles'
 
 
 def test_calibration_input_has_no_verdict():
-    y4 = {q.key: q for q in cl.CLAIMS["Y4"].quantities}
+    y4 = {q.key: q for q in registry.CLAIMS["Y4"].quantities}
     assert y4["Y4.10.off.THD"].verdict(8.61) == "CALIBRATION"
     calibrated = [k for k, q in y4.items() if q.calibration]
     assert calibrated == ["Y4.10.off.THD"]      # every other Y4 row is the check
@@ -175,7 +179,7 @@ def test_diagnose_fault_names_a_clipped_overcurrent_not_a_sensor_fault():
 
 def _plan_runs():
     from hil_bench.papers.beyond import plan
-    runs = dict(cl.all_runs())
+    runs = dict(registry.all_runs())
     runs.update({r.id: r for r in plan(quick=True).runs})
     return list(runs.values())
 
@@ -217,7 +221,7 @@ def test_runaways_end_as_named_overcurrents(tmp_path, run_id):
     from hil_bench.papers.check import build_context
     from hil_bench.record.recording import load_recording
     from hil_bench.scenario import scenario_of
-    run = cl.all_runs()[run_id]
+    run = registry.all_runs()[run_id]
     out = tmp_path / f"{run_id}.mcap"
     res = run_scenario(scenario_for(run), out_path=out, progress=False)
     assert not res.ok and "fault OVERCURRENT" in res.error, res.error
@@ -226,7 +230,7 @@ def test_runaways_end_as_named_overcurrents(tmp_path, run_id):
     kind, why = cl.run_failure(rec, ctx.speed_ref_at)
     assert kind == "FAIL" and "[over-current" in why and "phase current up to" in why, why
     assert "(reference 10)" in why and "read" in why, why       # the scenario's reference
-    claim = next(c for c in cl.CLAIMS.values() if any(r.id == run_id for r in c.runs))
+    claim = next(c for c in registry.CLAIMS.values() if any(r.id == run_id for r in c.runs))
     for q in claim.quantities:
         if run_id in q.runs and not q.study and not q.aggregate:
             _, verdict, note = cl.measure(q, ctx)

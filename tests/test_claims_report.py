@@ -8,7 +8,8 @@ import re
 import numpy as np
 import pytest
 
-from hil_bench.papers.claims import CLAIMS, speed_lsb_rpm
+from hil_bench.claims.registry import CLAIMS
+from hil_bench.papers.claim_metrics import speed_lsb_rpm
 from hil_bench.papers.report import run_report
 
 

@@ -92,9 +92,11 @@ LINK_CASES = [
      "_errors"),   # crc_errors, cobs_errors or length_errors: where the flipped bit fell
     ('kind = "bitflip"\ndirection = "to_controller"\nmessage = "SENSE"\ncount = 1', "bitflip",
      "ctrl_rx_errors"),
-    ('kind = "delay"\ndirection = "from_controller"\nmessage = "DUTY"\ndelay_s = 0.0005\ncount = 1',
+    # ten delayed cycles: one 0.5 ms late frame is within what a loaded host's fault-free round
+    # trips show often enough (docs/faults.md "rtt_over_delay"), ten in a row are not
+    ('kind = "delay"\ndirection = "from_controller"\nmessage = "DUTY"\ndelay_s = 0.0005\ncount = 10',
      "delay", "rtt_over_delay"),
-    ('kind = "delay"\ndirection = "to_controller"\nmessage = "SENSE"\ndelay_s = 0.0005\ncount = 1',
+    ('kind = "delay"\ndirection = "to_controller"\nmessage = "SENSE"\ndelay_s = 0.0005\ncount = 10',
      "delay", "rtt_over_delay"),
     ('kind = "stall"\nstall_periods = 20', "stall", "retries"),
     ('kind = "garbage"\ndirection = "from_controller"\nburst = 40', "garbage", "bytes_discarded"),
@@ -124,23 +126,17 @@ def test_each_link_fault_acts_and_leaves_its_trace(tmp_path, fault, action, coun
 
 
 def test_a_controller_reset_is_seen_and_ends_the_lockstep_run(tmp_path):
-    """SIGUSR1: the stub restarts (no session); the bench's SENSE go unanswered (retries, then the
-    run ends naming silence) and the controller's heartbeat counter starting over is counted."""
+    """CMD RESTART with the frames of cycle 2000: the stub restarts (no session) before it reads
+    that cycle's SENSE; the bench's SENSE go unanswered (retries, then the run ends saying the
+    bench restarted the controller) and the controller's restart (its heartbeat counter starting
+    over) is counted. tests/test_controller_restart.py: the same cycle whatever the load."""
     result, rec = run(tmp_path, '[[faults]]\nkind = "controller_reset"\nt_s = 0.2')
-    assert result.end == "NO_DUTY" and "nothing at all" in result.error
+    assert result.end == "NO_DUTY" and result.cycles_done == 2000
+    assert "the bench restarted the controller at this cycle" in result.error
     trace = trace_of(rec)
     assert "ctrl_resets +1" in trace["text"] and "retries" in trace["text"], trace
     events = rec.topic(ch.EVENTS)
     assert "controller_restart" in list(events["kind"])
-
-
-def test_a_reset_needs_the_stub(tmp_path):
-    """Refused before any process or device is touched (no recording left)."""
-    scn = scenario('[[faults]]\nkind = "controller_reset"\nt_s = 0.2')
-    out = tmp_path / "x.mcap"
-    with pytest.raises(RunAborted, match="controller_reset needs the firmware stub"):
-        run_scenario(scn, link_spec="serial:/dev/nonexistent", out_path=out, progress=False)
-    assert not out.exists()
 
 
 def test_a_fault_that_leaves_no_trace_makes_the_run_invalid(tmp_path):

@@ -1,7 +1,8 @@
 """The house's rules (docs/architecture.md, "The house"), read from the source by
-tools/import_graph.py: no import circle between modules or between sub-packages, and nothing in
-plant_rt, protocol or firmware_stub imports the bench above it; pyproject.toml maps the namespace
-over the same folders the graph reads (the wheel holds every package of them:
+tools/import_graph.py: no import circle between modules or between sub-packages, nothing in
+plant_rt, protocol or firmware_stub imports the bench above it, and the claims registry
+(hil_bench.claims) imports nothing of the bench; pyproject.toml maps the namespace over the same
+folders the graph reads (the wheel holds every package of them and their data files:
 tests/test_wheel.py); and no module hides the API's names (hil_bench.run, .check,
 .load_recording)."""
 from __future__ import annotations
@@ -13,10 +14,6 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-#: the one arrow that still closes a package circle (scenario -> papers -> ... -> scenario): the
-#: scenario loader asks the claims registry whether a `claims = [...]` id exists. It goes with the
-#: registry becoming data below both (issue 18, item 6); nothing else may close a circle.
-KNOWN_BACK_ARROWS = {("hil_bench.scenario.scenario", "hil_bench.papers.claims")}
 
 
 @pytest.fixture(scope="module")
@@ -36,9 +33,17 @@ def test_no_module_imports_itself_around_a_circle(ig, graph):
     assert ig.cycles(graph) == []
 
 
-def test_no_package_circle_but_the_known_one(ig, graph):
-    g = {m: deps - {dst for src, dst in KNOWN_BACK_ARROWS if src == m} for m, deps in graph.items()}
-    assert ig.cycles(ig.package_graph(g)) == []
+def test_no_sub_package_imports_itself_around_a_circle(ig, graph):
+    """Sub-packages form layers: scenario asks the claims registry (hil_bench.claims, below it)
+    whether a claim id exists, never papers, which imports scenario."""
+    assert ig.cycles(ig.package_graph(graph)) == []
+
+
+def test_the_claims_registry_imports_nothing_of_the_bench(graph):
+    """hil_bench.claims (definitions, data, loader) sits below scenario, loop and papers."""
+    up = {m: sorted(d for d in deps if not d.startswith("hil_bench.claims"))
+          for m, deps in graph.items() if m.startswith("hil_bench.claims")}
+    assert "hil_bench.claims.registry" in up and {m: d for m, d in up.items() if d} == {}
 
 
 def test_the_lower_layers_import_nothing_of_the_bench(graph):
@@ -93,4 +98,4 @@ def test_the_graph_sees_every_module_of_the_namespace(ig, graph):
     assert {m: mods.get(m) for m in on_disk} == on_disk
     assert set(graph) == set(mods)
     # an import inside a function counts: scenario asks the claims registry lazily
-    assert "hil_bench.papers.claims" in graph["hil_bench.scenario.scenario"]
+    assert "hil_bench.claims.registry" in graph["hil_bench.scenario.scenario"]

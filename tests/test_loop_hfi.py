@@ -14,11 +14,14 @@ from hil_bench.record.recording import load_recording
 from hil_bench.scenario import derive_scenario
 
 
-def h3(angle_deg, dead_time, bias_a=0.0):
+def h3(angle_deg, dead_time, bias_a=0.0, residual=None):
+    """hou_h3_ipd from angle_deg; ``residual``: the drive's compensation residual (1.0: none, the
+    drive blind to its inverter; None: the scenario's own)."""
+    comp = () if residual is None else (("controller.inverter_comp.residual", residual),)
     return derive_scenario("hou_h3_ipd", f"h3_{angle_deg}_{dead_time}_{bias_a}",
                            (("plant.initial_theta_e_rad", math.radians(angle_deg)),
                             ("plant.inverter_nonlinear", dead_time),
-                            ("controller.params.HFI_POL_BIAS_A", bias_a)))
+                            ("controller.params.HFI_POL_BIAS_A", bias_a)) + comp)
 
 
 @pytest.mark.parametrize("angle_deg", [0, 45, 90, 135, 180])
@@ -41,15 +44,17 @@ def test_initial_position_and_polarity_from_standstill(tmp_path, angle_deg, bias
 
 
 def test_dead_time_defeats_hous_polarity_test_and_tilts_the_ellipse(tmp_path):
-    """With the inverter's dead time the 0.3 A HF current lives inside the node-capacitance band
+    """Uncompensated (residual 1: the drive's feed-forward knows nothing of its inverter; the
+    scenario's own 5 % residual is test_inverter_comp_scenario's), with the inverter's dead time
+    the 0.3 A HF current lives inside the node-capacitance band
     (i_c = 0.27 A), where the dead time acts as a resistance delta V_dc / (2 i_c) ~ 18 ohm: the
     HF-only polarity test cannot decide (the controller faults, never guesses), and the d-bias
     test decides right but the angle is off by ~13 deg (docs/claims.md, H3)."""
     out = tmp_path / "pure.mcap"
-    result = run_scenario(h3(135, True, 0.0), out_path=out, progress=False)
+    result = run_scenario(h3(135, True, 0.0, residual=1.0), out_path=out, progress=False)
     assert not result.ok and "STARTUP_FAILED" in result.error
     out = tmp_path / "bias.mcap"
-    result = run_scenario(h3(135, True, 2.4), out_path=out, progress=False)
+    result = run_scenario(h3(135, True, 2.4, residual=1.0), out_path=out, progress=False)
     assert result.ok, result.error
     rec = load_recording(out)
     telem, state = rec.topic(ch.CONTROLLER_TELEMETRY), rec.topic(ch.PLANT_STATE)

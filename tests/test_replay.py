@@ -24,7 +24,7 @@ EX = Path(__file__).resolve().parents[1] / "examples" / "captures"
 REF = {"SMO_SIGN": {"k_v": 25.0, "wc_rad_s": 300.0}}   # the example scenario's [reference]
 N_CYCLES = 500            #: the example run: 0.3 s at Ts = 600 us
 WINDOW = (0.22, 0.3)      #: its metrics window (the estimate has settled)
-FIRST_DIVERGENCE = 245    #: SMO_K_V 25 -> 30 (docs/replay.md "Tolerances")
+FIRST_DIVERGENCE = 245    #: SMO_K_V 25 -> 35 (docs/replay.md "Tolerances")
 
 
 def _opts(tmp_path, name, **kw):
@@ -148,12 +148,24 @@ def test_controller_with_a_changed_gain_diverges(tmp_path, name):
     same cycle from each kind of capture of the run (the figure docs/replay.md gives)."""
     cap = read_capture(EX / name)
     res = run_replay(cap, _opts(tmp_path, "c", mode="controller", estimators=None, est_config={},
-                                set_params={Param.SMO_K_V: 30.0}))
+                                set_params={Param.SMO_K_V: 35.0}))
     assert res.ok, res.error
     fd = res.compare["first_divergence"]
     assert fd["row"] == fd["cycle_seq"] == FIRST_DIVERGENCE and fd["recorded"] != fd["now"]
     assert res.compare["fields"]["duty_a"]["differ"] > 0
     assert res.compare["fields"]["state"]["compared"] == N_CYCLES
+
+
+def test_controller_fault_in_a_replay_is_named(tmp_path):
+    """With SMO_K_V = 30 the stub's estimate loses the recorded rotor and its stall check trips
+    (the recorded current at the limit, its own speed estimate making no progress): the replay
+    ends there and says which fault, at which cycle, with its detail, as a closed-loop run does."""
+    cap = read_capture(EX / "example.mcap")
+    res = run_replay(cap, _opts(tmp_path, "c", mode="controller", estimators=None, est_config={},
+                                set_params={Param.SMO_K_V: 30.0}))
+    assert not res.ok and res.cycles < N_CYCLES
+    assert "controller reported fault STALL at seq" in res.error, res.error
+    assert res.compare["first_divergence"]["row"] == FIRST_DIVERGENCE
 
 
 def test_controller_compares_telemetry_and_emf(tmp_path):

@@ -149,12 +149,14 @@ def test_faults_act_the_same_in_process_and_on_the_pty(tmp_path):
 
 
 def test_a_controller_restart_in_process_is_seen_as_on_the_pty(tmp_path):
-    """The power cycle happens at the fault's cycle (a call, no signal): the session is gone, the
-    bench's SENSE go unanswered, the heartbeat counter starting over is counted."""
+    """The power cycle happens at the fault's cycle (CMD RESTART in band, as on the pty): the
+    session is gone, the bench's SENSE go unanswered, the heartbeat counter starting over is
+    counted."""
     scn = parse_scenario(FAULTS.split("[[faults]]")[0] + '[[faults]]\nkind = "controller_reset"\n'
                          't_s = 0.3\n', Path("sil_reset.toml"))
     result, rec = _run(scn, "sil", tmp_path / "r.mcap")
-    assert result.end == "NO_DUTY" and "nothing at all" in result.error
+    assert result.end == "NO_DUTY"
+    assert "the bench restarted the controller at this cycle" in result.error
     assert result.cycles_done == 3000          # cycle 3000 (t = 0.3 s) is the first unanswered
     f = rec.topic(ch.FAULTS)
     traces = [t for t, a in zip(f["text"], f["action"]) if a == "trace"]

@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from hil_bench.scenario import ScenarioError, check_against_profile, parse_scenario, resolve_path
+from hil_bench.scenario.scenario import NAME_PATTERN
 from hil_bench.scenario.fields import Fields
 
 LIMIT_KEYS = {"detected": bool, "detection_time_s": float, "peak_current_a": float,
@@ -156,6 +157,11 @@ def _campaign(path: Path, where: str, raw: dict, text: str) -> Campaign:
     top = Fields(where, raw, "", text)
     c = top.table_of("campaign")
     name = c.string("name", path.stem)
+    if not NAME_PATTERN.match(name) or "@" in name:
+        raise c.fail("name", f"{name!r} must be letters, digits, '_', '-' or '.', not starting with "
+                             f"'.' or '-': it names the report folder "
+                             f"(reports/campaigns/<name>) and every run's scenario and recording "
+                             f"(<name>@<run>)")
     description = c.string("description", "")
     base_name = c.string("base")
     base_path = resolve_path(base_name)
@@ -231,6 +237,10 @@ def _campaign(path: Path, where: str, raw: dict, text: str) -> Campaign:
         f.reject_unknown()
     if not cases:
         raise top.fail("runs", "a campaign needs at least one [[runs]] or [[grid]] entry")
+    longest = max(cases, key=lambda case: len(case.name))
+    if not NAME_PATTERN.match(f"{name}@{longest.name}"):
+        raise c.fail("name", f"{name!r}: with its run {longest.name!r} the scenario name "
+                             f"{name}@{longest.name} is longer than 100 characters")
     top.reject_unknown()
     camp = Campaign(path, name, description, base_path, base_raw, link, cases, recording, limits)
     for case in cases:   # every run's scenario is valid before anything runs
@@ -263,13 +273,17 @@ def scenario_for(camp: Campaign, case: Case):
 # ---- running ------------------------------------------------------------------------------------
 
 
-def judge(case: Case, outcomes: list, run_error: str, end: str) -> tuple[str, list[str]]:
+def judge(case: Case, outcomes: list, run_error: str, end: str,
+          never_acted: list[str] | None = None) -> tuple[str, list[str]]:
     """PASS / FAIL against the case's limits; INVALID when the bench, not the controller, ended
-    the run, or a fault never acted or left no trace."""
+    the run, or a fault never acted (``never_acted``: the integrity check's words, naming the
+    fault and why) or left no trace."""
     reasons: list[str] = []
     if run_error and "controller reported fault" not in run_error and end not in (
             "NO_DUTY", "WATCHDOG", "CONTROLLER_FAULT", "BAD_DUTIES"):
         return "INVALID", [f"the run ended for another reason than the controller: {run_error}"]
+    if never_acted:
+        return "INVALID", list(never_acted)
     if len(outcomes) < len(case.faults):
         return "INVALID", [f"{len(case.faults) - len(outcomes)} fault(s) have no /faults record"]
     for o in outcomes:
@@ -304,6 +318,7 @@ def _run_case(camp: Campaign, case_index: int, out_dir: str, link: str) -> dict:
     from hil_bench.loop.runner import RunAborted, run_scenario
     from hil_bench.papers.check import read_for_check
     from hil_bench.record.fault_outcomes import outcomes as fault_outcomes
+    from hil_bench.record.integrity import fault_problems
 
     case = camp.cases[case_index]
     scn = scenario_for(camp, case)
@@ -315,9 +330,12 @@ def _run_case(camp: Campaign, case_index: int, out_dir: str, link: str) -> dict:
         return {"error": f"could not run: {exc}", "end": "SETUP", "recording": None,
                 "wall_s": time.monotonic() - t0}
     rec_path = result.recording if Path(result.recording).exists() else None
-    outcomes = fault_outcomes(read_for_check(rec_path)) if rec_path else []
+    rec = read_for_check(rec_path) if rec_path else None
+    outcomes = fault_outcomes(rec) if rec is not None else []
+    never = [p.text for p in fault_problems(rec, scn.faults, result.cycles_done)
+             if p.name == "never_acted"] if rec is not None else []
     return {"error": result.error or "", "end": result.end, "recording": str(rec_path or ""),
-            "wall_s": time.monotonic() - t0, "outcomes": outcomes}
+            "wall_s": time.monotonic() - t0, "outcomes": outcomes, "never_acted": never}
 
 
 def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int | None = None,
@@ -326,6 +344,7 @@ def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int | None = None,
     """Run every case on the executor (hil_bench.cluster: a local Dask cluster of ``jobs``
     workers, or ``scheduler``); keep the recordings of the runs that did not PASS."""
     from rich.console import Console
+    from rich.markup import escape
 
     from hil_bench.cluster import Executor, TaskFailure
     from hil_bench.record.recorder import SIDE_SUFFIXES
@@ -354,7 +373,7 @@ def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int | None = None,
             if r["end"] in ("SETUP", "BENCH"):
                 verdict, reasons = "INVALID", [r["error"]]
             else:
-                verdict, reasons = judge(case, outs, r["error"], r["end"])
+                verdict, reasons = judge(case, outs, r["error"], r["end"], r.get("never_acted"))
             rec = Path(r["recording"]) if r.get("recording") else None
             if rec is not None and verdict == "PASS" and not keep_all:
                 for p in (rec, *(rec.with_suffix(sfx) for sfx, _ in SIDE_SUFFIXES)):
@@ -362,7 +381,8 @@ def run_campaign(camp: Campaign, out_dir: Path, *, jobs: int | None = None,
                 rec = None
             results[i] = CaseResult(case, rec, verdict, reasons, outs, r["error"], r["wall_s"])
             if not console.is_terminal:
-                console.print(f"  {case.name}: {verdict}" + (f" ({reasons[0]})" if reasons else ""))
+                console.print(escape(f"  {case.name}: {verdict}" +
+                                     (f" ({reasons[0]})" if reasons else "")))
     if not any(rec_dir.iterdir()):
         rec_dir.rmdir()
     return [results[i] for i in sorted(results)]

@@ -3,23 +3,15 @@ faults go onto the engine's injector, plant faults and controller restarts becom
 at the first period starting at or after their time (docs/faults.md)."""
 from __future__ import annotations
 
-import math
-
-from hil_bench.scenario.faults import PLANT_KINDS, FaultSpec
+from hil_bench.scenario.faults import PLANT_KINDS, FaultSpec, first_cycle_at
 
 
-def first_cycle_at(t_s: float, ts_s: float) -> int:
-    """The first period that starts at or after t_s (half a period of tolerance for rounding)."""
-    return max(0, int(math.ceil(t_s / ts_s - 0.5 + 1e-9)))
-
-
-def schedule(engine, faults: tuple[FaultSpec, ...], ts_s: float, *,
-             controller_pid: int | None) -> list[tuple[int, dict]]:
+def schedule(engine, faults: tuple[FaultSpec, ...], ts_s: float) -> list[tuple[int, dict]]:
     """Put the scenario's link faults on the engine's injector, and return the plant faults and
     controller resets as (cycle, keyword arguments of Engine.add_fault_event), in cycle order:
     the caller merges them with the scenario's other events (the engine takes events in cycle
-    order). ``controller_pid``: the stub's process (SIGUSR1 restarts it), 0 for the firmware in
-    this process (``--link sil``: the engine restarts it by a call), None for a real drive."""
+    order). A controller reset is CMD RESTART with the frames of its cycle (in band: the
+    controller restarts at that cycle, before it reads the cycle's SENSE)."""
     from hil_bench.plant_rt import engine as eng
     from hil_bench.plant_rt.plant import FAULT_KINDS
 
@@ -37,13 +29,8 @@ def schedule(engine, faults: tuple[FaultSpec, ...], ts_s: float, *,
                                dict(kind=eng.EV_PLANT_FAULT_CLEAR, text=f"{fs.kind} cleared",
                                     **common)))
         elif fs.target == "controller":
-            if controller_pid is None:
-                raise ValueError(f"faults[{fs.index}]: a controller_reset needs the firmware stub "
-                                 f"as the controller (--link stub... or --link sil): the bench "
-                                 f"restarts it; a real drive has no such line")
             events.append((k_on, 0, dict(kind=eng.EV_CONTROLLER_RESET, index=fs.index,
-                                         name=fs.kind, pid=controller_pid,
-                                         detect_within_s=fs.detect_within_s,
+                                         name=fs.kind, detect_within_s=fs.detect_within_s,
                                          text=fs.describe())))
         else:
             engine.add_link_fault(
@@ -55,3 +42,36 @@ def schedule(engine, faults: tuple[FaultSpec, ...], ts_s: float, *,
                 seed=fs.seed, detect_within_s=fs.detect_within_s)
     events.sort(key=lambda e: (e[0], e[1]))
     return [(k, kw) for k, _, kw in events]
+
+
+def account(faults: tuple[FaultSpec, ...], states: list[dict], ts_s: float,
+            n_cycles: int) -> list[dict]:
+    """Each [[faults]] entry of the run with the engine's own account of it (Engine.fault_states:
+    the cycle it first acted at, -1 if never; its first evidence; windows with and without
+    evidence; what a link fault met and acted on) and what a reader needs to say why one never
+    acted: its periods and, for a link fault on frames, which frames it waited for. The runner
+    writes it into the run_result record (``faults``); bench/record/integrity.py judges it."""
+    from hil_bench.scenario.faults import DIRECTION_WORDS
+
+    by_index = {s["index"]: s for s in states}
+    out = []
+    for fs in faults:
+        k_on = first_cycle_at(fs.t_s, ts_s)
+        k_off = min(first_cycle_at(fs.until_s, ts_s), n_cycles) if fs.until_s is not None else n_cycles
+        st = by_index.get(fs.index, {})
+        entry = {"index": fs.index, "kind": fs.kind, "target": fs.target, "what": fs.describe(),
+                 "cycle_on": k_on, "cycle_off": k_off,
+                 "window": (f"from {k_on * ts_s:.6g} s to " +
+                            (f"{k_off * ts_s:.6g} s" if k_off < n_cycles else "the end of the run")),
+                 "acted_cycle": int(st.get("acted_cycle", -1)),
+                 "evidence_cycle": int(st.get("evidence_cycle", -1)),
+                 "windows": int(st.get("windows", 0)),
+                 "untraced_windows": int(st.get("untraced_windows", 0)),
+                 "refused": bool(st.get("refused", False))}
+        if fs.target == "link" and fs.kind not in ("stall", "garbage"):
+            entry.update(frames=(f"{fs.message} frames " if fs.message != "any" else "frames ") +
+                         DIRECTION_WORDS[fs.direction],
+                         probability=fs.probability, matched=int(st.get("matched", 0)),
+                         acted=int(st.get("acted", 0)))
+        out.append(entry)
+    return out

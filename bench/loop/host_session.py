@@ -172,6 +172,7 @@ class HostSession:
         hello = _HELLO.pack(proto_version=PROTO_VERSION, mode=int(mode), period_us=period_s * 1e6,
                             estimator=int(estimator), flags=flags, session=self.session_id)
         deadline = time.monotonic() + timeout_s
+        wrong: dict[int, int] = {}    # session echoed instead of ours -> ACKs seen
         while time.monotonic() < deadline:
             self.send([(_HELLO.frame_id, hello)])
             retry_at = min(time.monotonic() + HELLO_RETRY_S, deadline)
@@ -183,10 +184,20 @@ class HostSession:
                 _check_length("HELLO_ACK", match[1], _HELLO_ACK.length)
                 ack = _HELLO_ACK.unpack(match[1])
                 if int(ack["session"]) != self.session_id:
-                    continue   # a stale answer to an earlier HELLO: ignored (section 6.1)
+                    # a stale answer to an earlier HELLO: ignored (section 6.1), and remembered
+                    wrong[int(ack["session"])] = wrong.get(int(ack["session"]), 0) + 1
+                    continue
                 return self._accept(ack, int(mode), int(estimator))
             if not self.alive():
                 raise LinkError(self.death_message())
+        if wrong:
+            seen = ", ".join(f"0x{k:04X} ({n}x)"
+                             for k, n in sorted(wrong.items(), key=lambda kv: -kv[1]))
+            raise ProtocolViolation(
+                f"the controller on {self.link.description} answers, but no HELLO_ACK within "
+                f"{timeout_s:g} s echoed our session 0x{self.session_id:04X}: "
+                f"{sum(wrong.values())} HELLO_ACK came with session {seen} "
+                f"(HELLO_ACK.session must echo the HELLO's: docs/protocol.md 6.1)")
         raise LinkError(f"no controller answering on {self.link.description} "
                         f"(no HELLO_ACK within {timeout_s:g} s)")
 

@@ -30,10 +30,10 @@ from hil_bench.installation import checkout_root, version
 from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
 from hil_bench.plant_rt.profile import load_profile
-from hil_bench.protocol.messages import Command, Estimator, Fault, HelloFlag, Mode, Param
+from hil_bench.protocol.messages import Command, Estimator, HelloFlag, Mode, Param
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import ProcessRecorder, RecorderError, check_target
-from hil_bench.scenario import RPM_PER_RAD_S, Scenario
+from hil_bench.scenario import INV_COMP_CURRENTS, INV_COMP_SHAPES, RPM_PER_RAD_S, Scenario
 
 from .host_session import HostSession
 from .links import STUB_CAN_MODES, LinkError, OpenedLink, open_link
@@ -47,6 +47,49 @@ WATCH_PERIOD_S = 0.1
 
 class RunAborted(RuntimeError):
     """The run could not continue; the message says why and where."""
+
+
+class DeferredInterrupts:
+    """While a run is being closed (the engine stopping after a first Ctrl-C, the final statistics,
+    the run_result record, the recorder finalising the file) a further Ctrl-C is counted, not
+    raised: the recording is finalised whatever the user presses. Re-entrant; a no-op outside the
+    main thread (only it receives signals)."""
+
+    def __init__(self):
+        self.count = 0
+        self._depth = 0
+        self._held = 0
+        self._previous = None
+
+    def _note(self, signum, frame) -> None:   # noqa: ARG002 - a signal handler's signature
+        self.count += 1
+
+    def __enter__(self) -> "DeferredInterrupts":
+        import signal
+        import threading
+
+        if self._depth == 0 and threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._note)
+        self._depth += 1
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import signal
+
+        self._depth -= 1
+        if self._depth == 0 and self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
+
+    def hold(self) -> None:
+        """From the first Ctrl-C on: deferred until release() (the run is being closed)."""
+        self.__enter__()
+        self._held += 1
+
+    def release(self) -> None:
+        while self._held:
+            self._held -= 1
+            self.__exit__(None, None, None)
 
 
 @dataclass
@@ -66,6 +109,7 @@ class RunResult:
     realtime_notes: str = ""
     ts_s: float = 0.0              # the control period [s]
     timed_out: bool = False        # ended by the executor's per-run time limit
+    interrupts_while_closing: int = 0   # Ctrl-C pressed while the recording was being finalised
 
     @property
     def ok(self) -> bool:
@@ -104,6 +148,42 @@ def estimator_defaults(estimator: Estimator, profile, ts_s: float,
     config = factory(profile, ts_s, **chosen).config
     return {p: float(config[f]) for f, p in SMO_CONFIG_PARAMS.items()
             if f in config and p not in given}
+
+
+#: the plant's inverter keys (plant_rt/README.md) -> the drive's INV_COMP_* estimate of each
+INV_COMP_FROM_PLANT = (("dead_time_s", Param.INV_COMP_DEAD_TIME_S),
+                       ("v_switch_drop_v", Param.INV_COMP_V_SWITCH_V),
+                       ("r_switch_ohm", Param.INV_COMP_R_SWITCH_OHM),
+                       ("v_diode_drop_v", Param.INV_COMP_V_DIODE_V),
+                       ("r_diode_ohm", Param.INV_COMP_R_DIODE_OHM))
+#: the drive's zero-crossing current when the plant's leg has a hard sign (i_cap_band_a = 0)
+INV_COMP_MIN_BAND_A = 1e-3
+
+
+def inverter_comp_settings(comp, plant_params: dict) -> tuple[dict[Param, float], dict]:
+    """CONFIG parameters and recording metadata of ``[controller.inverter_comp]``: the drive's
+    estimate = (1 - residual) x the plant's dead time and drops (zero when the plant's inverter is
+    ideal: nothing to compensate). ``comp`` None: off, ({}, {"on": False}).
+    """
+    if comp is None:
+        return {}, {"on": False}
+    on = bool(plant_params.get("inverter_nonlinear", False))
+    truth = {k: (float(plant_params[k]) if on else 0.0) for k, _ in INV_COMP_FROM_PLANT}
+    plant_band = float(plant_params.get("i_cap_band_a", 0.0))
+    band = comp.band_a if comp.band_a is not None else max(plant_band, INV_COMP_MIN_BAND_A)
+    params = {Param.INV_COMP_ENABLE: float(INV_COMP_CURRENTS[comp.current]),
+              Param.INV_COMP_SHAPE: float(INV_COMP_SHAPES[comp.shape]),
+              Param.INV_COMP_BAND_A: band}
+    if comp.current_bw_rad_s is not None:
+        params[Param.INV_COMP_I_BW_RAD_S] = comp.current_bw_rad_s
+    estimate = {}
+    for key, param in INV_COMP_FROM_PLANT:
+        estimate[key] = (1.0 - comp.residual) * truth[key]
+        params[param] = estimate[key]
+    meta = {"on": True, "residual": comp.residual, "current": comp.current, "shape": comp.shape,
+            "plant_inverter_nonlinear": on, "plant": dict(truth, i_cap_band_a=plant_band),
+            "drive": dict(estimate, band_a=band)}
+    return params, meta
 
 
 def git_revision() -> str:
@@ -237,15 +317,9 @@ class Runner:
     @staticmethod
     def _check_faults_fit_the_link(scn: Scenario, link_spec: str) -> None:
         """Faults this link cannot carry are refused before any process or device is touched."""
-        is_stub = _is_stub_link(link_spec) or _is_sil_link(link_spec)
         is_can = link_spec.startswith(("can:", *STUB_CAN_MODES))
         for fs in scn.faults:
             where = f"{scn.display_path}: faults[{fs.index}] ({fs.kind})"
-            if fs.kind == "controller_reset" and not is_stub:
-                raise RunAborted(f"{where}: a controller_reset needs the firmware stub as the "
-                                 f"controller (--link stub... or --link sil): the bench restarts "
-                                 f"it (SIGUSR1 to the stub, a call in process); a real drive has "
-                                 f"no such line")
             if fs.kind == "bitflip" and is_can and fs.direction & 1:
                 raise RunAborted(f"{where}: on CAN a corrupted frame is destroyed by the bus's CRC "
                                  f"and retransmitted by the sender's controller: a bit flip towards "
@@ -296,8 +370,24 @@ class Runner:
             # below: 40 LSB of a 12-bit ADC, far above its noise (docs/claims.md, finding 1).
             trip = 0.98 * float(pp.adc_full_scale_a)
             params[Param.I_MAX_TRIP_A] = min(params.get(Param.I_MAX_TRIP_A, trip), trip)
+        params.update(inverter_comp_settings(self.scn.inverter_comp, self.plant.params.as_dict())[0])
         params.update(self.scn.controller_params)
         return params
+
+    def inverter_comp_metadata(self) -> dict:
+        """What the recording says about the drive's inverter-error feed-forward: from the
+        scenario's residual (truth, estimate, residual), from explicit INV_COMP_* parameters (the
+        estimate and the plant's values beside it), or off."""
+        _, meta = inverter_comp_settings(self.scn.inverter_comp, self.plant.params.as_dict())
+        given = {p.name: v for p, v in self.scn.controller_params.items()
+                 if p.name.startswith("INV_COMP_")}
+        if self.scn.inverter_comp is None and given.get("INV_COMP_ENABLE", 0.0) > 0.0:
+            pp = self.plant.params.as_dict()
+            on = bool(pp.get("inverter_nonlinear", False))
+            meta = {"on": True, "residual": None, "source": "controller.params", "drive": given,
+                    "plant_inverter_nonlinear": on,
+                    "plant": {k: (float(pp[k]) if on else 0.0) for k, _ in INV_COMP_FROM_PLANT}}
+        return meta
 
     def hello_flags(self) -> int:
         return self.scn.hello_flags(bool(self.plant.params.dual_sampling))
@@ -352,6 +442,7 @@ class Runner:
             raise
         engine = None
         engine_link = None
+        closing = self._closing = DeferredInterrupts()
         try:
             try:
                 self._open_channels(rec)
@@ -366,6 +457,7 @@ class Runner:
                 engine = self._make_engine(rec, opened, engine_link)
                 self._watch(engine, rec, opened, engine_link, result)
             except KeyboardInterrupt:
+                closing.hold()
                 result.interrupted = True
                 result.error = f"interrupted by the user at cycle {result.cycles_done}"
             except (LinkError, RunAborted, RecorderError) as exc:
@@ -375,12 +467,16 @@ class Runner:
                 result.error = (f"internal error at cycle {result.cycles_done}: "
                                 f"{type(exc).__name__}: {exc}")
             finally:
-                self._finish(rec, opened, engine, engine_link, result, t0)
+                with closing:
+                    self._finish(rec, opened, engine, engine_link, result, t0)
         finally:
-            try:
-                rec.close()
-            except RecorderError as exc:
-                result.error = result.error or str(exc)
+            with closing:
+                try:
+                    rec.close()
+                except RecorderError as exc:
+                    result.error = result.error or str(exc)
+            result.interrupts_while_closing = closing.count
+            closing.release()
             result.recording = rec.final_path or self.out_path
             if result.cycles_done == 0 and result.error and rec.final_path:
                 result.error += (f" (no cycle ran; the recording of the attempt, with its "
@@ -496,6 +592,7 @@ class Runner:
             "plant_params": json.dumps(self.plant.params.as_dict()),
             "controller_params": json.dumps({p.name: v for p, v in
                                              self.controller_params().items()}),
+            "inverter_comp": json.dumps(self.inverter_comp_metadata()),
             "estimator": scn.estimator.name,
             "encoder_angle_sent": str(scn.encoder_angle_sent).lower(),
             "reference_estimators": json.dumps({n: scn.reference_config.get(n, {})
@@ -605,11 +702,8 @@ class Runner:
     def _schedule_events(self, e: eng.Engine) -> None:
         from .fault_events import schedule
 
-        stub = getattr(getattr(self, "opened", None), "stub", None)
-        # the stub restarts on SIGUSR1 to its pid; the in-process firmware by a call (pid 0)
-        pid = stub.proc.pid if stub is not None else 0 if _is_sil_link(self.link_spec) else None
         try:
-            fault_events = schedule(e, self.scn.faults, self.ts_s, controller_pid=pid)
+            fault_events = schedule(e, self.scn.faults, self.ts_s)
         except ValueError as exc:
             raise RunAborted(f"{self.scn.display_path}: {exc}") from None
         # the engine takes events in cycle order: the scenario's and the faults' merged
@@ -624,20 +718,10 @@ class Runner:
                 raise RunAborted(f"{self.scn.display_path}: {exc}") from None
 
     def _add_scenario_event(self, e: eng.Engine, k: int, ev) -> None:
-        subs = []
-        if ev.speed_ref_rad_s is not None:
-            subs.append((eng.EV_CMD, int(Command.SET_SPEED_REF), ev.speed_ref_rad_s))
-        if ev.iq_ref_a is not None:
-            subs.append((eng.EV_CMD, int(Command.SET_IQ_REF), ev.iq_ref_a))
-        if ev.id_ref_a is not None:
-            subs.append((eng.EV_CMD, int(Command.SET_ID_REF), ev.id_ref_a))
-        if ev.control_mode is not None:
-            subs.append((eng.EV_CMD, int(Command.SET_CONTROL_MODE),
-                         1.0 if ev.control_mode == "current" else 0.0))
-        if ev.load_torque_nm is not None:
-            subs.append((eng.EV_LOAD, 0, ev.load_torque_nm))
-        if not subs:
-            subs.append((eng.EV_NOTE, 0, 0.0))
+        commands = {"speed_ref": Command.SET_SPEED_REF, "iq_ref": Command.SET_IQ_REF,
+                    "id_ref": Command.SET_ID_REF, "control_mode": Command.SET_CONTROL_MODE}
+        subs = [(eng.EV_LOAD, 0, v) if name == "load" else (eng.EV_CMD, int(commands[name]), v)
+                for name, v in ev.actions()] or [(eng.EV_NOTE, 0, 0.0)]
         value = (ev.speed_ref_rad_s if ev.speed_ref_rad_s is not None
                  else (ev.load_torque_nm or 0.0))
         for i, (kind, command, v) in enumerate(subs):
@@ -657,8 +741,9 @@ class Runner:
                 try:
                     e.join(WATCH_PERIOD_S)
                 except KeyboardInterrupt:
-                    e.request_stop()
-                    e.join()
+                    self._closing.hold()    # from here on the run is being closed: a further
+                    e.request_stop()        # Ctrl-C must not leave the engine running or the
+                    e.join()                # recording unfinished
                     result.interrupted = True
                     break
                 result.cycles_done = e.cycles_done
@@ -689,15 +774,8 @@ class Runner:
                             f"{r.cycles_done}: the run was ended")
         elif result.interrupted:
             result.error = f"interrupted by the user at cycle {r.cycles_done}"
-        elif r.end == eng.END_CONTROLLER_FAULT:
-            try:
-                name = Fault(r.fault_code).name
-            except ValueError:
-                name = f"unknown code {r.fault_code}"
-            result.error = (f"{r.message}: controller reported fault {name} at seq {r.fault_seq} "
-                            f"(detail {r.fault_detail})")
         elif r.end != eng.END_DONE:
-            result.error = r.message
+            result.error = r.end_text()
             if r.end == 2:   # the link: say what is behind it
                 if link.error:
                     result.error = f"{r.message.split(': ', 1)[0]}: {link.error}"
@@ -713,13 +791,22 @@ class Runner:
         """After the run: final statistics, the error, STOP, the link closed, run_result."""
         t_end = result.cycles_done * self.ts_s
         stopped = False
+        if e is not None and e.running():   # interrupted before the engine was stopped
+            e.request_stop()
+            e.join()
+            result.cycles_done = e.cycles_done
         if e is not None and hasattr(self, "session"):
             # STOP through the engine's link, counted with the run's frames
             stopped = e.send(*self.session.command_frame(Command.STOP, 0.0, seq=e.cmd_seq))
             if link is not None:
                 link.settle()
         extra = link.extra_counters() if link is not None else {}
+        faults = "[]"
         if e is not None:
+            from .fault_events import account
+
+            faults = json.dumps(account(self.scn.faults, e.fault_states(), self.ts_s,
+                                        self.n_cycles))
             e.write_stats(t_end, extra)
             result.link_stats = e.counters()
             for k, v in extra.items():
@@ -752,7 +839,8 @@ class Runner:
             "end": result.end, "wall_s": f"{result.wall_s:.3f}",
             "rows_dropped": rec.dropped,
             "timing": json.dumps(result.timing),
-            "counters": json.dumps(result.link_stats)})
+            "counters": json.dumps(result.link_stats),
+            "faults": faults})
 
     def _timing_summary(self, e: eng.Engine) -> dict:
         out = {"cycle_p50_us": e.percentile("cycle", 0.5), "cycle_p99_us": e.percentile("cycle", 0.99),

@@ -22,10 +22,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hil_bench.claims.model import Run
 from hil_bench.record import channels as ch
 
 from . import metrics
-from .claims import Run
 
 SPEEDS_RPM = (5, 10, 20, 50, 100, 200, 500, 1000, 2000, 3000)
 SPEEDS_QUICK = (10, 100, 1000, 3000)

@@ -18,15 +18,18 @@ from pathlib import Path
 
 import numpy as np
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
+from hil_bench.claims.registry import CLAIMS
 from hil_bench.record import channels as ch
 from hil_bench.record.integrity import Integrity, check_integrity
 from hil_bench.record.recording import Recording, RecordingError, load_recording
 from hil_bench.scenario import RPM_PER_RAD_S, Scenario, scenario_of, speed_ref_at
 
 from . import metrics
-from .claims import CLAIMS, Context, QuantityResult, evaluate
+from .claim_metrics import Context
+from .claims import QuantityResult, evaluate
 
 
 @dataclass
@@ -108,7 +111,7 @@ WINDOWED_TOPICS = (ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.L
                    "/reference/*")
 
 #: the fields `bench check` keeps of each per-cycle topic: those the summary, the claims' metrics
-#: (bench/papers/claims.py, bench/papers/metrics.py) and the estimator replay (bench/papers/estimator_trace.py) read.
+#: (bench/papers/claim_metrics.py, bench/papers/metrics.py) and the estimator replay (bench/papers/estimator_trace.py) read.
 #: Every other field, and the topics not named here (/timing, /replay/*), is never decoded:
 #: memory per second of window is what these columns take (float64: the metrics see the values
 #: exactly as recorded). tests/test_integrity.py holds this list against the field names those
@@ -133,7 +136,7 @@ WHOLE_TOPICS = (ch.LINK_STATS, ch.EVENTS, ch.FAULTS)
 
 
 def _sense_dual_only(cols: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """/link/frames reduced to what ``claims.dual_samples`` reads: the SENSE_DUAL frames of tx."""
+    """/link/frames reduced to what ``claim_metrics.dual_samples`` reads: the SENSE_DUAL frames of tx."""
     from hil_bench.protocol.messages import MESSAGES
 
     prefix = f"{MESSAGES['SENSE_DUAL'].frame_id:03X}#"
@@ -201,10 +204,19 @@ def check_recording(path: str | Path) -> CheckReport:
         if claim is None:
             raise RecordingError(f"{rec.path}: scenario names unknown claim {claim_id!r}")
         report.results.extend(evaluate(claim, ctx, scn.name))
-    report.integrity = check_integrity(rec, scn.link.allow, rec.run.get("estimator"))
-    from hil_bench.record.fault_outcomes import outcomes
+    report.integrity = check_integrity(rec, scn.link.allow, rec.run.get("estimator"),
+                                       scenario_faults=scn.faults)
+    from hil_bench.record.fault_outcomes import FaultOutcome, outcomes
 
     report.faults = outcomes(rec)
+    listed = {o.index for o in report.faults}
+    for fs in scn.faults:   # a fault that left no /faults row at all: never acted (integrity says why)
+        if fs.index not in listed:
+            why = next((p.text.split(" never acted: ", 1)[-1] for p in report.integrity.problems
+                        if p.name == "never_acted" and p.text.startswith(f"faults[{fs.index}] ")),
+                       "no /faults row")
+            report.faults.append(FaultOutcome(fs.index, fs.kind, fs.target, None, notes=[why]))
+    report.faults.sort(key=lambda o: o.index)
     note = report.integrity.invalid_note
     if note:
         report.results = [dataclasses.replace(r, verdict="INVALID", note=note) for r in report.results]
@@ -260,9 +272,9 @@ def print_integrity(integrity: Integrity | None, console: Console) -> None:
     for p in integrity.problems:
         tag = ("[dim]allowed[/dim]" if p.is_allowed else
                "[red]INVALID[/red]" if p.kind == "estimator" else "[red]problem[/red]")
-        console.print(f"  {tag} {p.kind}: {p.text}")
+        console.print(f"  {tag} {p.kind}: {escape(p.text)}")
     if integrity.estimator_mismatch:
-        console.print(f"  [red]INVALID[/red] estimator: {integrity.estimator_text}")
+        console.print(f"  [red]INVALID[/red] estimator: {escape(integrity.estimator_text)}")
 
 
 def print_faults(faults: list, console: Console) -> None:
@@ -272,19 +284,20 @@ def print_faults(faults: list, console: Console) -> None:
         return
     console.print("faults:")
     for o in faults:
-        head = f"  #{o.index} {o.kind} ({o.target})"
+        head = escape(f"  #{o.index} {o.kind} ({o.target})")
         if o.t_on_s is None:
             console.print(f"{head}: [yellow]never acted[/yellow]" +
-                          (f" ({'; '.join(o.notes)})" if o.notes else ""))
+                          escape(f" ({'; '.join(o.notes)})" if o.notes else ""))
             continue
         if o.detected:
-            what = f"[green]detected[/green] after {o.detection_s * 1e3:.1f} ms by {o.detected_by}"
+            what = (f"[green]detected[/green] after {o.detection_s * 1e3:.1f} ms by "
+                    f"{escape(o.detected_by)}")
         else:
-            what = f"[red]NOT detected[/red] ({o.evidence or 'no trace row'})"
+            what = f"[red]NOT detected[/red] ({escape(o.evidence or 'no trace row')})"
         react = ""
         if o.trip_s is not None:
-            react = (f"; after the trip: {o.duties_after_trip} DUTY frame(s) not all legs off, "
-                     f"state {o.state_after or '?'}")
+            react = escape(f"; after the trip: {o.duties_after_trip} DUTY frame(s) not all legs "
+                           f"off, state {o.state_after or '?'}")
         console.print(f"{head} at {o.t_on_s:.4f} s: {what}; peak |i| {fmt_value(o.peak_current_a, 'A')}, "
                       f"|T_e| {fmt_value(o.peak_torque_nm, 'N m')}{react}")
 
@@ -300,16 +313,18 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
     console = console or Console()
     rec, scn, ctx = report.recording, report.scenario, report.context
     run = rec.run
-    console.print(f"[bold]{scn.name}[/bold] — {scn.description}")
-    console.print(f"recording {rec.path}  ({rec.messages} messages, git {run.get('git_revision', '?')},"
-                  f" controller: {run.get('controller', '?')}, estimator {run.get('estimator', '?')})")
+    console.print(f"[bold]{escape(scn.name)}[/bold] — {escape(scn.description)}")
+    console.print(escape(f"recording {rec.path}  ({rec.messages} messages, git "
+                         f"{run.get('git_revision', '?')}, controller: {run.get('controller', '?')}, "
+                         f"estimator {run.get('estimator', '?')})"))
     result = rec.metadata.get("run_result", {})
     if result.get("error"):
-        console.print(f"[red]run ended early:[/red] {result['error']}")
+        console.print(f"[red]run ended early:[/red] {escape(result['error'])}")
     if rec.damaged:
-        console.print(f"[yellow]recording damaged:[/yellow] read {rec.messages} messages; "
-                      f"{rec.damage_text()}. `bench recover {rec.path} -o FIXED.mcap` copies every "
-                      "intact chunk, also those after the damage.")
+        console.print(f"[yellow]recording damaged:[/yellow] " +
+                      escape(f"read {rec.messages} messages; {rec.damage_text()}. `bench recover "
+                             f"{rec.path} -o FIXED.mcap` copies every intact chunk, also those "
+                             f"after the damage."))
     print_integrity(report.integrity, console)
     print_faults(report.faults, console)
     print_timing(rec, console)
@@ -323,19 +338,19 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
     table = Table(title="paper claims: paper value vs measured", show_lines=False)
     for col in ("claim", "quantity", "paper", "measured", "rule", "verdict"):
         table.add_column(col)
-    from .claims import METRICS
+    from .claim_metrics import METRICS
 
     for r in report.results:
         unit = METRICS[r.quantity.metric][0]
         colour = {"PASS": "green", "COMPARED": "blue", "NOT REPRODUCIBLE": "magenta",
                   "INVALID": "yellow"}.get(r.verdict, "red")
         paper = r.quantity.paper_value
-        table.add_row(r.claim.id, r.quantity.what or r.quantity.metric,
-                      paper if isinstance(paper, str) else fmt_value(paper, unit),
-                      fmt_value(r.measured, unit), r.quantity.rule_text(),
-                      f"[{colour}]{r.verdict}[/{colour}]" + (f" ({r.note})" if r.note else ""))
+        table.add_row(escape(r.claim.id), escape(r.quantity.what or r.quantity.metric),
+                      escape(paper if isinstance(paper, str) else fmt_value(paper, unit)),
+                      fmt_value(r.measured, unit), escape(r.quantity.rule_text()),
+                      f"[{colour}]{r.verdict}[/{colour}]" + escape(f" ({r.note})" if r.note else ""))
     console.print(table)
     for cid in dict.fromkeys(r.claim.id for r in report.results):
         notes = CLAIMS[cid].notes
         if notes:
-            console.print(f"[dim]{cid}: {notes}[/dim]")
+            console.print(f"[dim]{escape(f'{cid}: {notes}')}[/dim]")

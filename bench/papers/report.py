@@ -2,12 +2,11 @@
 
     .venv/bin/bench claims --run [--only Y1,G2] [--out reports/claims] [--jobs N] [--no-beyond]
 
-Steps: plan the runs (hil_bench.papers.claims.CLAIMS, plus the studies beyond the papers,
-bench/papers/beyond.py), run them against the C stub in parallel (on hil_bench.cluster's executor: ``--jobs`` local workers
-or ``--scheduler``
-at a time, rich progress on the terminal), measure each quantity on its recording
-(hil_bench.papers.claims.measure), compute the studies (bench/papers/studies.py), draw the plots
-(bench/papers/report_plots.py) and write ``<out>/report.md``, ``<out>/report.html`` (self-contained:
+Steps: plan the runs (hil_bench.claims.registry.CLAIMS, plus the studies beyond the papers,
+bench/papers/beyond.py), run them against the C stub in parallel (on hil_bench.cluster's executor:
+``--jobs`` local workers or ``--scheduler``; rich progress on the terminal), measure each
+quantity on its recording (hil_bench.papers.claims.measure), compute the studies
+(bench/papers/studies.py), draw the plots (bench/papers/report_plots.py) and write ``<out>/report.md``, ``<out>/report.html`` (self-contained:
 the plots inlined as base64 PNG) and ``<out>/plots/*.png``. The recordings stay in
 ``<out>/recordings`` (``bench check`` works on each).
 """
@@ -17,6 +16,7 @@ import base64
 import datetime as _dt
 import html
 import math
+import json
 import os
 import platform
 import time
@@ -26,27 +26,21 @@ from pathlib import Path
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 
+from hil_bench.claims.model import Claim, Quantity, Run
+from hil_bench.claims.registry import CLAIMS
 from hil_bench.record.recorder import SIDE_SUFFIXES
 
-from .claims import (
-    CLAIMS,
-    OPERATING_POINT_DEF,
+from .claim_metrics import (
     TELEM_EMF_LSB_V,
     TELEM_IQ_LSB_A,
     TELEM_OMEGA_LSB_RAD_S,
     TELEM_THETA_LSB_RAD,
-    Claim,
     Context,
-    Quantity,
-    Relation,
-    Run,
-    derive,
-    measure_with_resolution,
-    relate,
-    run_failure,
     speed_lsb_rpm,
 )
+from .claims import OPERATING_POINT_DEF, derive, measure_with_resolution, relate
 
 
 @dataclass
@@ -88,6 +82,7 @@ class Report:
     study_errors: dict[str, str] = field(default_factory=dict)
     plots: dict[str, list[Path]] = field(default_factory=dict)
     beyond: dict[str, Any] = field(default_factory=dict)
+    residual: dict[str, Any] = field(default_factory=dict)
     wall_s: float = 0.0
     jobs: int = 1
 
@@ -145,15 +140,15 @@ def execute(runs: dict[str, Run], rec_dir: Path, jobs: int | None,
                 ok, err, wall, cycles = res.value
             outcomes[rid] = RunOutcome(run, path, ok, err, wall, cycles)
             if not console.is_terminal:
-                console.print(f"  {rid}: {'ok' if ok else 'ended: ' + err.splitlines()[0]}"
-                              f" ({wall:.1f} s)")
+                console.print(escape(f"  {rid}: {'ok' if ok else 'ended: ' + err.splitlines()[0]}"
+                                     f" ({wall:.1f} s)"))
     # a run the bench broke (not the controller: a link that timed out on a loaded machine, a
     # dead stub) is run once more, alone; the report says so. A controller fault is a result.
     for rid, o in list(outcomes.items()):
         if o.ok or o.reused or "controller reported fault" in o.error:
             continue
         first = (o.error.splitlines() or ["no error text"])[0]
-        console.print(f"  {rid}: the bench broke the run ({first}): once more")
+        console.print(escape(f"  {rid}: the bench broke the run ({first}): once more"))
         _keep_attempt(o.recording)
         ok, err, wall, cycles = _run_one(o.run, str(o.recording))
         outcomes[rid] = RunOutcome(o.run, o.recording, ok, err, wall, cycles, retried=first)
@@ -328,6 +323,12 @@ def _short_fault(note: str) -> str:
     return "the run ended early"
 
 
+def judge_claim(claim: Claim, outcomes: dict) -> tuple[str, list]:
+    """One claim's verdict and rows on the runs' outcomes (no studies: the residual study's)."""
+    rows = measure_claims([claim], outcomes, {}, {})
+    return claim_verdict(rows), rows
+
+
 def claim_verdict(rows: list[Row]) -> str:
     """A claim's summary over its non-diagnostic rows: FAIL if any fails, INVALID if any could
     not be measured, PASS if every pass/fail row passed, else COMPARED / NOT REPRODUCIBLE."""
@@ -416,6 +417,9 @@ def write_markdown(rep: Report) -> Path:
             L.append("")
         for p in rep.plots.get(c.id, []):
             L += [f"![{c.id}]({p.relative_to(rep.out_dir)})", ""]
+    if rep.residual:
+        from .residual import markdown as residual_md
+        L += residual_md(rep)
     if rep.beyond:
         from .beyond import markdown as beyond_md
         L += beyond_md(rep)
@@ -482,6 +486,9 @@ def write_html(rep: Report) -> Path:
         H.append("</table>")
         for p in rep.plots.get(c.id, []):
             H.append(_img(p))
+    if rep.residual:
+        from .residual import html_section as residual_html
+        H += residual_html(rep, _img)
     if rep.beyond:
         from .beyond import html_section
         H += html_section(rep, _img)
@@ -495,7 +502,8 @@ def write_html(rep: Report) -> Path:
 
 def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = None,
                beyond: bool = True, reuse: bool = False, console: Console | None = None,
-               beyond_quick: bool = False, scheduler: str | None = None) -> Report:
+               beyond_quick: bool = False, scheduler: str | None = None,
+               residual: bool = True) -> Report:
     t0 = time.monotonic()
     console = console or Console(stderr=True)
     out_dir = Path(out_dir)
@@ -515,10 +523,16 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
         beyond_plan = by.plan(quick=beyond_quick)
         for r in beyond_plan.runs:
             runs.setdefault(r.id, r)
+    residual_plan = None
+    if residual:
+        from . import residual as rs
+        residual_plan = rs.plan(ids)
+        for r in residual_plan.runs:
+            runs.setdefault(r.id, r)
     jobs = jobs or default_jobs()
     rep = Report(out_dir, claims, jobs=jobs)
-    console.print(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
-                  + (" and the studies beyond the papers" if beyond else ""))
+    console.print(escape(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
+                         + (" and the studies beyond the papers" if beyond else "")))
     rep.outcomes = execute(runs, out_dir / "recordings", jobs, console, reuse=reuse,
                            scheduler=scheduler)
     from .studies import STUDIES
@@ -533,6 +547,17 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
     rep.rows = measure_claims(claims, rep.outcomes, rep.studies, rep.study_errors)
     from .report_plots import plot_claims
     rep.plots = plot_claims(rep)
+    if residual_plan is not None and residual_plan.claims:
+        from . import residual as rs
+        t_res = time.monotonic()
+        extra = rs.refine_runs(residual_plan, rs.measure(residual_plan, rep, judge_claim))
+        if extra:
+            console.print(f"residual study: {len(extra)} runs at the flips")
+            rep.outcomes.update(execute({r.id: r for r in extra}, out_dir / "recordings", jobs,
+                                        console, reuse=reuse, scheduler=scheduler))
+        rep.residual = rs.evaluate(residual_plan, rep, judge_claim)
+        (out_dir / "residual.json").write_text(json.dumps(rs.to_json(rep.residual), indent=1))
+        rep.residual["refine_s"] = time.monotonic() - t_res
     if beyond_plan is not None:
         from . import beyond as by
         rep.beyond = by.evaluate(beyond_plan, rep)

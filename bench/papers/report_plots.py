@@ -276,7 +276,7 @@ def plot_y7(rep):
 
 
 def plot_y8(rep):
-    from .claims import Y8_SPEEDS
+    from hil_bench.claims.registry import Y8_SPEEDS
     rows = {r.key: r for r in rep.rows if r.claim == "Y8"}
     fig, ax = plt.subplots(figsize=(8, 4))
     speeds = [s for s, _ in Y8_SPEEDS]
@@ -313,7 +313,7 @@ def plot_h2(rep):
 
 
 def plot_h3(rep):
-    from .claims import H3_ANGLES_DEG
+    from hil_bench.claims.registry import H3_ANGLES_DEG
     rows = {r.key: r for r in rep.rows if r.claim == "H3"}
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for method, diag, style in (("pure", False, "o-"), ("pure", True, "o:"), ("bias", False, "s-"),
@@ -348,7 +348,7 @@ def plot_g1(rep):
     if rec is None:
         _missing(axes[0], "G1")
         return [_save(fig, rep, "G1")]
-    from .claims import G1_MS
+    from hil_bench.claims.registry import G1_MS
     for m, _ in G1_MS:
         d = _win(rec, ch.REFERENCE_PREFIX + f"SMO_TANH:m{m:g}", 1.45, 1.5)
         axes[0].plot(d["t_s"], d["e_alpha_v"], lw=0.8, label=f"m = {m:g}")
@@ -364,7 +364,7 @@ def plot_g1(rep):
     axes[1].loglog(ms, [t for _, t in G1_MS], "ks--", label="paper THD")
     axes[1].loglog(ms, [rows.get(f"G1.m{m:g}.thd", np.nan) for m in ms], "o-",
                    label="bench THD (10 kHz, closed loop)")
-    from .claims import G1_STEPS_US
+    from hil_bench.claims.registry import G1_STEPS_US
     for ts_us in G1_STEPS_US[1:]:
         axes[1].loglog(ms, [max(rows.get(f"G1.step{ts_us:g}us.m{m:g}.thd", np.nan), 1e-5)
                             for m in ms], "x:", label=f"host observer, Ts = {ts_us:g} us")
@@ -419,7 +419,7 @@ def plot_g4(rep):
 
 
 def plot_g5(rep):
-    from .claims import dual_samples
+    from .claim_metrics import dual_samples
     rec = _load(rep, "G5")
     fig, ax = plt.subplots(figsize=(8, 4))
     if rec is None:
@@ -517,3 +517,54 @@ def plot_claims(rep) -> dict[str, list[Path]]:
             ax.set_axis_off()
             out[c.id] = [_save(fig, rep, f"{c.id}_error")]
     return out
+
+
+def plot_residual(rep, claim_id: str, points, holds_up_to, realistic: float) -> Path | None:
+    """The inverter-compensation residual study of one claim (bench/papers/residual.py): each
+    non-diagnostic quantity as measured / the paper's value against the residual, the claim's
+    verdict at each residual on top, the residual the scenarios run at marked."""
+    if not points:
+        return None
+    fig, ax = plt.subplots(figsize=(8.0, 4.2))
+    xs = [100.0 * p.residual for p in points]
+    keys = [r.key for r in points[0].rows if not r.is_relation]
+    plotted = 0
+    for key in keys:
+        ys = []
+        for p in points:
+            row = next((r for r in p.rows if r.key == key), None)
+            paper = _paper_number(row.paper) if row is not None else math.nan
+            v = row.value if row is not None else math.nan
+            ys.append(abs(v) / paper if math.isfinite(v) and paper and math.isfinite(paper)
+                      else math.nan)
+        if any(math.isfinite(y) for y in ys):
+            ax.plot(xs, ys, "o-", ms=4, label=key)
+            plotted += 1
+    ax.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax.axvline(100.0 * realistic, color="tab:gray", lw=1.0, ls=":")
+    ax.text(100.0 * realistic, 1.02, f" scenarios: {100 * realistic:g} %", transform=ax.get_xaxis_transform(),
+            fontsize=7, color="tab:gray", va="bottom")
+    ax.set_xscale("symlog", linthresh=1.0)
+    ax.set_xlim(-0.3, 130.0)
+    ax.set_yscale("log")
+    ax.set_xlabel("compensation residual [% of the plant's dead time and drops] (100 % = none)")
+    ax.set_ylabel("measured / paper's value")
+    for x, p in zip(xs, points):
+        ax.annotate(p.verdict, (x, 1.0), xycoords=("data", "axes fraction"), xytext=(0, 2),
+                    textcoords="offset points", ha="center", va="bottom", fontsize=6, rotation=90,
+                    color="tab:green" if p.holds else "tab:red")
+    up_to = "fails at 0 %" if holds_up_to is None else f"holds up to {100 * holds_up_to:g} %"
+    ax.set_title(f"{claim_id}: {up_to}", pad=38)
+    if plotted:
+        ax.legend(fontsize=6, loc="lower right")
+    else:
+        ax.text(0.5, 0.5, "no quantity measured at any residual (every run ended early)",
+                ha="center", va="center", transform=ax.transAxes)
+    return _save(fig, rep, f"residual_{claim_id}")
+
+
+def _paper_number(text: str) -> float:
+    """The first number of a paper-value cell ('1.5 rpm', 'about 3 (4.2); within 3 (5)')."""
+    import re
+    m = re.search(r"[-+]?\d+(\.\d+)?", str(text))
+    return float(m.group(0)) if m else math.nan

@@ -18,6 +18,9 @@ truncation note, ``unreadable_chunks`` once the reader counts them), never the M
 * link integrity: the counters of ``LINK_COUNTERS`` (absent counters read as 0), each the larger of the
   last ``/link/stats`` row and the ``counters`` / ``rows_dropped`` of the ``run_result`` record: the stats
   rows go through the recorder's ring and can themselves be dropped, the run_result record cannot;
+* the faults of the scenario (docs/faults.md): each must have acted and left a trace in every detection
+  window, judged on the engine's own account in the ``run_result`` record (``faults``, and the counters
+  ``faults_acted`` / ``faults_traced``), else on the ``/faults`` rows and the attached scenario;
 * the estimator under test: ``estimator_mismatch`` on ``/link/stats`` (the host's per-cycle count) and the
   recount from ``/controller/telemetry.estimator`` against the run's requested estimator, whichever is
   larger; and the run metadata's ``encoder_angle_sent``: true with an estimator other than ENCODER is a
@@ -52,7 +55,7 @@ ALLOWABLE_COUNTERS: tuple[str, ...] = tuple(c for c in LINK_COUNTERS if c != "es
 class Problem:
     kind: str            # "completeness", "link", "estimator" or "fault"
     name: str            # run_result, cycles, error, interrupted, truncated, unreadable_chunks, damage, rows,
-                         # encoder_angle_sent, untraced (a fault), or a counter
+                         # encoder_angle_sent, never_acted / untraced / count (a fault), or a counter
     text: str
     value: float = 0.0
     allowed: int = 0     # the scenario's allowance (link counters only)
@@ -202,9 +205,93 @@ def _estimator_recount(rec, requested: str | None) -> tuple[int, str]:
                f"loop was not closed by the estimator under test (docs/protocol.md 6.8)")
 
 
+def _fault_rows(rec) -> list[tuple[int, str, str, str]]:
+    """(index, kind, action, text) of every /faults row."""
+    rows = _topic(rec, ch.FAULTS)
+    if not rows or not len(rows.get("t_s", ())):
+        return []
+    return [(int(i), str(k), str(a), str(t)) for i, k, a, t in
+            zip(rows["index"], rows["kind"], rows["action"], rows["text"])]
+
+
+def _never_acted_why(f: dict, cycles_done: int | None, ts_s: float, refused: str) -> str:
+    """Why a fault of the run's account (bench/loop/fault_events.account) never acted."""
+    if f.get("refused"):
+        return f"the plant refused it when it was due ({refused or 'no reason recorded'})"
+    k_on = int(f.get("cycle_on", 0))
+    if cycles_done is not None and cycles_done <= k_on:
+        return (f"the run ended after {cycles_done} periods, before the fault's period {k_on} "
+                f"(t = {k_on * ts_s:.6g} s)")
+    if "frames" in f:
+        matched, p = int(f.get("matched", 0)), float(f.get("probability", 1.0))
+        if matched == 0:
+            return f"0 {f['frames']} crossed the link {f.get('window', '')}"
+        return (f"{matched} {f['frames']} met it {f.get('window', '')}, none drawn at probability "
+                f"{p:g} (expected {p * matched:.2g} action(s))")
+    return "the engine never applied it"
+
+
+def fault_problems(rec, scenario_faults=None, cycles_done: int | None = None) -> list[Problem]:
+    """Every fault of the run must have acted and left a trace in each of its detection windows
+    (docs/faults.md): checked against the engine's own account in the run_result record
+    (``faults``, with its ``faults_acted`` / ``faults_traced`` counters), or, where that record is
+    missing (a killed run, an older recording), against the /faults rows and ``scenario_faults``
+    (the scenario's FaultSpecs). A problem names the fault and why."""
+    out: list[Problem] = []
+    rows = _fault_rows(rec)
+    result = rec.metadata.get("run_result") or {}
+    try:
+        account = json.loads(result.get("faults", "") or "null")
+    except ValueError:
+        account = None
+    try:
+        ts_s = float(rec.run.get("ts_s", "nan"))
+    except (TypeError, ValueError):
+        ts_s = math.nan
+    if isinstance(account, list):
+        for f in account:
+            if not isinstance(f, dict) or "index" not in f:
+                continue
+            i = int(f["index"])
+            name = f"faults[{i}] ({f.get('what', f.get('kind', '?'))})"
+            if int(f.get("acted_cycle", -1)) < 0:
+                refused = next((t for idx, _, a, t in rows if idx == i and a == "refused"), "")
+                why = _never_acted_why(f, cycles_done, ts_s, refused)
+                out.append(Problem("fault", "never_acted",
+                                   f"{name} never acted: {why}; the run did not test it"))
+            elif int(f.get("untraced_windows", 0)) > 0:
+                text = next((t for idx, _, a, t in rows if idx == i and a == "trace"
+                             and t.startswith("no trace")), "no counter moved in its detection window")
+                out.append(Problem("fault", "untraced",
+                                   f"{name} acted but left no trace: {text}; what the run tested is "
+                                   f"unknown"))
+        counters = run_result_counters(rec)
+        acted, traced = counters.get("faults_acted"), counters.get("faults_traced")
+        n = len(account)
+        short = [c for c in (acted, traced) if c is not None and int(c) < n]
+        if not out and short:
+            out.append(Problem("fault", "count", f"the engine counted {acted} of the run's {n} faults "
+                                                 f"acting and {traced} with a trace"))
+        return out
+    # no account: the /faults rows (and the scenario, for the faults that left none)
+    acted_idx = {i for i, _, a, _ in rows if a not in ("trace", "refused", "off")}
+    for i, kind, a, text in rows:
+        if a == "trace" and text.startswith("no trace"):
+            out.append(Problem("fault", "untraced", f"faults[{i}] ({kind}) acted but left no trace: "
+                                                    f"{text}; what the run tested is unknown"))
+    for fs in scenario_faults or ():
+        if fs.index not in acted_idx:
+            out.append(Problem("fault", "never_acted",
+                               f"faults[{fs.index}] ({fs.describe()}) never acted: no /faults row "
+                               f"says it did (the run ended before it, or its rows were lost); the "
+                               f"run did not test it"))
+    return out
+
+
 def check_integrity(rec, allow: Mapping[str, int] | None = None,
-                    requested_estimator: str | None = None) -> Integrity:
-    """The integrity problems of a recording (see the module docstring)."""
+                    requested_estimator: str | None = None, scenario_faults=None) -> Integrity:
+    """The integrity problems of a recording (see the module docstring). ``scenario_faults``: the
+    scenario's [[faults]] (FaultSpec), for recordings without the engine's account of them."""
     allow = dict(allow or {})
     out = Integrity()
     add = out.problems.append
@@ -279,14 +366,8 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
             text = f"{name} = {value}" + (f" (scenario allows {limit})" if limit else "")
             add(Problem("link", name, text, float(value), limit))
 
-    # -- faults: every injected fault must have left a trace (docs/faults.md) ----------------------------
-    faults = _topic(rec, ch.FAULTS)
-    if faults and len(faults.get("t_s", ())):
-        for idx, kind, action, text in zip(faults["index"], faults["kind"], faults["action"],
-                                           faults["text"]):
-            if action == "trace" and str(text).startswith("no trace"):
-                add(Problem("fault", "untraced", f"fault {int(idx)} ({kind}) was injected but left no "
-                                                 f"trace: {text}; what the run tested is unknown"))
+    # -- faults: every fault of the scenario acted and left a trace (docs/faults.md) ------------------
+    out.problems += fault_problems(rec, scenario_faults, out.cycles_done)
 
     # -- the estimator under test -------------------------------------------------------------------------
     sent = str(rec.run.get("encoder_angle_sent", "")).lower() in ("true", "1")

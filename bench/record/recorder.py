@@ -429,6 +429,10 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     cbuf = ffi.from_buffer(buf)
     channel_ids: list[int] = []
     raw_files: dict[int, object] = {}   # ring channel -> side file (serial byte capture)
+    from .serial_capture import END_OF_RUN, write_end
+
+    #: how the serial capture ends (its end record): the bench's close, unless it went away first
+    closed_by = "the bench went away before the end of its run; the recorder closed the capture"
     messages = 0
     error = None
     f = None
@@ -538,6 +542,7 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                     drain(int(lib.rec_ring_pending(ring)))
                     conn.send(("drained", messages))
                 elif kind == "close":
+                    closed_by = END_OF_RUN
                     break
             busy = drain(READ_BATCH_BYTES) > 0   # then look at the pipe again
         drain()
@@ -548,6 +553,8 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     finally:
         for side in raw_files.values():
             try:
+                write_end(side, time.monotonic_ns(), closed_by if error is None else
+                          f"the recorder failed ({error}); it closed the capture")
                 side.close()
             except OSError as exc:
                 error = error or f"recorder: cannot close {side.name}: {exc.strerror}"

@@ -43,7 +43,38 @@ RECORD_SIZE_LIMIT = 256 * 1024 * 1024   # a corrupted length field must not allo
 
 
 class RecordingError(ValueError):
-    """The file is not a readable recording of this bench."""
+    """The file is not a readable recording of this bench. ``damaged``: the file looks like an
+    MCAP file that damage made unreadable (``bench recover`` may help), False when it is not one
+    (no MCAP magic at either end) or a valid MCAP file of someone else (NotABenchRecording)."""
+
+    def __init__(self, message: str, damaged: bool = True):
+        super().__init__(message)
+        self.damaged = damaged
+
+
+class NotABenchRecording(RecordingError):
+    """A valid, undamaged MCAP file that this bench did not write: no run metadata, no attached
+    scenario. Nothing to recover."""
+
+    def __init__(self, message: str):
+        super().__init__(message, damaged=False)
+
+
+#: the MCAP magic, at the start and at the end of every finalised MCAP file
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def looks_like_mcap(path: Path) -> bool:
+    """The MCAP magic at the start or at the end of the file (damage may take one of them)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(len(MCAP_MAGIC))
+            size = f.seek(0, 2)
+            f.seek(max(0, size - len(MCAP_MAGIC)))
+            tail = f.read(len(MCAP_MAGIC))
+    except OSError:
+        return False
+    return head == MCAP_MAGIC or tail == MCAP_MAGIC
 
 
 @dataclass
@@ -426,6 +457,10 @@ def load_recording(path: str | Path, topics: Iterable[str] | None = None,
             raise
         except (McapError, EOFError, ValueError, Exception) as exc:  # noqa: BLE001
             if rec.messages == 0 and not rec.metadata and not channels:
+                if not looks_like_mcap(path):
+                    raise RecordingError(f"{path}: not an MCAP file (no MCAP magic at its start "
+                                         f"or end): not a recording of this bench",
+                                         damaged=False) from None
                 raise RecordingError(f"{path}: not a readable MCAP recording "
                                      f"({type(exc).__name__}: {exc})") from None
             rec.truncated = (f"reading stopped at byte {rec.bytes_read} of {rec.file_size}: "
@@ -439,4 +474,4 @@ def load_recording(path: str | Path, topics: Iterable[str] | None = None,
     return rec
 
 
-__all__ = ["Recording", "RecordingError", "load_recording"]
+__all__ = ["NotABenchRecording", "Recording", "RecordingError", "load_recording"]

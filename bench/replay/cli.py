@@ -144,7 +144,7 @@ def _f(v, unit="") -> str:
 
 def print_result(res, out: Console, err: Console) -> None:
     out.print(f"replayed {res.cycles}/{res.capture.n} cycles ({res.mode}) in {res.wall_s:.2f} s "
-              f"({res.cycles / max(res.wall_s, 1e-9):.0f} cycles/s); recording {res.out}")
+              f"({res.cycles / max(res.wall_s, 1e-9):.0f} cycles/s); recording {escape(str(res.out))}")
     p = res.pacing
     if "start_err_p99_us" in p:
         out.print(f"paced at {res.capture.ts_s / p['pace_s']:g} x the recorded rate (each cycle "
@@ -162,7 +162,7 @@ def print_result(res, out: Console, err: Console) -> None:
         for c in ("estimate", "PEE max", "PEE mean", "PEE RMS", "speed mean", "speed band"):
             t.add_column(c)
         for name, m in res.metrics.items():
-            t.add_row(name, _f(m.get("pee_max_rad"), "rad"), _f(m.get("pee_mean_rad"), "rad"),
+            t.add_row(escape(name), _f(m.get("pee_max_rad"), "rad"), _f(m.get("pee_mean_rad"), "rad"),
                       _f(m.get("pee_rms_rad"), "rad"), _f(m.get("speed_hat_mean_rpm"), "rpm"),
                       _f(m.get("speed_band_rpm"), "rpm"))
         out.print(t)
@@ -171,7 +171,7 @@ def print_result(res, out: Console, err: Console) -> None:
         fd = c.get("first_divergence")
         if fd:
             out.print(f"[yellow]first divergence[/yellow] at cycle seq {fd['cycle_seq']} (row "
-                      f"{fd['row']}, t = {fd['t_s']:.6g} s): {fd['field']} recorded "
+                      f"{fd['row']}, t = {fd['t_s']:.6g} s): {escape(str(fd['field']))} recorded "
                       f"{fd['recorded']:.9g}, now {fd['now']:.9g}")
         else:
             fields = [n for n, s in c["fields"].items() if s["compared"]]

@@ -521,7 +521,7 @@ def engine_summary(e: eng.Engine, res: ReplayResult, pace_s: float) -> None:
     res.end = r.end_name
     res.message = r.message
     if r.end != eng.END_DONE:
-        res.error = r.message
+        res.error = r.end_text()
     res.pacing = {"cycle_p50_us": e.percentile("cycle", 0.5),
                   "cycle_p99_us": e.percentile("cycle", 0.99)}
     if pace_s > 0:

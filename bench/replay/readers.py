@@ -23,6 +23,8 @@ from hil_bench.record import serial_capture as sc
 
 from .capture import Anomalies, Capture, CaptureError, CycleAssembler, duty_raw_of, empty_telem
 
+#: the first octets of every MCAP file (whatever its name: a .partial file the bench left)
+MCAP_MAGIC = b"\x89MCAP0\r\n"
 #: what python-can's LogReader reads (a trailing .gz is read compressed)
 CAN_SUFFIXES = (".log", ".asc", ".blf", ".trc", ".csv", ".mf4")
 
@@ -31,14 +33,17 @@ def capture_kind(path: Path, mapping: Path | None) -> str:
     name = path.name.lower()
     if mapping is not None:
         return "csv"
-    if name.endswith(".mcap"):
-        return "mcap"
+    if name.endswith((".mcap", ".mcap.partial")):
+        return "mcap"     # a recording, or what a recorder that died left (recorder.partial_path)
     try:
         with open(path, "rb") as f:
-            if f.read(len(sc.MAGIC)) == sc.MAGIC:
-                return "serial"
+            head = f.read(max(len(sc.MAGIC), len(MCAP_MAGIC)))
     except OSError as exc:
         raise CaptureError(f"{path}: cannot open: {exc.strerror}") from None
+    if head.startswith(sc.MAGIC):
+        return "serial"
+    if head.startswith(MCAP_MAGIC):
+        return "mcap"
     base = name[:-3] if name.endswith(".gz") else name
     if base.endswith(CAN_SUFFIXES):
         if base.endswith(".csv") and not _is_can_csv(path):
@@ -154,8 +159,9 @@ def read_serial(path: Path, ts_s: float | None = None) -> Capture:
     deframers = {sc.TX: Deframer(), sc.RX: Deframer()}
     t0 = None
     last_offset = len(sc.MAGIC)
+    end: list[str] = []
     try:
-        records = list(sc.read_records(path, problems))
+        records = list(sc.read_records(path, problems, end))
     except sc.SerialCaptureDamage as exc:
         raise CaptureError(str(exc)) from None
     for rec in records:
@@ -183,6 +189,17 @@ def read_serial(path: Path, ts_s: float | None = None) -> Capture:
                             f"{'host -> controller' if direction == sc.TX else 'controller -> host'})")
         if c["bytes_discarded"]:
             an.counts["bytes_discarded"] += c["bytes_discarded"]
+    t_last = (records[-1].t_ns - t0) * 1e-9 if records else math.nan
+    cut = None
+    if not end:
+        cut = (f"{path}: no end record: the capture stops after the record at byte {last_offset} "
+               f"(t = {t_last:.6f} s) without its writer closing it (a killed bench or recorder, "
+               f"a full disk): what crossed the line after that is not in it")
+    elif not end[0].startswith((sc.END_OF_RUN, "converted")):
+        cut = f"{path}: the capture was closed before the end of the run: {end[0]}"
+    if cut is not None:
+        problems.append(cut)
+        an.add("damaged", cut, t_last)
     return _from_assembler(path, "serial", asm, an, problems, ts_s,
                            f"end of file (record at byte {last_offset})")
 
@@ -215,8 +232,13 @@ def read_mcap(path: Path) -> Capture:
     se = rec.topics[ch.PLANT_SENSE]
     te = rec.topics.get(ch.CONTROLLER_TELEMETRY, {})
     st = rec.topics.get(ch.PLANT_STATE, {})
+    if "run_result" not in rec.metadata:
+        problems.append(f"{path}: no run_result record: the bench did not finish this run (killed, "
+                        f"or its recorder died): it ends where the file ends")
     t = np.asarray(se["t_s"], dtype=float)
     an = Anomalies()
+    for p in problems:       # what the file itself lost counts with the capture's anomalies
+        an.add("damaged", p, float(t[-1]) if len(t) else math.nan)
     # every topic aligned on /plant/sense by time (a truncated file may end mid-cycle)
     def aligned(cols: dict, n_keep: int) -> dict | None:
         if not cols or "t_s" not in cols:

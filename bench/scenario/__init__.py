@@ -6,9 +6,12 @@ here, before any process or device is touched; ``hil_bench.loop`` runs it.
 """
 from .fields import Fields, ScenarioError, line_of
 from .scenario import (
+    INV_COMP_CURRENTS,
+    INV_COMP_SHAPES,
     RPM_PER_RAD_S,
     SCENARIO_DIR,
     Event,
+    InverterComp,
     LinkSettings,
     RealtimeSettings,
     Scenario,
@@ -23,6 +26,7 @@ from .scenario import (
 )
 
 __all__ = ["Fields", "ScenarioError", "line_of", "RPM_PER_RAD_S", "SCENARIO_DIR", "Event",
+           "INV_COMP_CURRENTS", "INV_COMP_SHAPES", "InverterComp",
            "LinkSettings", "RealtimeSettings", "Scenario", "check_against_profile",
            "derive_scenario", "load_scenario", "load_torque_limit_nm", "parse_scenario",
            "resolve_path", "scenario_of", "speed_ref_at"]

@@ -17,14 +17,15 @@ Three targets, one table::
     t_s = 1.0
     count = 1                        # frames acted on (0: every matching frame until until_s)
 
-    [[faults]]                       # the controller (the stub restarts: SIGUSR1)
+    [[faults]]                       # the controller: CMD RESTART with that cycle's frames
     kind = "controller_reset"
     t_s = 1.0
 
 Every fault has a detection window (``detect_within_s``, default 0.2 s): the engine snapshots its
 counters when the fault first acts and writes, when the window closes, a ``/faults`` "trace" row
-with the counters that moved. A fault that left no trace makes the run INVALID
-(bench/record/integrity.py): the bench cannot tell what the run tested.
+with the counters that moved. A fault that never acted or left no trace makes the run INVALID
+(bench/record/integrity.py): the bench cannot tell what the run tested; one that can never act
+is refused at load (``check_faults_can_act``, with the plant's period).
 """
 from __future__ import annotations
 
@@ -260,6 +261,144 @@ def _link_fields(f, kind: str, kw: dict) -> None:
         if kw["burst"] == 0:
             raise f.fail("burst", "missing (required): octets (serial) or frames (CAN) of garbage")
     kw["seed"] = f.integer("seed", kw["index"] + 1, 0, 2**63 - 1)
+
+
+# ---- can the fault act? (checked with the plant's period: scenario.check_against_profile) -------
+
+def first_cycle_at(t_s: float, ts_s: float) -> int:
+    """The first period that starts at or after t_s (half a period of tolerance for rounding):
+    the cycle at which a fault switches on (and, for until_s, off)."""
+    return max(0, int(math.ceil(t_s / ts_s - 0.5 + 1e-9)))
+
+
+#: messages that cross only before the first cycle (handshake, configuration): the cycle engine,
+#: which injects the link faults, never carries one (docs/protocol.md 6.1, 6.2, 6.7)
+SETUP_ONLY = ("HELLO", "HELLO_ACK", "CONFIG", "CONFIG_ACK", "HEARTBEAT_PLANT")
+#: messages the controller (or the bench) sends only when something happens: a fault on them may
+#: act, the bench cannot count on it (a run where it did not act is INVALID: integrity)
+OCCASIONAL = ("HEARTBEAT_CTRL", "FAULT_CTRL", "FAULT_PLANT")
+DIRECTION_WORDS = {1: "to the controller", 2: "from the controller", 3: "either way"}
+
+
+def _sender_direction(message: str) -> int:
+    """1: the bench sends it (to the controller), 2: the controller sends it (protocol/hil.dbc)."""
+    return 1 if MESSAGES[message].spec.sender == "PLANT" else 2
+
+
+def _sure_per_cycle(message: str, direction: int, telemetry_emf: bool, dual: bool) -> int:
+    """Frames of ``message`` ("any": every message) crossing in ``direction`` that every cycle of
+    the run carries: SENSE_AUX, SENSE_DUAL (dual sampling), SENSE to the controller; TELEM,
+    TELEM_EMF (if asked for), DUTY from it (docs/protocol.md 6.4). CMD is counted apart."""
+    per = {"SENSE_AUX": 1, "SENSE_DUAL": int(dual), "SENSE": 1, "TELEM": 1,
+           "TELEM_EMF": int(telemetry_emf), "DUTY": 1}
+    names = list(per) if message == "any" else [message]
+    return sum(per.get(m, 0) for m in names if _sender_direction(m) & direction)
+
+
+def check_faults_can_act(scn, ts_s: float, n_cycles: int, dual_sampling: bool, fail) -> None:
+    """Refuse, before anything starts, every [[faults]] entry that can never act in this run, and
+    more faults or events than the cycle engine holds. ``fail(table, key, why)`` makes the located
+    ScenarioError. The rules (docs/faults.md "Faults that cannot act"):
+
+    * a fault switches on at its period ``first_cycle_at(t_s)``: that period must be one of the
+      run's (0 .. n_cycles - 1); with until_s, at least one period must start in [t_s, until_s);
+    * a link fault on a message: the message must travel in the fault's direction (its sender in
+      protocol/hil.dbc), cross during the cycles (not only in the handshake or configuration), and
+      be sent in this run (TELEM_EMF only when asked for, SENSE_DUAL only with dual sampling, CMD
+      only when an event or a controller restart sends one in the fault's window);
+    * with probability < 1 the run must expect at least one action: probability x the matching
+      frames the window is sure to carry (one per period of each cycle message, the CMDs of the
+      window) >= 1; frames the controller sends only when something happens (HEARTBEAT_CTRL,
+      FAULT_CTRL) and FAULT_PLANT count for nothing.
+    """
+    from hil_bench.plant_rt import engine as eng
+
+    where = scn.display_path
+    last = n_cycles - 1
+    cmd_cycles = [first_cycle_at(ev.t_s, ts_s) for ev in scn.events if ev.sends_cmd]
+    cmd_cycles += [first_cycle_at(f.t_s, ts_s) for f in scn.faults if f.kind == "controller_reset"]
+    n_link = 0
+    n_events = sum(len(ev.actions()) for ev in scn.events)
+    for fs in scn.faults:
+        table = f"faults[{fs.index}]"
+        k_on = first_cycle_at(fs.t_s, ts_s)
+        if k_on > last:
+            raise fail(table, "t_s", f"{fs.t_s:g} s is period {k_on} (a fault acts from the first "
+                                     f"period starting at or after t_s, half a period of rounding; "
+                                     f"Ts = {ts_s * 1e6:g} us); the run's last period is {last} "
+                                     f"(t = {last * ts_s:.6g} s): it would never act")
+        k_off = n_cycles
+        if fs.until_s is not None:
+            k_off = min(first_cycle_at(fs.until_s, ts_s), n_cycles)
+            if k_off <= k_on:
+                raise fail(table, "until_s", f"no period starts between t_s = {fs.t_s:g} s and "
+                                             f"until_s = {fs.until_s:g} s (both round to period "
+                                             f"{k_on}, Ts = {ts_s * 1e6:g} us): it would never act")
+        if fs.target == "plant":
+            n_events += 1 if fs.until_s is None else 2
+        elif fs.target == "controller":
+            n_events += 1
+        else:
+            n_link += 1
+            if n_link > eng.MAX_LINK_FAULTS:
+                raise fail(table, "kind", f"{sum(1 for f in scn.faults if f.target == 'link')} link "
+                                          f"faults: the cycle engine holds at most "
+                                          f"{eng.MAX_LINK_FAULTS} (plant_rt/c/engine_faults.h)")
+            if fs.kind not in ("stall", "garbage"):
+                _check_link_message(scn, fs, ts_s, k_on, k_off, dual_sampling, cmd_cycles, fail)
+    if len(scn.faults) > eng.MAX_TRACES:
+        raise ScenarioError(f"{where}: faults: {len(scn.faults)} entries: the cycle engine traces "
+                            f"at most {eng.MAX_TRACES}")
+    if n_events > eng.MAX_EVENTS:
+        raise ScenarioError(f"{where}: events and faults: {n_events} engine events (one per thing "
+                            f"an [[events]] entry sets, one per plant fault and two with until_s, "
+                            f"one per controller restart): the cycle engine holds at most "
+                            f"{eng.MAX_EVENTS} (plant_rt/c/engine.h)")
+
+
+def _check_link_message(scn, fs: FaultSpec, ts_s: float, k_on: int, k_off: int, dual: bool,
+                        cmd_cycles: list[int], fail) -> None:
+    table = f"faults[{fs.index}]"
+    m = fs.message
+    window = (f"between {fs.t_s:g} s and " +
+              (f"{fs.until_s:g} s" if fs.until_s is not None else "the end of the run"))
+    if m != "any":
+        sender = _sender_direction(m)
+        if not sender & fs.direction:
+            raise fail(table, "direction",
+                       f"{m} travels only {DIRECTION_WORDS[sender]} (protocol/hil.dbc: sent by "
+                       f"{MESSAGES[m].spec.sender}); a {fs.kind} {DIRECTION_WORDS[fs.direction]} "
+                       f"never meets one")
+        if m in SETUP_ONLY:
+            raise fail(table, "message",
+                       f"{m} crosses only during the handshake and configuration, before the "
+                       f"first cycle; link faults act from the first cycle on (docs/faults.md)")
+        if m == "TELEM_EMF" and not scn.telemetry_emf:
+            raise fail(table, "message", "TELEM_EMF crosses only when [controller] telemetry_emf "
+                                         "is true (HELLO flag TELEM_EMF); this scenario sets it false")
+        if m == "SENSE_DUAL" and not dual:
+            raise fail(table, "message", "SENSE_DUAL crosses only with dual sampling (the plant's "
+                                         "dual_sampling), which this scenario's plant does not use")
+    cmds = 0
+    if fs.direction & 1 and m in ("CMD", "any"):
+        cmds = sum(1 for k in cmd_cycles if k_on <= k < k_off)
+    if m == "CMD" and cmds == 0:
+        raise fail(table, "message",
+                   f"no CMD crosses to the controller {window}: a CMD goes with the cycle of each "
+                   f"[[events]] entry that sets a reference or the control mode, and of each "
+                   f"controller_reset; none falls in that window")
+    if fs.probability < 1.0:
+        sure = (k_off - k_on) * _sure_per_cycle(m, fs.direction, scn.telemetry_emf, dual) + cmds
+        expected = fs.probability * sure
+        if expected < 1.0:
+            what = "frames" if m == "any" else f"{m} frames"
+            raise fail(table, "probability",
+                       f"p = {fs.probability:g} on the {sure} {what} "
+                       f"{DIRECTION_WORDS[fs.direction]} the run is sure to carry {window} expects {expected:.2g} action(s): the run "
+                       f"cannot expect the fault to act (rule: probability x matching frames >= 1; "
+                       f"one frame per period of each cycle message, the window's CMDs; "
+                       f"{', '.join(OCCASIONAL)}: none counted, the controller sends them when it "
+                       f"likes) -- raise probability, widen the window or give count")
 
 
 def parse_recording(top) -> RecordingSettings:

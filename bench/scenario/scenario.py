@@ -16,6 +16,16 @@ comes from, instead of failing mid-run.
 to a recording with it); ``load_scenario`` also checks the scenario against its motor profile (control
 period, pole pairs, plant overrides: ``check_against_profile``).
 
+``[controller.inverter_comp]`` switches the drive's inverter-error feed-forward on
+(firmware_stub/src/inv_comp.h, docs/inverter_comp.md) with the drive's estimate of the plant's
+inverter set by a residual: ``residual`` = the fraction of the plant's dead time and device drops
+the estimate leaves (estimate = (1 - residual) x the plant's values; 0 exact, 0.03 = 3 % under,
+negative = over-compensation); ``current = "vector" (default: the current-vector method) | "predicted" | "sampled" |
+"reference"``, ``shape = "capacitive" |
+"linear"``, ``band_a`` (default: the plant's i_cap_band_a), ``current_bw_rad_s`` (the
+current-vector filter of ``current = "vector"``). The runner turns it into the CONFIG
+parameters INV_COMP_* and writes truth, estimate and residual into the recording's metadata.
+
 Keys for the protocol-1.0 link behaviour (docs/protocol.md 6.4, 6.5, 6.8, 6.9), read by the host's cycle
 engine: ``[scenario] mode = "lockstep" | "realtime"``; ``[realtime] duty_update = "on_arrival" |
 "next_period"``, ``max_consecutive_misses`` (10), ``cpu``; ``[link] retry_timeout_s`` (0.05),
@@ -33,7 +43,7 @@ from typing import Any
 from hil_bench.protocol import params as param_info
 from hil_bench.protocol.messages import MESSAGES, Estimator, HelloFlag, Param
 
-from .faults import PLANT_KINDS, parse_faults, parse_recording
+from .faults import PLANT_KINDS, check_faults_can_act, parse_faults, parse_recording
 from .fields import Fields, ScenarioError, line_of
 
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
@@ -60,6 +70,28 @@ class Event:
     id_ref_a: float | None = None
     control_mode: str | None = None  # "speed" | "current"
     label: str = ""
+
+    def actions(self) -> list[tuple[str, float]]:
+        """What the event does, in the order the engine applies it: ("speed_ref", rad/s),
+        ("iq_ref", A), ("id_ref", A), ("control_mode", 0 speed / 1 current) -- each a CMD to the
+        controller -- and ("load", N m), the plant's load torque. One engine event each."""
+        out: list[tuple[str, float]] = []
+        if self.speed_ref_rad_s is not None:
+            out.append(("speed_ref", self.speed_ref_rad_s))
+        if self.iq_ref_a is not None:
+            out.append(("iq_ref", self.iq_ref_a))
+        if self.id_ref_a is not None:
+            out.append(("id_ref", self.id_ref_a))
+        if self.control_mode is not None:
+            out.append(("control_mode", 1.0 if self.control_mode == "current" else 0.0))
+        if self.load_torque_nm is not None:
+            out.append(("load", self.load_torque_nm))
+        return out
+
+    @property
+    def sends_cmd(self) -> bool:
+        """The event sends at least one CMD frame (with the frames of its cycle)."""
+        return any(name != "load" for name, _ in self.actions())
 
     def describe(self) -> str:
         parts = []
@@ -106,6 +138,24 @@ class LinkSettings:
     allow: dict[str, int] = field(default_factory=dict)   # link counter -> allowed count
 
 
+#: [controller.inverter_comp] current = ... -> INV_COMP_ENABLE value
+INV_COMP_CURRENTS = {"predicted": 1, "sampled": 2, "reference": 3, "vector": 4}
+#: [controller.inverter_comp] shape = ... -> INV_COMP_SHAPE value
+INV_COMP_SHAPES = {"linear": 0, "capacitive": 1}
+
+
+@dataclass(frozen=True)
+class InverterComp:
+    """``[controller.inverter_comp]``: the drive's inverter-error feed-forward, its estimate of
+    the plant's inverter given as a residual (docs/inverter_comp.md)."""
+
+    residual: float                 # estimate = (1 - residual) x the plant's dead time and drops
+    current: str = "vector"         # INV_COMP_CURRENTS
+    shape: str = "capacitive"       # INV_COMP_SHAPES
+    band_a: float | None = None     # zero-crossing current; None: the plant's i_cap_band_a
+    current_bw_rad_s: float | None = None   # current = "vector": the filter (None: the drive's)
+
+
 @dataclass(frozen=True)
 class Scenario:
     path: Path
@@ -135,6 +185,7 @@ class Scenario:
     faults: tuple = ()                      # hil_bench.scenario.faults.FaultSpec, [[faults]] (docs/faults.md)
     recording: Any = None                   # hil_bench.scenario.faults.RecordingSettings ([recording])
     post_trip_s: float = 0.0                # a FAULT_CTRL ends the run this long after it
+    inverter_comp: InverterComp | None = None   # [controller.inverter_comp]
 
     @property
     def display_path(self) -> str:
@@ -197,6 +248,36 @@ def _estimator(fields: Fields, key: str) -> Estimator:
     except KeyError:
         raise fields.fail(key, f"unknown estimator {name!r}; known: "
                                f"{', '.join(e.name for e in Estimator)}") from None
+
+
+def _inverter_comp(c: Fields, params: dict[Param, float]) -> InverterComp | None:
+    """[controller.inverter_comp], or None if absent. Refused beside explicit INV_COMP_* CONFIG
+    parameters: one scenario, one statement of the drive's estimate."""
+    if "inverter_comp" not in c.table:
+        return None
+    t = c.table_of("inverter_comp")
+    given = sorted(p.name for p in params if p.name.startswith("INV_COMP_"))
+    if given:
+        raise t.fail("residual", f"the drive's estimate is given twice: here and as "
+                                 f"controller.params {', '.join(given)}; keep one")
+    residual = t.number("residual")
+    t.within("residual", residual, -1.0, 1.0, "",
+             "the fraction of the plant's dead time and drops the drive's estimate leaves "
+             "(-1 .. 1: 0 exact, 1 no compensation, < 0 over-compensation)")
+    current = t.string("current", "vector")
+    if current not in INV_COMP_CURRENTS:
+        raise t.fail("current", f"must be one of {', '.join(INV_COMP_CURRENTS)}, got {current!r}")
+    shape = t.string("shape", "capacitive")
+    if shape not in INV_COMP_SHAPES:
+        raise t.fail("shape", f"must be one of {', '.join(INV_COMP_SHAPES)}, got {shape!r}")
+    band = t.number("band_a", min_value=1e-6) if "band_a" in t.table else None
+    bw = None
+    if "current_bw_rad_s" in t.table:
+        if current != "vector":
+            raise t.fail("current_bw_rad_s", 'filters the current vector: only with current = "vector"')
+        bw = t.number("current_bw_rad_s", min_value=1.0)
+    t.reject_unknown()
+    return InverterComp(residual, current, shape, band, bw)
 
 
 def _controller_params(fields: Fields) -> dict[Param, float]:
@@ -377,7 +458,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
     post_trip_s = s.number("post_trip_s", 0.05 if has_faults else 0.0, min_value=0.0)
     s.within("post_trip_s", post_trip_s, 0.0, 10.0, "s",
              "how long the run records the controller's reaction after its FAULT_CTRL")
-    from hil_bench.papers.claims import CLAIMS
+    from hil_bench.claims.registry import CLAIMS
 
     for claim in claims:
         if claim not in CLAIMS:
@@ -402,6 +483,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         raise c.fail("send_encoder_angle", "the ENCODER estimator needs the encoder angle: drop the key or "
                                            "set it to true (docs/protocol.md 6.8)")
     params = _controller_params(c.table_of("params"))
+    inverter_comp = _inverter_comp(c, params)
     c.reject_unknown()
 
     r = top.table_of("reference")
@@ -448,6 +530,7 @@ def parse_scenario(text: str, path: Path) -> Scenario:
         telemetry_emf=telemetry_emf, raw=raw, text=text,
         send_encoder_angle=send_encoder, realtime=realtime, link=link,
         faults=faults, recording=recording, post_trip_s=post_trip_s,
+        inverter_comp=inverter_comp,
     )
 
 
@@ -519,6 +602,8 @@ def check_against_profile(scn: Scenario) -> None:
         except ValueError as exc:
             raise fail(f"faults[{fs.index}]", "kind", f"this plant cannot take it: {exc}") from None
         plant.clear_faults()
+    check_faults_can_act(scn, ts_s, max(1, round(scn.duration_s / ts_s)),
+                         bool(plant.params.dual_sampling), fail)
     _check_plant_values(scn, plant, profile.name, fail, max_rpm / RPM_PER_RAD_S)
     if scn.reference_estimators:
         try:
@@ -623,11 +708,22 @@ def derive_scenario(base: str | Path, name: str, overrides: tuple[tuple[str, Any
 def scenario_of(rec) -> Scenario:
     """The scenario attached to a recording (hil_bench.record.recording.Recording), parsed;
     RecordingError if it has none or it is invalid."""
-    from hil_bench.record.recording import RecordingError
+    from hil_bench.record.recording import NotABenchRecording, RecordingError
 
     found = rec.attachment_text("scenario/")
     if found is None:
-        raise RecordingError(f"{rec.path}: no scenario attached (not a recording of this bench?)")
+        intact = rec.has_footer and not rec.truncated and not rec.damage and not rec.unreadable_chunks
+        if intact and "run" not in rec.metadata:
+            topics = sorted(rec.counts or rec.topics)
+            raise NotABenchRecording(
+                f"{rec.path}: a valid MCAP file, but not a recording of this bench: it has no "
+                f"run metadata and no scenario attached ({rec.messages} messages"
+                + (f" on {', '.join(topics[:6])}" + (", ..." if len(topics) > 6 else "")
+                   if topics else "") + "); `bench replay` reads other captures (docs/replay.md)")
+        raise RecordingError(f"{rec.path}: no scenario attached"
+                             + ("" if intact else " (the file is damaged: its summary or the "
+                                                  "records after the damage are not read)"),
+                             damaged=not intact)
     name, text = found
     try:
         return parse_scenario(text, Path(f"{rec.path}#{name}"))

@@ -251,7 +251,8 @@ def load_sweep(path: str | Path, quick: bool = False) -> Sweep:
 
 
 def _check_collect(sw: Sweep) -> None:
-    from hil_bench.papers.claims import CLAIMS, METRICS
+    from hil_bench.claims.registry import CLAIMS
+    from hil_bench.papers.claims import METRICS
 
     summary = {"speed_mean_rpm", "speed_band_true_rpm", "iq_mean_a", "speed_hat_mean_rpm",
                "speed_band_hat_rpm", "pee_max_rad", "pee_mean_rad", "pee_rms_rad"}

@@ -6,6 +6,9 @@
 #include "svpwm.h"
 
 #define CTRL_VOLTAGE_MARGIN 0.98f /* use 98 % of the linear SVPWM range */
+/* pole radius of the compensation's observer of the HF injection current: the ADC noise is
+ * averaged over about 1 / (1 - r) = 10 samples (1.25 periods of a 1250 Hz injection at 10 kHz) */
+#define INV_HF_OBS_RADIUS 0.9f
 
 void ctrl_config_defaults(ctrl_config_t *cfg)
 {
@@ -43,6 +46,8 @@ void ctrl_config_defaults(ctrl_config_t *cfg)
     cfg->smo_m_per_a = 0.01f;
     cfg->smo_sigmoid_a_per_a = 0.0f;
     cfg->smo_lag_comp = (float)EST_SMO_SIGMOID_LAG_EQ15;
+    cfg->smo_sta_k1_v = 0.0f;      /* 0: the STA's adaptive gains */
+    cfg->smo_sta_k2_v_s = 0.0f;
     cfg->pll_kp = 0.0f;
     cfg->pll_ki = 0.0f;
     cfg->speed_lpf_rad_s = 0.0f;
@@ -60,6 +65,15 @@ void ctrl_config_defaults(ctrl_config_t *cfg)
     cfg->harm_m = 96.0f;
     cfg->harm_k_comp = 1.0f;
     cfg->harm_extractor = (float)HARM_EXTRACT_GSDFT;
+    cfg->inv_comp_mode = 0.0f;     /* off: a scenario opts in (docs/inverter_comp.md) */
+    cfg->inv_comp_dead_time_s = 0.0f;
+    cfg->inv_comp_v_switch_v = 0.0f;
+    cfg->inv_comp_r_switch_ohm = 0.0f;
+    cfg->inv_comp_v_diode_v = 0.0f;
+    cfg->inv_comp_r_diode_ohm = 0.0f;
+    cfg->inv_comp_band_a = 0.1f;
+    cfg->inv_comp_shape = (float)INV_COMP_SHAPE_CAPACITIVE;
+    cfg->inv_comp_i_bw_rad_s = 628.3f;   /* 100 Hz */
     ctrl_protect_default_config(&cfg->prot);
 }
 
@@ -93,6 +107,7 @@ void ctrl_init(controller_t *c)
     c->prot_ref_valid = 0;
     c->prot_i_prev_valid = 0;
     c->prot_emf_v = 0.0f;
+    c->inv_i_prev_valid = 0;
 }
 
 static void enter_fault(controller_t *c, ctrl_fault_t fault)
@@ -240,6 +255,16 @@ static int estimator_init(controller_t *c)
         sc.speed_lpf_rad_s = k->speed_lpf_rad_s;
         return est_smo_tanh_init(&c->est_state.tanh_smo, &sc);
     }
+    case CTRL_EST_SMO_STA: {
+        est_smo_sta_config_t sc;
+        est_smo_sta_default_config(&sc, k->rs_ohm, k->lq_h, k->psi_f_wb, k->ts_s);
+        sc.k1_v = k->smo_sta_k1_v;
+        sc.k2_v_s = k->smo_sta_k2_v_s;
+        sc.pll_kp = kp;
+        sc.pll_ki = ki;
+        sc.speed_lpf_rad_s = k->speed_lpf_rad_s;
+        return est_smo_sta_init(&c->est_state.sta, &sc);
+    }
     case CTRL_EST_HFI_SDFT: {
         est_hfi_config_t hc;
         est_hfi_default_config(&hc, k->rs_ohm, k->ld_h, k->lq_h, k->ts_s);
@@ -294,6 +319,50 @@ static int extras_init(controller_t *c)
             return -1;
         }
     }
+    if (k->inv_comp_mode > 0.5f) {
+        inv_comp_config_t ic;
+        inv_comp_default_config(&ic, k->ts_s);
+        ic.dead_time_s = k->inv_comp_dead_time_s;
+        ic.v_switch_v = k->inv_comp_v_switch_v;
+        ic.r_switch_ohm = k->inv_comp_r_switch_ohm;
+        ic.v_diode_v = k->inv_comp_v_diode_v;
+        ic.r_diode_ohm = k->inv_comp_r_diode_ohm;
+        ic.i_band_a = k->inv_comp_band_a;
+        ic.shape = (int)k->inv_comp_shape;
+        if (inv_comp_init(&c->inv, &ic) != 0 || !(k->inv_comp_i_bw_rad_s > 0.0f)) {
+            return -1;
+        }
+        c->inv_i_lpf_a = 1.0f - expf(-k->inv_comp_i_bw_rad_s * k->ts_s);
+        {   /* the injection's current averaged over the interval the duties act on,
+             * [t_k + t_d, t_k+1 + t_d], from its last two samples. The voltage is held between
+             * actuation instants, so the current ramps between its values y_k at t_k + t_d; a
+             * sample falls on a ramp, i_k = a y_k-1 + (1 - a) y_k (a = t_d / Ts), and the
+             * interval's mean is (y_k + y_k+1) / 2. For a tone of the injection frequency
+             * (phasors, x_k-1 = e^{-j th} x_k, th = w Ts) that is the gain
+             * G = (1 + e^{j th}) / (2 (1 - a + a e^{-j th})) on the sampled tone, realised as
+             * A x_k + B x_k-1: A + B e^{-j th} = G */
+            const float th = FW_TWO_PI_F * k->hfi_f_hz * k->ts_s;
+            const float sn = sinf(th), cs = cosf(th);
+            const float a = fw_clampf(k->t_act_delay_s / k->ts_s, 0.0f, 1.0f);
+            const float nr = 0.5f * (1.0f + cs), ni = 0.5f * sn;   /* numerator / 2 */
+            const float dr = 1.0f - a + a * cs, di = -a * sn;      /* denominator */
+            const float dd = dr * dr + di * di;
+            const float gr = (nr * dr + ni * di) / dd, gi = (ni * dr - nr * di) / dd;
+            const float r = INV_HF_OBS_RADIUS;
+            if (fabsf(sn) > 0.05f && dd > 1e-6f) {
+                c->inv_hf_c0 = -gi / sn;
+                c->inv_hf_c1 = gr - c->inv_hf_c0 * cs;
+            } else {
+                c->inv_hf_c1 = 1.0f;   /* near 0 or fs/2: the sample as it is */
+                c->inv_hf_c0 = 0.0f;
+            }
+            /* tone observer gains: error dynamics (I - L C) A with trace 2 r cos(th), det r^2 */
+            c->inv_hf_cos = cs;
+            c->inv_hf_l1 = 1.0f - r * r;
+            c->inv_hf_l2 = 2.0f * cs * r * (1.0f - r);
+        }
+    }
+    c->inv_i_prev_valid = 0;
     return 0;
 }
 
@@ -408,6 +477,9 @@ static void run_estimator(controller_t *c, fw_vec2_t i_ab, const ctrl_sample_t *
     case CTRL_EST_SMO_TANH:
         c->est = *est_smo_tanh_step(&c->est_state.tanh_smo, i_ab, c->v_ab_acted_v);
         break;
+    case CTRL_EST_SMO_STA:
+        c->est = *est_smo_sta_step(&c->est_state.sta, i_ab, c->v_ab_acted_v);
+        break;
     case CTRL_EST_HFI_SDFT:
         c->hfi_out = est_hfi_step(&c->est_state.hfi, i_ab, c->v_ab_acted_v);
         c->est = c->hfi_out->est;
@@ -451,11 +523,98 @@ static void rotate_current_integrators(controller_t *c, float delta_rad)
     pi_ctrl_reset(&c->pi_q, v.y);
 }
 
+/* Inverter-error feed-forward (inv_comp.h) on the SVPWM duties: the phase currents the period's
+ * error depends on (mode 1: the last two samples extrapolated to the middle of the interval the
+ * duties act on; mode 2: the sample), the compensated duties out, and the observers' voltage of
+ * the next period = what the compensation's inverter model says the duties make. */
+/* The injection's current as a sampled tone, x_k+1 = 2 cos(w Ts) x_k - x_k-1, observed from its
+ * noisy samples: state (x_k, x_k-1), observer poles at INV_HF_OBS_RADIUS e^{+-j w Ts} (the
+ * ADC's noise averaged over ~1 / (1 - r) samples instead of entering the compensation raw). */
+static void tone_observer_step(controller_t *c, fw_vec2_t y)
+{
+    const float cw = c->inv_hf_cos, l1 = c->inv_hf_l1, l2 = c->inv_hf_l2;
+    fw_vec2_t p, e;
+    p.x = 2.0f * cw * c->inv_hf_s1_a.x - c->inv_hf_s2_a.x;   /* predicted x_k */
+    p.y = 2.0f * cw * c->inv_hf_s1_a.y - c->inv_hf_s2_a.y;
+    e.x = y.x - p.x;
+    e.y = y.y - p.y;
+    c->inv_hf_s2_a.x = c->inv_hf_s1_a.x + l2 * e.x;
+    c->inv_hf_s2_a.y = c->inv_hf_s1_a.y + l2 * e.y;
+    c->inv_hf_s1_a.x = p.x + l1 * e.x;
+    c->inv_hf_s1_a.y = p.y + l1 * e.y;
+}
+
+static void inverter_feed_forward(controller_t *c, const ctrl_sample_t *s, float v_dc,
+                                  float theta_pwm, fw_vec2_t i_dq)
+{
+    const ctrl_config_t *k = &c->cfg;
+    float i_now[3], i_use[3];
+    i_now[0] = s->i_a_a;
+    i_now[1] = s->i_b_a;
+    i_now[2] = s->i_c_a;
+    if (k->inv_comp_mode > 3.5f) {
+        /* current-vector method: the measured current vector low-passed in the controller's
+         * rotating frame (no lag on the fundamental, the ADC noise filtered out), then turned to
+         * the angle of the middle of the interval the duties act on */
+        fw_vec2_t ab;
+        if (!c->inv_i_prev_valid) {
+            c->inv_i_dq_f_a = i_dq;
+        }
+        c->inv_i_dq_f_a.x += c->inv_i_lpf_a * (i_dq.x - c->inv_i_dq_f_a.x);
+        c->inv_i_dq_f_a.y += c->inv_i_lpf_a * (i_dq.y - c->inv_i_dq_f_a.y);
+        ab = fw_park_inv(c->inv_i_dq_f_a, sinf(theta_pwm), cosf(theta_pwm));
+        if (c->hfi_out != NULL) {
+            /* HF injection: the injection's current is no part of the filtered fundamental;
+             * its mean over the interval the duties act on, from its last two samples (a
+             * sampled tone of the known injection frequency, ctrl_start) */
+            const fw_vec2_t i_ab = fw_clarke(i_now[0], i_now[1], i_now[2]);
+            fw_vec2_t hf;
+            hf.x = i_ab.x - c->hfi_out->i_fund_ab_a.x;
+            hf.y = i_ab.y - c->hfi_out->i_fund_ab_a.y;
+            if (!c->inv_i_prev_valid) {
+                c->inv_hf_s1_a = hf;
+                c->inv_hf_s2_a = hf;
+            }
+            tone_observer_step(c, hf);
+            ab.x += c->inv_hf_c1 * c->inv_hf_s1_a.x + c->inv_hf_c0 * c->inv_hf_s2_a.x;
+            ab.y += c->inv_hf_c1 * c->inv_hf_s1_a.y + c->inv_hf_c0 * c->inv_hf_s2_a.y;
+        }
+        fw_clarke_inv(ab, &i_use[0], &i_use[1], &i_use[2]);
+    } else if (k->inv_comp_mode > 2.5f) {
+        /* the current loop's reference at the angle of the middle of the interval the duties
+         * act on (no measurement noise in the zero-crossing band) */
+        fw_vec2_t dq, ab;
+        dq.x = c->id_ref_a;
+        dq.y = c->iq_ref_a;
+        ab = fw_park_inv(dq, sinf(theta_pwm), cosf(theta_pwm));
+        fw_clarke_inv(ab, &i_use[0], &i_use[1], &i_use[2]);
+    } else if (k->inv_comp_mode < 1.5f && c->inv_i_prev_valid) {
+        inv_comp_predict(i_now, c->inv_i_prev_a, (k->t_act_delay_s + 0.5f * k->ts_s) / k->ts_s,
+                         i_use);
+    } else {
+        i_use[0] = i_now[0];
+        i_use[1] = i_now[1];
+        i_use[2] = i_now[2];
+    }
+    c->v_ab_applied_v = inv_comp_step(&c->inv, c->out.duty_abc, i_use, v_dc);
+    c->out.duty_abc[0] = c->inv.duty_abc[0];
+    c->out.duty_abc[1] = c->inv.duty_abc[1];
+    c->out.duty_abc[2] = c->inv.duty_abc[2];
+    c->inv_i_prev_a[0] = i_now[0];
+    c->inv_i_prev_a[1] = i_now[1];
+    c->inv_i_prev_a[2] = i_now[2];
+    c->inv_i_prev_valid = 1;
+}
+
 static void handover(controller_t *c, fw_vec2_t i_ab)
 {
     float th = c->est.theta_e_rad;
     fw_vec2_t i_dq = fw_park(i_ab, sinf(th), cosf(th));
     rotate_current_integrators(c, fw_wrap_pi(th - c->theta_ol_rad));
+    {   /* the compensation's filtered current vector too (current-vector method) */
+        const float d = fw_wrap_pi(th - c->theta_ol_rad);
+        c->inv_i_dq_f_a = fw_park(c->inv_i_dq_f_a, sinf(d), cosf(d));
+    }
     pi_ctrl_reset(&c->pi_speed, i_dq.y);
     c->iq_ref_a = c->pi_speed.integ;
     c->id_handover_a = i_dq.x;
@@ -627,6 +786,9 @@ const ctrl_output_t *ctrl_step(controller_t *c, const ctrl_sample_t *s)
     }
     c->v_ab_older_v = c->v_ab_applied_v;
     c->v_ab_applied_v = svpwm_duties(v_ab, v_dc, c->out.duty_abc);
+    if (k->inv_comp_mode > 0.5f) {
+        inverter_feed_forward(c, s, v_dc, theta_pwm, i_dq);
+    }
 
 finish:
     c->out.theta_hat_rad = c->est.theta_e_rad;

@@ -5,7 +5,9 @@
  *
  * Per period: Clarke -> estimator (currents at t_k, voltage applied over the last period) ->
  * state machine (IDLE, ALIGN, OPEN_LOOP (I-f), CLOSED_LOOP, FAULT, STOPPED) -> speed PI (every
- * speed_loop_div periods) -> d/q current PI with decoupling -> inverse Park -> SVPWM.
+ * speed_loop_div periods) -> d/q current PI with decoupling -> inverse Park -> SVPWM ->
+ * inverter-error feed-forward (inv_comp.h, when on: the duties then realise the command, and the
+ * observers are fed the voltage the compensation's inverter model says the duties make).
  */
 #ifndef CONTROLLER_H
 #define CONTROLLER_H
@@ -16,9 +18,11 @@
 #include "est_hfi.h"
 #include "est_smo_sigmoid.h"
 #include "est_smo_sign.h"
+#include "est_smo_sta.h"
 #include "est_smo_tanh.h"
 #include "fw_math.h"
 #include "harm_comp.h"
+#include "inv_comp.h"
 #include "pi_ctrl.h"
 
 /** Controller states; the numbers are the protocol's `state` value table (protocol/hil.dbc). */
@@ -39,7 +43,8 @@ typedef enum {
     CTRL_EST_SMO_SIGMOID = 2,
     CTRL_EST_SMO_TANH = 3,
     CTRL_EST_HFI_SDFT = 4,
-    CTRL_EST_ENCODER = 5
+    CTRL_EST_ENCODER = 5,
+    CTRL_EST_SMO_STA = 6
 } ctrl_estimator_t;
 
 /** Fault causes; the numbers are the protocol's fault `code` value table. */
@@ -92,6 +97,7 @@ typedef struct {
     float smo_m_per_a;        /**< tanh SMO slope m (Gong eq. 8) */
     float smo_sigmoid_a_per_a; /**< sigmoid slope a (Yuan eq. 11); <= 0: deadbeat slope */
     float smo_lag_comp;       /**< sigmoid SMO phase compensation: 0 none, 1 eq. 15, 2 effective */
+    float smo_sta_k1_v, smo_sta_k2_v_s; /**< super-twisting SMO gains; <= 0: adaptive */
     float pll_kp, pll_ki, speed_lpf_rad_s;
     /* HF injection (Hou): amplitude, frequency, tracking loop, polarity test */
     float hfi_u_v, hfi_f_hz, hfi_bw_rad_s, hfi_kp, hfi_ki, hfi_ipd_timeout_s, hfi_pol_bias_a;
@@ -102,6 +108,16 @@ typedef struct {
     float delay_comp_mode, delay_comp_td_s;
     /* inverter-nonlinearity compensation (Yuan eq. 28-37) */
     float harm_comp_enable, harm_m, harm_k_comp, harm_extractor;
+    /* inverter-error feed-forward (inv_comp.h): inv_comp_mode 0 off, or the phase currents it
+     * uses: 1 the last two samples extrapolated to the middle of the interval the duties act on
+     * (t_act_delay_s + Ts/2 after the sample), 2 the sample, 3 the current loop's reference,
+     * 4 the current-vector method (the measured vector low-passed at inv_comp_i_bw_rad_s in the
+     * rotating frame, turned to that middle; with HF injection plus the injection's current,
+     * its mean over that interval predicted as a sampled tone of the injection frequency); the
+     * drive's estimates of the inverter */
+    float inv_comp_mode, inv_comp_dead_time_s, inv_comp_v_switch_v, inv_comp_r_switch_ohm,
+          inv_comp_v_diode_v, inv_comp_r_diode_ohm, inv_comp_band_a, inv_comp_shape,
+          inv_comp_i_bw_rad_s;
     /* protection thresholds (ctrl_protect.h; prot.i_trip_a is set from i_trip_a at start) */
     ctrl_protect_config_t prot;
 } ctrl_config_t;
@@ -155,12 +171,21 @@ typedef struct {
         est_smo_sign_t sign;
         est_smo_sigmoid_t sigmoid;
         est_smo_tanh_t tanh_smo;
+        est_smo_sta_t sta;
         est_hfi_t hfi;
         est_pll_t encoder_pll;
     } est_state;
     const est_hfi_output_t *hfi_out; /**< last HFI output (HFI_SDFT only) */
     est_delay_comp_t delay_comp;
     harm_comp_t harm;
+    inv_comp_t inv;
+    float inv_i_prev_a[3];      /**< phase currents of the last period (inv_comp_predict) */
+    int inv_i_prev_valid;
+    fw_vec2_t inv_i_dq_f_a;     /**< current-vector method: low-passed i_dq of the loop's frame */
+    float inv_i_lpf_a;          /**< its coefficient 1 - exp(-w Ts) */
+    fw_vec2_t inv_hf_s1_a, inv_hf_s2_a; /**< observed HF injection current x_k, x_k-1 (alpha-beta) */
+    float inv_hf_cos, inv_hf_l1, inv_hf_l2; /**< its observer (cos w Ts, gains) */
+    float inv_hf_c1, inv_hf_c0; /**< its mean over the next interval from x_k, x_k-1 */
     est_output_t est;
     /* voltage commands (for the estimator's next step) */
     fw_vec2_t v_ab_applied_v;   /**< command of the last ISR, as realised by SVPWM */

@@ -81,6 +81,19 @@ static const param_entry_t k_params[] = {
     P(HIL_PARAM_PROT_ENC_FROZEN_TIME_S, prot.enc_frozen_time_s, 0.0f, 10.0f),
     P(HIL_PARAM_PROT_STALL_TIME_S, prot.stall_time_s, 0.0f, 100.0f),
     P(HIL_PARAM_PROT_STALL_SPEED_RAD_S, prot.stall_speed_rad_s, 0.0f, 1e5f),
+    /* super-twisting SMO (est_smo_sta.h) */
+    P(HIL_PARAM_SMO_STA_K1_V, smo_sta_k1_v, 0.0f, 1e5f),
+    P(HIL_PARAM_SMO_STA_K2_V_S, smo_sta_k2_v_s, 0.0f, 1e9f),
+    /* inverter-error feed-forward (inv_comp.h); t_dt < Ts/2 is checked at start */
+    W(HIL_PARAM_INV_COMP_ENABLE, inv_comp_mode, 0.0f, 4.0f),
+    P(HIL_PARAM_INV_COMP_DEAD_TIME_S, inv_comp_dead_time_s, 0.0f, 1e-3f),
+    P(HIL_PARAM_INV_COMP_V_SWITCH_V, inv_comp_v_switch_v, 0.0f, 50.0f),
+    P(HIL_PARAM_INV_COMP_R_SWITCH_OHM, inv_comp_r_switch_ohm, 0.0f, 10.0f),
+    P(HIL_PARAM_INV_COMP_V_DIODE_V, inv_comp_v_diode_v, 0.0f, 50.0f),
+    P(HIL_PARAM_INV_COMP_R_DIODE_OHM, inv_comp_r_diode_ohm, 0.0f, 10.0f),
+    P(HIL_PARAM_INV_COMP_BAND_A, inv_comp_band_a, 1e-6f, 1e3f),
+    W(HIL_PARAM_INV_COMP_SHAPE, inv_comp_shape, 0.0f, 1.0f),
+    P(HIL_PARAM_INV_COMP_I_BW_RAD_S, inv_comp_i_bw_rad_s, 1.0f, 1e5f),
 };
 
 int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value)

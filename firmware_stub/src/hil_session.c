@@ -10,6 +10,7 @@ typedef char check_state_closed[((int)CTRL_STATE_CLOSED_LOOP == (int)HIL_STATE_C
 typedef char check_state_stopped[((int)CTRL_STATE_STOPPED == (int)HIL_STATE_STOPPED) ? 1 : -1];
 typedef char check_est_smo[((int)CTRL_EST_SMO_SIGN == (int)HIL_EST_SMO_SIGN) ? 1 : -1];
 typedef char check_est_enc[((int)CTRL_EST_ENCODER == (int)HIL_EST_ENCODER) ? 1 : -1];
+typedef char check_est_sta[((int)CTRL_EST_SMO_STA == (int)HIL_EST_SMO_STA) ? 1 : -1];
 typedef char check_fault_oc[((int)CTRL_FAULT_OVERCURRENT == (int)HIL_FAULT_OVERCURRENT) ? 1 : -1];
 typedef char check_fault_cfg[((int)CTRL_FAULT_CONFIG_INVALID == (int)HIL_FAULT_CONFIG_INVALID) ? 1 : -1];
 typedef char check_fault_open[((int)CTRL_FAULT_OPEN_PHASE == (int)HIL_FAULT_OPEN_PHASE) ? 1 : -1];
@@ -23,7 +24,7 @@ uint16_t hil_session_estimators(void)
 {
     return (uint16_t)((1u << HIL_EST_SMO_SIGN) | (1u << HIL_EST_SMO_SIGMOID) |
                       (1u << HIL_EST_SMO_TANH) | (1u << HIL_EST_HFI_SDFT) |
-                      (1u << HIL_EST_ENCODER));
+                      (1u << HIL_EST_ENCODER) | (1u << HIL_EST_SMO_STA));
 }
 
 void hil_session_init(hil_session_t *s, const hil_port_t *port)
@@ -60,6 +61,18 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->stats.not_ready = 0u;
     s->stats.repeats = 0u;
     s->stats.cmd_seq_gaps = 0u;
+    s->restarts = 0u;
+}
+
+void hil_session_restart(hil_session_t *s)
+{
+    const hil_port_t port = s->port;
+    const uint16_t modes = s->modes;
+    const uint32_t restarts = s->restarts + 1u;
+    hil_session_init(s, &port);
+    s->modes = modes;
+    s->restarts = restarts;
+    hil_session_heartbeat(s, 0u);
 }
 
 static void send_fault(hil_session_t *s, uint16_t code, uint16_t seq, int32_t detail)
@@ -190,6 +203,9 @@ static void on_cmd(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         break;
     case HIL_CMD_SET_CONTROL_MODE:
         ctrl_set_mode(&s->ctrl, c.value > 0.5f ? CTRL_MODE_CURRENT : CTRL_MODE_SPEED);
+        break;
+    case HIL_CMD_RESTART:
+        hil_session_restart(s);
         break;
     default:
         break;

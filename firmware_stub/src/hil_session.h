@@ -6,6 +6,12 @@
  * Portable: frames come in through hil_session_on_frame() and go out through the port's send
  * hook, so the same code runs behind a serial deframer, a CAN driver or a test harness.
  *
+ * Restart (docs/protocol.md 6.3): CMD RESTART restarts the session and the controller as from
+ * power-up (hil_session_restart) before the next frame is read: no handshake, no configuration,
+ * heartbeat counter from 0; the session says so at once with a HEARTBEAT_CTRL (counter 0, state
+ * IDLE). `restarts` counts them across restarts, so a port that keeps state of its own (a timer,
+ * its link's error count) sees one happened.
+ *
  * Retries (docs/protocol.md 6.5): the session keeps the TELEM, TELEM_EMF and DUTY frames it sent for
  * the last SENSE it ran. A SENSE repeating that seq is answered from this cache, byte for byte, and
  * the control ISR does not run again. An accepted HELLO empties the cache.
@@ -77,12 +83,18 @@ typedef struct {
     int have_cmd_seq;
     uint16_t hb_counter;
     hil_session_stats_t stats;
+    uint32_t restarts;   /**< restarts since hil_session_init (CMD RESTART or the port's own) */
 } hil_session_t;
 
 /** Bitmask of estimators this firmware implements (bit n = estimator id n). */
 uint16_t hil_session_estimators(void);
 void hil_session_init(hil_session_t *s, const hil_port_t *port);
 void hil_session_on_frame(hil_session_t *s, const hil_frame_t *f);
+/** Restart as from power-up (CMD RESTART; a port may call it for a reset line of its own): the
+ *  session and the controller re-initialised, the port and the modes it allows kept, `restarts`
+ *  + 1, and a HEARTBEAT_CTRL sent at once (counter 0, state IDLE, no errors: a port resets its
+ *  link's error count with it). */
+void hil_session_restart(hil_session_t *s);
 /** Send HEARTBEAT_CTRL (the port calls it every 100 ms while no cycles flow). */
 void hil_session_heartbeat(hil_session_t *s, uint32_t link_rx_errors);
 

@@ -5,7 +5,6 @@
 #include <errno.h>
 #include <math.h>
 #include <sched.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
@@ -79,7 +78,8 @@ static int encode_signal(const engine_signal_t *s, double v, int saturate, long 
     return 0;
 }
 
-static void hist_add(engine_hist_t *h, double us)
+/** The histogram bin of a wall time [us]. */
+static long hist_bin(double us)
 {
     long b;
     if (!(us >= 0.0)) {
@@ -92,8 +92,20 @@ static void hist_add(engine_hist_t *h, double us)
     } else {
         b = ENGINE_HIST_BINS - 1;
     }
-    if (b >= ENGINE_HIST_BINS) {
-        b = ENGINE_HIST_BINS - 1;
+    return b >= ENGINE_HIST_BINS ? ENGINE_HIST_BINS - 1 : b;
+}
+
+/** The lower edge [us] of histogram bin b. */
+static double hist_bin_lower_us(long b)
+{
+    return b < ENGINE_HIST_FINE ? (double)b * 0.1 : 1000.0 + (double)(b - ENGINE_HIST_FINE) * 10.0;
+}
+
+static void hist_add(engine_hist_t *h, double us)
+{
+    const long b = hist_bin(us);
+    if (!(us >= 0.0)) {
+        us = 0.0;
     }
     h->bins[b]++;
     h->n++;
@@ -308,6 +320,23 @@ static void trace_counters(const engine_t *e, const engine_trace_t *t,
 
 static void trace_close(engine_t *e, int index, const char *ended);
 
+/** The first action of any fault ends the fault-free part of the run: its round trips become the
+ *  baseline a delay's round trips are judged against (rtt_evidence). */
+static void freeze_rtt_baseline(engine_t *e)
+{
+    long b;
+    uint32_t acc = 0u;
+    e->faults_started = 1;
+    e->rtt_min_bin = -1;
+    for (b = ENGINE_HIST_BINS - 1; b >= 0; --b) {
+        acc += e->rtt_free.bins[b];
+        e->rtt_tail[b] = acc;
+        if (e->rtt_free.bins[b] != 0u) {
+            e->rtt_min_bin = b;
+        }
+    }
+}
+
 /** Fault `index` acted now: start (or extend) its detection window. The windows of other faults
  *  that already have their evidence close now, so what this fault causes is not booked to them;
  *  one still waiting for evidence stays open (its rows then name both: docs/faults.md). */
@@ -318,6 +347,9 @@ static void trace_act(engine_t *e, int index, long extra_cycles)
     if (index < 0 || index >= ENGINE_MAX_TRACES) {
         return;
     }
+    if (!e->faults_started) {
+        freeze_rtt_baseline(e);
+    }
     for (i = 0; i < e->n_traces; ++i) {
         if (i != index && e->traces[i].state == 1 && e->traces[i].seen_k >= 0 &&
             e->traces[i].seen_k < e->cur_k) {
@@ -325,11 +357,16 @@ static void trace_act(engine_t *e, int index, long extra_cycles)
         }
     }
     t = &e->traces[index];
+    if (t->acted_k < 0) {
+        t->acted_k = e->cur_k;
+    }
     if (t->state != 1) {
         t->state = 1;
         t->first_k = e->cur_k;
         t->seen_k = -1;
         t->rtt_seen = 0u;
+        t->rtt_n = t->rtt_c = 0u;
+        t->rtt_p = t->rtt_var = 0.0;
         trace_counters(e, t, t->snap);
         t->close_k = e->cur_k;
     }
@@ -355,18 +392,36 @@ static void trace_close(engine_t *e, int index, const char *ended)
             moved = 1;
         }
     }
+    if (!moved && ended == NULL) {
+        t->seen_k = -1;   /* a round trip that looked beyond the baseline and then did not */
+    }
     if (ended != NULL && n < (int)sizeof text - 16) {
-        snprintf(text + n, sizeof text - (size_t)n, "%sthe run ended: %s", moved ? "; " : "",
-                 ended);
+        n += snprintf(text + n, sizeof text - (size_t)n, "%sthe run ended: %s",
+                      moved ? "; " : "", ended);
         if (t->seen_k < 0) {
             t->seen_k = e->cur_k;
         }
     }
     if (!moved && ended == NULL) {
-        snprintf(text, sizeof text, "no trace: no counter moved within %.4g s of the last action",
-                 (double)t->window_cycles * e->cfg.ts_s);
+        n = snprintf(text, sizeof text, "no trace: no counter moved within %.4g s of the last "
+                     "action", (double)t->window_cycles * e->cfg.ts_s);
         e->n.faults_untraced++;
+        t->untraced_windows++;
     }
+    if (t->delay_s > 0.0 && n > 0 && n < (int)sizeof text - 200) {
+        const double base_n = (double)e->rtt_free.n;
+        snprintf(text + n, sizeof text - (size_t)n,
+                 " (round trip: %llu of %llu delayed cycles at least the fault-free minimum "
+                 "%.1f us + the delay; the %.0f fault-free cycles before any fault make %.3g of "
+                 "them expected, evidence from %.3g)",
+                 (unsigned long long)t->rtt_c, (unsigned long long)t->rtt_n,
+                 e->rtt_min_bin >= 0 ? hist_bin_lower_us(e->rtt_min_bin) : (double)NAN, base_n,
+                 t->rtt_p, t->rtt_p + 3.0 * sqrt(t->rtt_var));
+    }
+    if (t->seen_k >= 0 && (t->evidence_k < 0 || t->seen_k < t->evidence_k)) {
+        t->evidence_k = t->seen_k;
+    }
+    t->windows++;
     record_fault(e, -1, index, t->target, t->name, "", "trace", text,
                  t->seen_k >= 0 ? (double)(t->seen_k - t->first_k) * e->cfg.ts_s : (double)NAN);
     t->state = 2;
@@ -492,6 +547,21 @@ static void link_fault_acted(void *ctx, int i, int dir, const char *action, uint
     e->n.faults_injected++;
     record_fault(e, seq, lf->fault_index, "link", lf->name, direction_name(dir), action, text,
                  value);
+    if (strcmp(action, "drop") == 0) {
+        e->cyc_drop++;
+        e->cyc_drop_fault = lf->fault_index;
+    } else if (strcmp(action, "stall_drop") == 0) {
+        e->cyc_stall_drop++;
+        e->cyc_stall_fault = lf->fault_index;
+    } else if (strcmp(action, "delay") == 0) {
+        engine_trace_t *t = &e->traces[lf->fault_index];
+        e->cyc_delay++;
+        e->cyc_delay_fault = lf->fault_index;
+        if (t->delay_k != e->cur_k || value > t->delay_d_s) {
+            t->delay_d_s = value;
+        }
+        t->delay_k = e->cur_k;
+    }
     if (lf->lf.kind == ELF_STALL) {
         extra = (long)ceil(lf->lf.stall_s / e->cfg.ts_s);
     } else if (lf->lf.kind == ELF_DELAY) {
@@ -599,6 +669,7 @@ void engine_default_config(engine_config_t *cfg)
     cfg->link_fd = -1;
     cfg->ch_faults = ENGINE_NO_CHANNEL;
     cfg->record_every = 1;
+    cfg->late_grace_s = 1.0;
 }
 
 int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *ring_mem,
@@ -674,6 +745,7 @@ int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *r
     e->duties[0] = e->duties[1] = e->duties[2] = 0.5;
     e->cmd_seq = cfg->cmd_seq_start;
     e->trip_cycle = -1;
+    e->rtt_min_bin = -1;
     elf_init(&e->lf, link_fault_acted, e);
     e->end = ENGINE_END_DONE;
     return 0;
@@ -730,6 +802,9 @@ static int trace_setup(engine_t *e, int index, const char *name, const char *tar
     t->window_cycles = (long)ceil(detect_within_s / e->cfg.ts_s);
     t->delay_s = delay_s;
     t->seen_k = -1;
+    t->planned = 1;
+    t->acted_k = t->evidence_k = -1;
+    t->delay_k = -1;
     return 0;
 }
 
@@ -775,12 +850,6 @@ int engine_add_event(engine_t *e, const engine_event_t *ev)
             return -1;
         }
     }
-    if (ev->kind == ENGINE_EV_CONTROLLER_RESET && ev->command <= 1 &&
-        e->link.peer.restart == NULL) {
-        set_message(e, "engine: a controller reset needs the controller's process id (or an "
-                    "in-process controller)");
-        return -1;
-    }
     if (is_fault) {
         if (ev->kind != ENGINE_EV_PLANT_FAULT_CLEAR &&
             trace_setup(e, ev->fault_index, ev->fault_name,
@@ -811,7 +880,7 @@ int engine_add_link_fault(engine_t *e, const engine_link_fault_t *f)
     e->lfc[e->lf.n - 1] = *f;
     e->lfc[e->lf.n - 1].name[sizeof f->name - 1] = '\0';
     if (trace_setup(e, f->fault_index, f->name, "link", f->detect_within_s,
-                    f->lf.kind == ELF_DELAY ? f->lf.delay_s : 0.0) != 0) {
+                    f->lf.kind == ELF_DELAY ? f->lf.delay_s + f->lf.jitter_s : 0.0) != 0) {
         e->lf.n--;
         return -1;
     }
@@ -850,6 +919,9 @@ typedef struct {
     /* what went wrong while waiting (for the message when nothing valid comes) */
     uint64_t crc0, cobs0, len0, over0, seq_bad, len_bad, stale;
     uint16_t bad_seq;      /* the last wrong seq seen */
+    uint64_t hb0;          /* heartbeats_rx when the cycle began */
+    double late_s;         /* lockstep: a DUTY(k) after the retries, this long after the first
+                            * send (NaN: none within late_grace_s) */
     /* the frames of the SENSE group, for re-sending */
     uint8_t aux[8], dual[8], sense[8];
     int have_dual;
@@ -923,6 +995,9 @@ static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
                 const char *why = plant_fault_check(e->plant, &pf);
                 snprintf(text, sizeof text, "refused by the plant: %s",
                          why != NULL ? why : "(no reason)");
+                if (ev->fault_index >= 0 && ev->fault_index < ENGINE_MAX_TRACES) {
+                    e->traces[ev->fault_index].refused = 1;
+                }
                 record_fault(e, (int32_t)c->seq, ev->fault_index, "plant", ev->fault_name, "",
                              "refused", text, ev->value);
             } else {
@@ -941,22 +1016,25 @@ static void apply_events(engine_t *e, int *next_event, const cycle_t *c)
             full_rate_from_now(e, e->cfg.post_trigger_cycles);
             break;
         case ENGINE_EV_CONTROLLER_RESET: {
+            /* in band: CMD RESTART goes out with this cycle's frames, before its SENSE_AUX and
+             * SENSE, so the controller restarts at a defined cycle whatever the timing (and a
+             * port running the firmware in the engine's thread sees the same) */
+            hil_cmd_t m;
+            uint8_t buf[8];
             char text[128];
-            int rc = 0;
-            if (e->link.peer.restart != NULL) {
-                /* software in the loop: the power cycle happens here, before this cycle's SENSE */
-                e->link.peer.restart(e->link.peer.ctx, eng_now_ns());
-                snprintf(text, sizeof text, "in-process controller restarted (power cycle)");
-            } else {
-                rc = kill((pid_t)ev->command, SIGUSR1);
-                snprintf(text, sizeof text, "SIGUSR1 to process %d%s", ev->command,
-                         rc == 0 ? "" : " failed: the process is gone");
+            m.command = (uint16_t)HIL_CMD_RESTART;
+            m.seq = e->cmd_seq++;
+            m.value = 0.0f;
+            if (hil_cmd_pack(buf, &m, sizeof buf) > 0) {
+                queue_frame(e, (uint16_t)HIL_CMD_FRAME_ID, buf);
             }
+            snprintf(text, sizeof text, "CMD RESTART (CMD seq %u) sent with the frames of cycle "
+                     "%ld, before its SENSE", (unsigned)m.seq, c->k);
             record_fault(e, (int32_t)c->seq, ev->fault_index, "controller", ev->fault_name, "",
-                         rc == 0 ? "on" : "refused", text, 0.0);
-            if (rc == 0) {
-                trace_act(e, ev->fault_index, 0);
-            }
+                         "on", text, 0.0);
+            e->cyc_restart++;
+            e->cyc_restart_fault = ev->fault_index;
+            trace_act(e, ev->fault_index, 0);
             full_rate_from_now(e, e->cfg.post_trigger_cycles);
             break;
         }
@@ -1222,6 +1300,7 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
                              "over: the controller restarted", (double)h.counter);
             }
             e->hb_rx_last = h.rx_errors;
+            e->hb_state = (int)h.state;
             e->n.ctrl_rx_errors = e->hb_rx_base + h.rx_errors;
             e->hb_counter = h.counter;
             e->hb_have = 1;
@@ -1251,12 +1330,14 @@ static void append(char *buf, size_t cap, int *n, const char *fmt, ...)
     }
 }
 
-/** Lockstep: why no valid DUTY came, from what arrived during the cycle (docs/protocol.md 6.5:
- *  "cycle 1234: no valid DUTY after 3 retries (0.2 s): 2 frames with a bad CRC, ..."). */
+/** Lockstep: why no valid DUTY came, from what arrived during the cycle and what the bench's own
+ *  faults did to it (docs/protocol.md 6.5: "cycle 1234: no valid DUTY after 3 retries (0.2 s): 2
+ *  frames with a bad CRC, ..."; "nothing at all (the controller is silent)" only when nothing
+ *  arrived, the bench injected nothing and no answer came late either). */
 static void describe_no_duty(engine_t *e, const cycle_t *c)
 {
     const hil_deframer_t *d = &e->link.deframer;
-    char what[384];
+    char what[640];
     int n = 0;
     unsigned long k;
     what[0] = '\0';
@@ -1280,6 +1361,38 @@ static void describe_no_duty(engine_t *e, const cycle_t *c)
     }
     if (c->stale > 0u) {
         append(what, sizeof what, &n, "%lu TELEM of the cycle before", (unsigned long)c->stale);
+    }
+    if (e->cyc_restart > 0u) {
+        append(what, sizeof what, &n, "the bench restarted the controller at this cycle "
+               "(faults[%d] controller_reset: CMD RESTART before this cycle's SENSE)",
+               e->cyc_restart_fault);
+    }
+    if (e->n.ctrl_resets > e->resets_at_cycle) {
+        append(what, sizeof what, &n, "the controller restarted (its HEARTBEAT_CTRL started "
+               "over): a restarted controller answers no SENSE before a new HELLO");
+    } else if ((k = (unsigned long)(e->n.heartbeats_rx - c->hb0)) > 0u) {
+        append(what, sizeof what, &n, "%lu HEARTBEAT_CTRL (the controller is alive, state %s): "
+               "it answers no SENSE", k,
+               e->hb_state >= 0 && e->hb_state < ENGINE_STATE_NAMES &&
+                       e->cfg.state_names[e->hb_state][0] ? e->cfg.state_names[e->hb_state]
+                                                          : "?");
+    }
+    if (e->cyc_drop > 0u) {
+        append(what, sizeof what, &n, "the bench's own drop fault faults[%d] dropped %lu "
+               "frame(s) of this cycle", e->cyc_drop_fault, (unsigned long)e->cyc_drop);
+    }
+    if (e->cyc_stall_drop > 0u) {
+        append(what, sizeof what, &n, "the bench's own stall faults[%d] let %lu frame(s) of this "
+               "cycle not cross", e->cyc_stall_fault, (unsigned long)e->cyc_stall_drop);
+    }
+    if (e->cyc_delay > 0u) {
+        append(what, sizeof what, &n, "the bench's own delay fault faults[%d] delayed %lu "
+               "frame(s) of this cycle by up to %.3g s", e->cyc_delay_fault,
+               (unsigned long)e->cyc_delay, e->traces[e->cyc_delay_fault].delay_d_s);
+    }
+    if (isfinite(c->late_s)) {
+        append(what, sizeof what, &n, "its DUTY came %.3g s after the cycle's first SENSE, after "
+               "the host had stopped waiting: the controller answers, late", c->late_s);
     }
     e->end = ENGINE_END_NO_DUTY;
     set_message(e, "at cycle %ld (t = %.4f s): no valid DUTY after %d retries (%.3g s): %s",
@@ -1499,6 +1612,10 @@ static void begin_cycle(engine_t *e, cycle_t *c, long k)
     c->cobs0 = d->cobs_errors;
     c->len0 = d->length_errors;
     c->over0 = d->overruns;
+    c->hb0 = e->n.heartbeats_rx;
+    c->late_s = (double)NAN;
+    e->cyc_drop = e->cyc_stall_drop = e->cyc_delay = e->cyc_restart = 0u;
+    e->resets_at_cycle = e->n.ctrl_resets;
     text_reset(e->tx_text, &e->tx_len);
     /* rx_text is not reset here: frames that arrive after a real-time period's rows were
      * written (late DUTY, heartbeats) belong in the next row's rx (record_cycle resets it) */
@@ -1532,19 +1649,51 @@ static void link_failed(engine_t *e, const cycle_t *c)
                 e->link.error[0] ? e->link.error : "link failed");
 }
 
-/** DELAY faults: a cycle whose measured round trip is at least the injected delay shows it. */
+/** At least this many fault-free round trips before a delay can be judged by the round trip. */
+#define RTT_BASELINE_MIN 100u
+
+/**
+ * DELAY faults: does the round trip show the delay beyond what the run shows without it?
+ * Before any fault acts, every cycle's SENSE -> DUTY round trip goes into a histogram (the
+ * fault-free baseline). Each cycle a delay fault delayed a frame of (its largest drawn delay d)
+ * is measured: it shows the delay if its round trip reaches r_min + d, r_min the shortest
+ * fault-free round trip; p = the fraction of fault-free cycles that reached that threshold
+ * (1 with fewer than RTT_BASELINE_MIN of them). The delayed cycles that showed it, c of n, are
+ * evidence (the trace counter rtt_over_delay) only when c > sum p + 3 sqrt(sum p (1 - p)):
+ * more than the fault-free cycles make likely (docs/faults.md). A 1 ns delay: every fault-free
+ * cycle but those of r_min's bin reaches r_min + 1 ns, c never exceeds the bound.
+ */
 static void rtt_evidence(engine_t *e, const cycle_t *c, int64_t sent_ns)
 {
     int i;
+    double rtt_us;
     if (!has_link_faults(e) || !c->have_duty) {
+        return;
+    }
+    rtt_us = (double)(c->duty_t_ns - sent_ns) * 1e-3;
+    if (!e->faults_started) {
+        hist_add(&e->rtt_free, rtt_us);
         return;
     }
     for (i = 0; i < e->n_traces; ++i) {
         engine_trace_t *t = &e->traces[i];
-        if (t->state == 1 && t->delay_s > 0.0 &&
-            (double)(c->duty_t_ns - sent_ns) * 1e-9 >= t->delay_s) {
-            t->rtt_seen++;
+        double p = 1.0;
+        long bx;
+        if (t->state != 1 || !(t->delay_s > 0.0) || t->delay_k != c->k) {
+            continue;
         }
+        bx = hist_bin((e->rtt_min_bin >= 0 ? hist_bin_lower_us(e->rtt_min_bin) : 0.0) +
+                      t->delay_d_s * 1e6);
+        if (e->rtt_free.n >= RTT_BASELINE_MIN) {
+            p = (double)e->rtt_tail[bx] / (double)e->rtt_free.n;
+        }
+        t->rtt_n++;
+        t->rtt_p += p;
+        t->rtt_var += p * (1.0 - p);
+        if (hist_bin(rtt_us) >= bx) {
+            t->rtt_c++;
+        }
+        t->rtt_seen = (double)t->rtt_c > t->rtt_p + 3.0 * sqrt(t->rtt_var) ? t->rtt_c : 0u;
     }
 }
 
@@ -1571,6 +1720,35 @@ static void faults_begin_cycle(engine_t *e, long k)
 }
 
 /* ---- lockstep ---------------------------------------------------------------------------------- */
+
+/** Lockstep, the retries are over without a valid DUTY(k): listen late_grace_s more, only to tell
+ *  a late controller from a silent one in the run's message (c->late_s). 0, or -1 when a frame
+ *  ends the run (FAULT_CTRL). The run ends either way: the retry rule does not wait this long. */
+static int late_answer(engine_t *e, cycle_t *c, int64_t sent_ns)
+{
+    const int64_t deadline = eng_now_ns() + (int64_t)(e->cfg.late_grace_s * 1e9);
+    if (!(e->cfg.late_grace_s > 0.0)) {
+        return 0;
+    }
+    for (;;) {
+        eng_frame_t f;
+        int r;
+        while (link_pop(e, &f)) {
+            r = handle_frame(e, c, &f, 1);
+            if (r < 0) {
+                return -1;
+            }
+            if (r == 1) {
+                c->late_s = (double)(f.t_ns - sent_ns) * 1e-9;
+                c->have_duty = 0;
+                return 0;
+            }
+        }
+        if (stop_asked(e) || eng_now_ns() >= deadline || link_poll(e, deadline) < 0) {
+            return 0;
+        }
+    }
+}
 
 /**
  * Lockstep exchange of cycle c: send what is queued, wait for the first valid DUTY(seq), re-send
@@ -1615,6 +1793,9 @@ static int exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_
             return -1;
         }
         if (c->retries >= cfg->max_retries) {
+            if (late_answer(e, c, *sent_ns) != 0) {
+                return -1;
+            }
             describe_no_duty(e, c);
             return -1;
         }
@@ -2337,6 +2518,24 @@ static void traces_end(engine_t *e)
     for (i = 0; i < e->n_traces; ++i) {
         if (e->traces[i].state == 1) {
             trace_close(e, i, evidence ? e->message : NULL);
+        }
+    }
+    /* the run's account of its faults: which acted, which left a trace in every window */
+    for (i = 0; i < e->lf.n; ++i) {
+        const int idx = e->lfc[i].fault_index;
+        if (idx >= 0 && idx < ENGINE_MAX_TRACES) {
+            e->traces[idx].matched = e->lf.matched[i];
+            e->traces[idx].acted = e->lf.acted[i];
+        }
+    }
+    e->n.faults_acted = e->n.faults_traced = 0u;
+    for (i = 0; i < ENGINE_MAX_TRACES; ++i) {
+        const engine_trace_t *t = &e->traces[i];
+        if (t->planned && t->acted_k >= 0) {
+            e->n.faults_acted++;
+            if (t->untraced_windows == 0u && t->windows > 0u) {
+                e->n.faults_traced++;
+            }
         }
     }
 }

@@ -100,8 +100,8 @@ typedef enum {
     ENGINE_EV_NOTE = 3,       /* only the /events row */
     ENGINE_EV_PLANT_FAULT = 4,       /* plant_set_fault(fault_kind, phase, phase2, level, value) */
     ENGINE_EV_PLANT_FAULT_CLEAR = 5, /* plant_clear_fault(fault_kind, fault_phase) */
-    ENGINE_EV_CONTROLLER_RESET = 6   /* restart the controller: SIGUSR1 to process `command` (the
-                                      * stub), or the in-process controller's power cycle */
+    ENGINE_EV_CONTROLLER_RESET = 6   /* CMD RESTART with the frames of this cycle (in band: the
+                                      * controller restarts before it reads this cycle's SENSE) */
 } engine_event_kind_t;
 
 typedef struct {
@@ -127,11 +127,26 @@ typedef struct {
     int state;                /* 0: nothing yet; 1: collecting; 2: closed (its row written) */
     char name[24];
     char target[12];          /* "plant", "link", "controller" */
-    long first_k, close_k, seen_k;  /* first action, window end, first evidence (-1: none) */
+    long first_k, close_k, seen_k;  /* this window: first action, end, first evidence (-1: none) */
     long window_cycles;       /* detection window after an action */
-    double delay_s;           /* DELAY: a round trip at least this long is evidence */
-    uint64_t rtt_seen;        /* DELAY: cycles whose measured round trip showed it */
+    double delay_s;           /* DELAY: the fault's delay_s (0: not a delay) */
+    uint64_t rtt_seen;        /* DELAY: the delayed cycles that showed it, once that count is beyond
+                               * what the fault-free cycles show (0 until then; engine.c
+                               * rtt_evidence) */
     uint64_t snap[ENGINE_TRACE_COUNTERS];
+    /* the whole run (the bench checks every scenario fault against these: integrity.py) */
+    int planned;              /* set up (a [[faults]] entry of the run) */
+    int refused;              /* the plant refused it when it was due */
+    long acted_k, evidence_k; /* first action of the run, first evidence of the run (-1: none) */
+    uint32_t windows, untraced_windows;   /* detection windows closed, those without evidence */
+    uint64_t matched, acted;  /* link faults: frames that met its window and message, acted on */
+    /* DELAY: the round trip of the cycles it delayed (engine.c rtt_evidence) */
+    long delay_k;             /* the last cycle it delayed a frame of */
+    double delay_d_s;         /* the largest delay drawn in that cycle */
+    uint64_t rtt_n, rtt_c;    /* delayed cycles measured, those at least the fault-free minimum
+                               * round trip + the delay */
+    double rtt_p, rtt_var;    /* sum of p, of p (1 - p): p = the fraction of fault-free cycles
+                               * whose round trip reached the same threshold */
 } engine_trace_t;
 
 /** A link fault (engine_faults.h) with what the bench records of it. */
@@ -208,8 +223,8 @@ typedef struct {
     int link_kind;             /* eng_link_kind_t */
     int link_fd;
     eng_link_peer_t link_peer; /* software in the loop: the controller in this process (its
-                                * write != NULL; link_fd unused, serial framing); controller
-                                * restarts call its restart() instead of signalling a process */
+                                * write != NULL; link_fd unused, serial framing); a controller
+                                * reset reaches it in band (CMD RESTART), as on every link */
     int can_brs;
     double retry_timeout_s;    /* lockstep: wait this long for DUTY before re-sending SENSE */
     int max_retries;           /* lockstep: re-sends of one cycle's SENSE */
@@ -253,6 +268,9 @@ typedef struct {
      * (0: at once), the cycles between record the controller's reaction */
     uint16_t ch_faults;
     long post_trip_cycles;
+    /* lockstep: after the last retry found no DUTY, listen this long more for a late answer, only
+     * to say in the run's message that the controller answered late rather than not at all */
+    double late_grace_s;
     /* decimated recording: the per-cycle rows of every record_every-th cycle only, except within
      * pre_trigger_cycles before and post_trigger_cycles after each fault (and after a trip),
      * where every cycle is recorded (1: every cycle) */
@@ -267,6 +285,8 @@ typedef struct {
     uint64_t rt_overruns;   /* real time: periods the bench itself lost (it fell behind) */
     uint64_t ctrl_rx_errors, ctrl_resets, ctrl_faults, duties_after_trip;
     uint64_t faults_injected, faults_untraced;
+    uint64_t faults_acted;  /* [[faults]] entries that acted at least once (set at the run's end) */
+    uint64_t faults_traced; /* of those, the ones every detection window of which had evidence */
     uint64_t state_rows;    /* /plant/state rows the engine wrote (decimation: fewer than cycles) */
 } engine_counters_t;
 
@@ -294,6 +314,14 @@ typedef struct engine {
      * moved between the fault's first action and the end of its detection window */
     engine_trace_t traces[ENGINE_MAX_TRACES];
     int n_traces;                /* traces[0..n_traces) may be set up */
+    int faults_started;          /* a fault has acted: the fault-free part of the run is over */
+    engine_hist_t rtt_free;      /* round trips [us] of the cycles before any fault acted */
+    uint32_t rtt_tail[ENGINE_HIST_BINS];  /* at the first action: rtt_free's cycles in bins >= b */
+    long rtt_min_bin;            /* the lowest bin of rtt_free (-1: empty) */
+    /* what the bench's own faults did in the present cycle (the run's message names them) */
+    uint32_t cyc_drop, cyc_stall_drop, cyc_delay, cyc_restart;
+    int cyc_drop_fault, cyc_stall_fault, cyc_delay_fault, cyc_restart_fault;
+    uint64_t resets_at_cycle;    /* ctrl_resets when the present cycle began */
     /* full-rate recording windows [start, end) in cycles (faults), and after a trip */
     long full_rate[ENGINE_MAX_EVENTS + ENGINE_MAX_LINK_FAULTS][2];
     int n_full_rate;
@@ -303,6 +331,7 @@ typedef struct engine {
     uint16_t hb_counter;
     uint64_t hb_rx_base;         /* rx_errors reported before the controller's last restart */
     uint16_t hb_rx_last;
+    int hb_state;                /* the state of the controller's last HEARTBEAT_CTRL */
     long cur_k;                  /* the cycle running now */
     double cur_t_s;
     /* live (read by the bench while it runs) */

@@ -144,6 +144,7 @@ static int acting_fault(elf_t *f, int dir, uint16_t id)
             continue;
         }
         u = next_unit(&f->rng[i]);
+        f->matched[i]++;
         if (acting < 0 && u < c->probability) {
             acting = i;
         }
@@ -187,6 +188,7 @@ void elf_begin_cycle(elf_t *f, eng_link_t *l, long k, int64_t now_ns)
         }
         if (c->kind == ELF_STALL) {
             f->once_done[i] = 1;
+            f->matched[i]++;
             f->acted[i]++;
             f->stall_until_ns[i] = now_ns + (int64_t)llround(c->stall_s * NS_PER_S_F);
             report(f, i, c->direction, "stall", NULL, c->stall_s);
@@ -194,6 +196,7 @@ void elf_begin_cycle(elf_t *f, eng_link_t *l, long k, int64_t now_ns)
             uint8_t junk[4096];
             uint32_t n = c->n_garbage, j;
             f->once_done[i] = 1;
+            f->matched[i]++;
             f->acted[i]++;
             report(f, i, c->direction, "garbage", NULL, (double)n);
             if (l->kind == ENG_LINK_SERIAL) {

@@ -84,6 +84,8 @@ typedef struct {
     elf_config_t cfg[ENGINE_MAX_LINK_FAULTS];
     uint64_t rng[ENGINE_MAX_LINK_FAULTS];
     uint32_t acted[ENGINE_MAX_LINK_FAULTS];    /* frames (or bursts) acted on */
+    uint64_t matched[ENGINE_MAX_LINK_FAULTS];  /* frames that met its window, direction and
+                                                * message (each one drew against probability) */
     int64_t stall_until_ns[ENGINE_MAX_LINK_FAULTS];
     int once_done[ENGINE_MAX_LINK_FAULTS];     /* STALL / GARBAGE happened */
     int n;

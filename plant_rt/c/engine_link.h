@@ -49,14 +49,13 @@ typedef struct {
 /**
  * A controller in this process instead of a descriptor (software in the loop, `--link sil`):
  * the serial octets the engine writes go to write(), the octets the controller sent come from
- * read(), both at once on the engine's thread; restart() is the controller's power cycle. The
- * framing, the queues, the counters and the capture tap are those of a serial descriptor.
+ * read(), both at once on the engine's thread; a controller reset reaches it in band (CMD
+ * RESTART among the octets), as on every link. The framing, the queues, the counters and the capture tap are those of a serial descriptor.
  */
 typedef struct {
     void *ctx;
     void (*write)(void *ctx, const uint8_t *data, size_t n, int64_t now_ns);
     size_t (*read)(void *ctx, uint8_t *out, size_t cap, int64_t now_ns);
-    void (*restart)(void *ctx, int64_t now_ns);
 } eng_link_peer_t;
 
 typedef struct {

@@ -5,7 +5,7 @@
  * on exactly the samples and voltages the controller saw.
  *
  * Kinds are the protocol's Estimator values (protocol/hil.dbc): 1 SMO_SIGN, 2 SMO_SIGMOID,
- * 3 SMO_TANH, 4 HFI_SDFT. The configuration is the module's own config struct, filled on the
+ * 3 SMO_TANH, 4 HFI_SDFT, 6 SMO_STA. The configuration is the module's own config struct, filled on the
  * Python side by the same gain rules the controller's settings come from
  * (firmware_stub/est_smo.py), and copied in as bytes (its size is checked).
  */
@@ -17,13 +17,15 @@
 #include "est_hfi.h"
 #include "est_smo_sigmoid.h"
 #include "est_smo_sign.h"
+#include "est_smo_sta.h"
 #include "est_smo_tanh.h"
 
 typedef enum {
     ENG_REF_SMO_SIGN = 1,
     ENG_REF_SMO_SIGMOID = 2,
     ENG_REF_SMO_TANH = 3,
-    ENG_REF_HFI_SDFT = 4
+    ENG_REF_HFI_SDFT = 4,
+    ENG_REF_SMO_STA = 6
 } eng_ref_kind_t;
 
 typedef struct {
@@ -32,6 +34,7 @@ typedef struct {
         est_smo_sign_t sign;
         est_smo_sigmoid_t sigmoid;
         est_smo_tanh_t tanh_;
+        est_smo_sta_t sta;
         est_hfi_t hfi;
     } s;
 } eng_ref_t;

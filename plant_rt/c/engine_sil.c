@@ -12,15 +12,9 @@ static size_t sil_read(void *ctx, uint8_t *out, size_t cap, int64_t now_ns)
     return sil_port_read((sil_port_t *)ctx, (hil_octet_t *)out, cap, now_ns);
 }
 
-static void sil_restart(void *ctx, int64_t now_ns)
-{
-    sil_port_restart((sil_port_t *)ctx, now_ns);
-}
-
 void engine_sil_peer(sil_port_t *p, eng_link_peer_t *peer)
 {
     peer->ctx = p;
     peer->write = sil_write;
     peer->read = sil_read;
-    peer->restart = sil_restart;
 }

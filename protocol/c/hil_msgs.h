@@ -94,7 +94,18 @@ typedef enum {
     HIL_PARAM_PROT_ENC_EMF_RATIO = 82,
     HIL_PARAM_PROT_ENC_FROZEN_TIME_S = 83,
     HIL_PARAM_PROT_STALL_TIME_S = 84,
-    HIL_PARAM_PROT_STALL_SPEED_RAD_S = 85
+    HIL_PARAM_PROT_STALL_SPEED_RAD_S = 85,
+    HIL_PARAM_SMO_STA_K1_V = 86,
+    HIL_PARAM_SMO_STA_K2_V_S = 87,
+    HIL_PARAM_INV_COMP_ENABLE = 90,
+    HIL_PARAM_INV_COMP_DEAD_TIME_S = 91,
+    HIL_PARAM_INV_COMP_V_SWITCH_V = 92,
+    HIL_PARAM_INV_COMP_R_SWITCH_OHM = 93,
+    HIL_PARAM_INV_COMP_V_DIODE_V = 94,
+    HIL_PARAM_INV_COMP_R_DIODE_OHM = 95,
+    HIL_PARAM_INV_COMP_BAND_A = 96,
+    HIL_PARAM_INV_COMP_SHAPE = 97,
+    HIL_PARAM_INV_COMP_I_BW_RAD_S = 98
 } hil_param_t;
 
 /* HELLO.estimator, TELEM.estimator */
@@ -104,7 +115,8 @@ typedef enum {
     HIL_EST_SMO_SIGMOID = 2,
     HIL_EST_SMO_TANH = 3,
     HIL_EST_HFI_SDFT = 4,
-    HIL_EST_ENCODER = 5
+    HIL_EST_ENCODER = 5,
+    HIL_EST_SMO_STA = 6
 } hil_estimator_t;
 
 /* HEARTBEAT_PLANT.state, HEARTBEAT_CTRL.state, TELEM.state */
@@ -149,7 +161,8 @@ typedef enum {
     HIL_CMD_SET_SPEED_REF = 4,
     HIL_CMD_SET_IQ_REF = 5,
     HIL_CMD_SET_ID_REF = 6,
-    HIL_CMD_SET_CONTROL_MODE = 7
+    HIL_CMD_SET_CONTROL_MODE = 7,
+    HIL_CMD_RESTART = 8
 } hil_command_t;
 
 /* HELLO_ACK.status */
@@ -250,7 +263,7 @@ typedef struct {
     uint16_t proto_version; /* physical = raw; DBC [0, 255] = raw 0..255 */
     uint16_t mode; /* physical = raw; DBC [0, 1] = raw 0..1; 0 = LOCKSTEP, 1 = REALTIME */
     uint16_t period_us; /* physical = raw * 0.1 us; DBC [0, 6553.5] = raw 0..65535 */
-    uint16_t estimator; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = SMO_SIGN, 2 = SMO_SIGMOID, 3 = SMO_TANH, 4 = HFI_SDFT, 5 = ENCODER */
+    uint16_t estimator; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = SMO_SIGN, 2 = SMO_SIGMOID, 3 = SMO_TANH, 4 = HFI_SDFT, 5 = ENCODER, 6 = SMO_STA */
     uint16_t flags; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = DUAL_SAMPLING, 2 = TELEM_EMF, 3 = DUAL_SAMPLING+TELEM_EMF, 4 = ENCODER_VALID, 5 = DUAL_SAMPLING+ENCODER_VALID, 6 = TELEM_EMF+ENCODER_VALID, 7 = DUAL_SAMPLING+TELEM_EMF+ENCODER_VALID */
     uint16_t session; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
 } hil_hello_t;
@@ -331,7 +344,7 @@ int hil_hello_ack_session_is_in_range(uint16_t raw);
 #define HIL_CONFIG_FRAME_ID 0x030u
 #define HIL_CONFIG_LENGTH 8u
 typedef struct {
-    uint16_t param_id; /* physical = raw; DBC [0, 65535] = raw 0..65535; 1 = RS_OHM, 2 = LD_H, 3 = LQ_H, 4 = PSI_F_WB, 5 = POLE_PAIRS, 6 = J_KGM2, 7 = B_NMS, 8 = V_DC_NOM_V, 20 = CUR_KP_V_A, 21 = CUR_KI_V_AS, 22 = SPD_KP_A_RAD_S, 23 = SPD_KI_A_RAD, 24 = IQ_MAX_A, 25 = SPEED_LOOP_DIV, 26 = I_MAX_TRIP_A, 30 = ALIGN_I_A, 31 = ALIGN_TIME_S, 32 = IF_I_A, 33 = IF_ACCEL_RAD_S2, 34 = HANDOVER_SPEED_RAD_S, 35 = HANDOVER_TIME_S, 36 = CTRL_DELAY_S, 40 = SMO_K_V, 41 = SMO_WC_RAD_S, 42 = SMO_M_PER_A, 43 = SMO_SIGMOID_A_PER_A, 44 = PLL_KP, 45 = PLL_KI, 46 = SPEED_LPF_RAD_S, 47 = SMO_K_FACTOR, 48 = SMO_K_MIN_V, 49 = SMO_LAG_COMP, 50 = HFI_U_V, 51 = HFI_F_HZ, 52 = HFI_BW_RAD_S, 53 = HFI_PI_KP, 54 = HFI_PI_KI, 55 = IPD_TIME_S, 56 = HFI_POL_BIAS_A, 57 = HFI_LOCK_TOL_RAD, 60 = DELAY_COMP_ENABLE, 61 = DELAY_COMP_TD_S, 62 = HARM_COMP_ENABLE, 63 = HARM_GSDFT_M, 64 = HARM_COMP_GAIN, 65 = HARM_EXTRACTOR, 70 = PROT_OPEN_I_MIN_A, 71 = PROT_OPEN_RATIO, 72 = PROT_OPEN_TIME_S, 73 = PROT_SUM_MAX_A, 74 = PROT_SUM_TAU_S, 75 = PROT_STUCK_TIME_S, 76 = PROT_STUCK_DELTA_A, 77 = PROT_VDC_UV_RATIO, 78 = PROT_VDC_OV_RATIO, 79 = PROT_VDC_TIME_S, 80 = PROT_LINK_TIMEOUT_PERIODS, 81 = PROT_ENC_LOST_TIME_S, 82 = PROT_ENC_EMF_RATIO, 83 = PROT_ENC_FROZEN_TIME_S, 84 = PROT_STALL_TIME_S, 85 = PROT_STALL_SPEED_RAD_S */
+    uint16_t param_id; /* physical = raw; DBC [0, 65535] = raw 0..65535; 1 = RS_OHM, 2 = LD_H, 3 = LQ_H, 4 = PSI_F_WB, 5 = POLE_PAIRS, 6 = J_KGM2, 7 = B_NMS, 8 = V_DC_NOM_V, 20 = CUR_KP_V_A, 21 = CUR_KI_V_AS, 22 = SPD_KP_A_RAD_S, 23 = SPD_KI_A_RAD, 24 = IQ_MAX_A, 25 = SPEED_LOOP_DIV, 26 = I_MAX_TRIP_A, 30 = ALIGN_I_A, 31 = ALIGN_TIME_S, 32 = IF_I_A, 33 = IF_ACCEL_RAD_S2, 34 = HANDOVER_SPEED_RAD_S, 35 = HANDOVER_TIME_S, 36 = CTRL_DELAY_S, 40 = SMO_K_V, 41 = SMO_WC_RAD_S, 42 = SMO_M_PER_A, 43 = SMO_SIGMOID_A_PER_A, 44 = PLL_KP, 45 = PLL_KI, 46 = SPEED_LPF_RAD_S, 47 = SMO_K_FACTOR, 48 = SMO_K_MIN_V, 49 = SMO_LAG_COMP, 50 = HFI_U_V, 51 = HFI_F_HZ, 52 = HFI_BW_RAD_S, 53 = HFI_PI_KP, 54 = HFI_PI_KI, 55 = IPD_TIME_S, 56 = HFI_POL_BIAS_A, 57 = HFI_LOCK_TOL_RAD, 60 = DELAY_COMP_ENABLE, 61 = DELAY_COMP_TD_S, 62 = HARM_COMP_ENABLE, 63 = HARM_GSDFT_M, 64 = HARM_COMP_GAIN, 65 = HARM_EXTRACTOR, 70 = PROT_OPEN_I_MIN_A, 71 = PROT_OPEN_RATIO, 72 = PROT_OPEN_TIME_S, 73 = PROT_SUM_MAX_A, 74 = PROT_SUM_TAU_S, 75 = PROT_STUCK_TIME_S, 76 = PROT_STUCK_DELTA_A, 77 = PROT_VDC_UV_RATIO, 78 = PROT_VDC_OV_RATIO, 79 = PROT_VDC_TIME_S, 80 = PROT_LINK_TIMEOUT_PERIODS, 81 = PROT_ENC_LOST_TIME_S, 82 = PROT_ENC_EMF_RATIO, 83 = PROT_ENC_FROZEN_TIME_S, 84 = PROT_STALL_TIME_S, 85 = PROT_STALL_SPEED_RAD_S, 86 = SMO_STA_K1_V, 87 = SMO_STA_K2_V_S, 90 = INV_COMP_ENABLE, 91 = INV_COMP_DEAD_TIME_S, 92 = INV_COMP_V_SWITCH_V, 93 = INV_COMP_R_SWITCH_OHM, 94 = INV_COMP_V_DIODE_V, 95 = INV_COMP_R_DIODE_OHM, 96 = INV_COMP_BAND_A, 97 = INV_COMP_SHAPE, 98 = INV_COMP_I_BW_RAD_S */
     uint16_t config_seq; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     float value; /* IEEE binary32, DBC range [-3.4e+38, 3.4e+38] */
 } hil_config_t;
@@ -356,7 +369,7 @@ int hil_config_value_is_in_range(float raw);
 #define HIL_CONFIG_ACK_FRAME_ID 0x031u
 #define HIL_CONFIG_ACK_LENGTH 8u
 typedef struct {
-    uint16_t param_id; /* physical = raw; DBC [0, 65535] = raw 0..65535; 1 = RS_OHM, 2 = LD_H, 3 = LQ_H, 4 = PSI_F_WB, 5 = POLE_PAIRS, 6 = J_KGM2, 7 = B_NMS, 8 = V_DC_NOM_V, 20 = CUR_KP_V_A, 21 = CUR_KI_V_AS, 22 = SPD_KP_A_RAD_S, 23 = SPD_KI_A_RAD, 24 = IQ_MAX_A, 25 = SPEED_LOOP_DIV, 26 = I_MAX_TRIP_A, 30 = ALIGN_I_A, 31 = ALIGN_TIME_S, 32 = IF_I_A, 33 = IF_ACCEL_RAD_S2, 34 = HANDOVER_SPEED_RAD_S, 35 = HANDOVER_TIME_S, 36 = CTRL_DELAY_S, 40 = SMO_K_V, 41 = SMO_WC_RAD_S, 42 = SMO_M_PER_A, 43 = SMO_SIGMOID_A_PER_A, 44 = PLL_KP, 45 = PLL_KI, 46 = SPEED_LPF_RAD_S, 47 = SMO_K_FACTOR, 48 = SMO_K_MIN_V, 49 = SMO_LAG_COMP, 50 = HFI_U_V, 51 = HFI_F_HZ, 52 = HFI_BW_RAD_S, 53 = HFI_PI_KP, 54 = HFI_PI_KI, 55 = IPD_TIME_S, 56 = HFI_POL_BIAS_A, 57 = HFI_LOCK_TOL_RAD, 60 = DELAY_COMP_ENABLE, 61 = DELAY_COMP_TD_S, 62 = HARM_COMP_ENABLE, 63 = HARM_GSDFT_M, 64 = HARM_COMP_GAIN, 65 = HARM_EXTRACTOR, 70 = PROT_OPEN_I_MIN_A, 71 = PROT_OPEN_RATIO, 72 = PROT_OPEN_TIME_S, 73 = PROT_SUM_MAX_A, 74 = PROT_SUM_TAU_S, 75 = PROT_STUCK_TIME_S, 76 = PROT_STUCK_DELTA_A, 77 = PROT_VDC_UV_RATIO, 78 = PROT_VDC_OV_RATIO, 79 = PROT_VDC_TIME_S, 80 = PROT_LINK_TIMEOUT_PERIODS, 81 = PROT_ENC_LOST_TIME_S, 82 = PROT_ENC_EMF_RATIO, 83 = PROT_ENC_FROZEN_TIME_S, 84 = PROT_STALL_TIME_S, 85 = PROT_STALL_SPEED_RAD_S */
+    uint16_t param_id; /* physical = raw; DBC [0, 65535] = raw 0..65535; 1 = RS_OHM, 2 = LD_H, 3 = LQ_H, 4 = PSI_F_WB, 5 = POLE_PAIRS, 6 = J_KGM2, 7 = B_NMS, 8 = V_DC_NOM_V, 20 = CUR_KP_V_A, 21 = CUR_KI_V_AS, 22 = SPD_KP_A_RAD_S, 23 = SPD_KI_A_RAD, 24 = IQ_MAX_A, 25 = SPEED_LOOP_DIV, 26 = I_MAX_TRIP_A, 30 = ALIGN_I_A, 31 = ALIGN_TIME_S, 32 = IF_I_A, 33 = IF_ACCEL_RAD_S2, 34 = HANDOVER_SPEED_RAD_S, 35 = HANDOVER_TIME_S, 36 = CTRL_DELAY_S, 40 = SMO_K_V, 41 = SMO_WC_RAD_S, 42 = SMO_M_PER_A, 43 = SMO_SIGMOID_A_PER_A, 44 = PLL_KP, 45 = PLL_KI, 46 = SPEED_LPF_RAD_S, 47 = SMO_K_FACTOR, 48 = SMO_K_MIN_V, 49 = SMO_LAG_COMP, 50 = HFI_U_V, 51 = HFI_F_HZ, 52 = HFI_BW_RAD_S, 53 = HFI_PI_KP, 54 = HFI_PI_KI, 55 = IPD_TIME_S, 56 = HFI_POL_BIAS_A, 57 = HFI_LOCK_TOL_RAD, 60 = DELAY_COMP_ENABLE, 61 = DELAY_COMP_TD_S, 62 = HARM_COMP_ENABLE, 63 = HARM_GSDFT_M, 64 = HARM_COMP_GAIN, 65 = HARM_EXTRACTOR, 70 = PROT_OPEN_I_MIN_A, 71 = PROT_OPEN_RATIO, 72 = PROT_OPEN_TIME_S, 73 = PROT_SUM_MAX_A, 74 = PROT_SUM_TAU_S, 75 = PROT_STUCK_TIME_S, 76 = PROT_STUCK_DELTA_A, 77 = PROT_VDC_UV_RATIO, 78 = PROT_VDC_OV_RATIO, 79 = PROT_VDC_TIME_S, 80 = PROT_LINK_TIMEOUT_PERIODS, 81 = PROT_ENC_LOST_TIME_S, 82 = PROT_ENC_EMF_RATIO, 83 = PROT_ENC_FROZEN_TIME_S, 84 = PROT_STALL_TIME_S, 85 = PROT_STALL_SPEED_RAD_S, 86 = SMO_STA_K1_V, 87 = SMO_STA_K2_V_S, 90 = INV_COMP_ENABLE, 91 = INV_COMP_DEAD_TIME_S, 92 = INV_COMP_V_SWITCH_V, 93 = INV_COMP_R_SWITCH_OHM, 94 = INV_COMP_V_DIODE_V, 95 = INV_COMP_R_DIODE_OHM, 96 = INV_COMP_BAND_A, 97 = INV_COMP_SHAPE, 98 = INV_COMP_I_BW_RAD_S */
     uint16_t config_seq; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     uint16_t status; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = OK, 1 = UNKNOWN_PARAM, 2 = OUT_OF_RANGE, 3 = LOCKED */
 } hil_config_ack_t;
@@ -379,11 +392,11 @@ float hil_config_ack_status_decode(uint16_t raw);
 int hil_config_ack_status_is_in_range(uint16_t raw);
 
 /* ---- CMD: 0x040, 8 octets, sent by PLANT ---- */
-/* Command to the controller (run, stop, set reference); value in SI units. No acknowledgement. */
+/* Command to the controller (run, stop, set reference, restart); value in SI units. No acknowledgement. */
 #define HIL_CMD_FRAME_ID 0x040u
 #define HIL_CMD_LENGTH 8u
 typedef struct {
-    uint16_t command; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NOP, 1 = RUN, 2 = STOP, 3 = CLEAR_FAULT, 4 = SET_SPEED_REF, 5 = SET_IQ_REF, 6 = SET_ID_REF, 7 = SET_CONTROL_MODE */
+    uint16_t command; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NOP, 1 = RUN, 2 = STOP, 3 = CLEAR_FAULT, 4 = SET_SPEED_REF, 5 = SET_IQ_REF, 6 = SET_ID_REF, 7 = SET_CONTROL_MODE, 8 = RESTART */
     uint16_t seq; /* physical = raw; DBC [0, 65535] = raw 0..65535 */
     float value; /* IEEE binary32, DBC range [-3.4e+38, 3.4e+38] */
 } hil_cmd_t;
@@ -610,7 +623,7 @@ typedef struct {
     uint16_t theta_hat; /* physical = raw * 9.587379924285257e-05 rad; an angle: raw = round(value / scale) mod 65536 (wraps at 2 pi) */
     int16_t omega_hat; /* physical = raw * 0.1 rad/s; DBC [-3276.8, 3276.7] = raw -32768..32767 */
     uint16_t state; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = IDLE, 1 = ALIGN, 2 = OPEN_LOOP, 3 = CLOSED_LOOP, 4 = FAULT, 5 = INITIAL_POSITION, 6 = STOPPED */
-    uint16_t estimator; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = SMO_SIGN, 2 = SMO_SIGMOID, 3 = SMO_TANH, 4 = HFI_SDFT, 5 = ENCODER */
+    uint16_t estimator; /* physical = raw; DBC [0, 255] = raw 0..255; 0 = NONE, 1 = SMO_SIGN, 2 = SMO_SIGMOID, 3 = SMO_TANH, 4 = HFI_SDFT, 5 = ENCODER, 6 = SMO_STA */
 } hil_telem_t;
 int hil_telem_pack(hil_octet_t *dst, const hil_telem_t *src, size_t size);
 int hil_telem_unpack(hil_telem_t *dst, const hil_octet_t *src, size_t size);

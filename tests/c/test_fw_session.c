@@ -2,8 +2,8 @@
  * @file test_fw_session.c
  * @brief The portable HIL session against docs/protocol.md 1.0: the answer cache for repeated SENSE
  * (6.5), HELLO statuses MODE_UNSUPPORTED / ESTIMATOR_UNSUPPORTED (6.1, 6.8), the encoder-angle rule
- * (6.8), CMD seq gaps (6.3) and whole-number parameters (6.2). Driven frame by frame through a
- * capturing port.
+ * (6.8), CMD seq gaps (6.3), CMD RESTART (6.3) and whole-number parameters (6.2). Driven frame by
+ * frame through a capturing port.
  */
 #include <math.h>
 #include <stdio.h>
@@ -410,6 +410,54 @@ static void test_cmd_seq_and_whole_parameters(void)
     CHECK(config(&s, &cap, 999u, 1.0f) == HIL_CONFIG_STATUS_UNKNOWN_PARAM, "an id outside the table");
 }
 
+/* 6.3: CMD RESTART restarts the session and the controller as from power-up before the next frame
+ * is read, in the portable code (a port running the firmware in the bench's own thread needs
+ * nothing of its own): the SENSE right behind it is not answered, a HEARTBEAT_CTRL with counter 0
+ * and state IDLE says so at once, `restarts` counts it, and a new HELLO starts over. */
+static void test_cmd_restart_is_a_power_cycle_in_band(void)
+{
+    static hil_session_t s;
+    capture_t cap;
+    hil_port_t port;
+    hil_heartbeat_ctrl_t hb;
+    uint16_t seq;
+    int k;
+    memset(&cap, 0, sizeof cap);
+    port.ctx = &cap;
+    port.send = capture_send;
+    hil_session_init(&s, &port);
+    s.modes = (uint16_t)(1u << HIL_MODE_LOCKSTEP); /* a port's narrowing survives the restart */
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_OK, "session");
+    configure_motor(&s, &cap);
+    cmd(&s, HIL_CMD_SET_SPEED_REF, 1u, 50.0f);
+    cmd(&s, HIL_CMD_RUN, 2u, 0.0f);
+    for (seq = 0u; seq < 10u; seq++) {
+        sense_aux(&s, seq, 0.0f, 0u);
+        sense(&s, seq, 0.3f, 0.2f);
+    }
+    hil_session_heartbeat(&s, 0u);
+    hil_session_heartbeat(&s, 0u);
+    CHECK(s.stats.cycles == 10u && s.hb_counter == 2u && s.ctrl.state != CTRL_STATE_IDLE, "running");
+
+    /* cycle 10's frames: CMD RESTART first, then SENSE_AUX and SENSE */
+    cap.n = 0;
+    cmd(&s, HIL_CMD_RESTART, 3u, 0.0f);
+    sense_aux(&s, 10u, 0.0f, 0u);
+    sense(&s, 10u, 0.3f, 0.2f);
+    CHECK(s.restarts == 1u && !s.hello_done && s.ctrl.state == CTRL_STATE_IDLE, "restarted");
+    CHECK(s.stats.cycles == 0u && s.stats.not_ready == 1u, "SENSE 10 not run (no session)");
+    CHECK(cap.n == 1 && cap.id[0] == HIL_HEARTBEAT_CTRL_FRAME_ID, "only a heartbeat: %d frames", cap.n);
+    k = find(&cap, HIL_HEARTBEAT_CTRL_FRAME_ID);
+    CHECK(k >= 0 && hil_heartbeat_ctrl_unpack(&hb, cap.data[k >= 0 ? k : 0], 8u) == 0 &&
+              hb.counter == 0u && hb.state == HIL_STATE_IDLE && hb.rx_errors == 0u,
+          "HEARTBEAT_CTRL counter 0, IDLE, no errors");
+    CHECK(s.modes == (uint16_t)(1u << HIL_MODE_LOCKSTEP), "the port's modes kept");
+    CHECK(hello(&s, &cap, HIL_MODE_REALTIME, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_MODE_UNSUPPORTED,
+          "still lockstep only");
+    CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u) == HIL_HELLO_STATUS_OK, "a new session");
+    CHECK(s.restarts == 1u, "a HELLO is not a restart");
+}
+
 int main(void)
 {
     test_retry_is_answered_from_the_cache();
@@ -417,5 +465,6 @@ int main(void)
     test_encoder_angle_rule();
     test_bus_and_encoder_reach_the_protection();
     test_cmd_seq_and_whole_parameters();
+    test_cmd_restart_is_a_power_cycle_in_band();
     return check_summary("test_fw_session");
 }

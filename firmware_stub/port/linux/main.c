@@ -47,9 +47,11 @@
  * "may"), and at once after a rejected frame, so the frames the controller rejected (rx_errors)
  * reach the bench during a run: a fault on the frames the bench sends then leaves a trace there
  * (docs/faults.md).
- * SIGUSR1 restarts the controller as a power cycle would (the session and the controller back
- * to their state at power-up: no handshake, no configuration, heartbeat counter from 0): the
- * bench's controller_reset fault.
+ * CMD RESTART (the bench's controller_reset fault, in band: docs/protocol.md 6.3) or SIGUSR1
+ * restarts the controller as a power cycle would (hil_session_restart: the session and the
+ * controller back to their state at power-up, no handshake, no configuration, heartbeat counter
+ * from 0, a HEARTBEAT_CTRL at once); the port's own state (the ISR timer, the heartbeat timing,
+ * the link's error count) starts over with it.
  *
  * --echo sends every received frame straight back instead of running the controller (a loopback
  * for testing the link codecs byte for byte).
@@ -346,6 +348,7 @@ int main(int argc, char **argv)
     transport_t *t;
     int rt_priority = 0, rt_cpu = -1, busy_poll = 0, hb_always = 0;
     unsigned long last_hb_errors = 0ul;
+    uint32_t last_restarts = 0u;
     long long last_busy_ms = 0;
 
     app.inject = INJECT_NONE;
@@ -467,18 +470,9 @@ int main(int argc, char **argv)
     while (!g_stop) {
         struct pollfd pf[2];
         if (g_reset) {
-            /* a power cycle: the portable code starts over, the link stays */
             g_reset = 0;
-            hil_session_init(&app.session, &port);
-            app.isr.have_sense = 0;
-            if (app.isr.fd >= 0) {
-                close(app.isr.fd);
-                app.isr.fd = -1;
-            }
-            last_cycles = 0u;
-            last_hb_ms = now_ms() - HEARTBEAT_PERIOD_MS; /* announce itself at once */
-            fprintf(stderr, "hil_stub: reset (SIGUSR1): session and controller back to "
-                            "power-up\n");
+            hil_session_restart(&app.session);
+            (void)transport_flush(t);
         }
         struct pollfd p;
         int pr;
@@ -542,6 +536,22 @@ int main(int argc, char **argv)
                 break;
             }
             last_rx_ms = now;
+        }
+        if (app.session.restarts != last_restarts) {
+            /* a power cycle: the portable code started over (CMD RESTART or SIGUSR1) and said so
+             * (HEARTBEAT_CTRL); the port's own state starts over with it, the link stays */
+            last_restarts = app.session.restarts;
+            app.isr.have_sense = 0;
+            if (app.isr.fd >= 0) {
+                close(app.isr.fd);
+                app.isr.fd = -1;
+            }
+            t->rx_errors = 0u;
+            last_hb_errors = 0ul;
+            last_cycles = 0u;
+            last_hb_ms = now_ms();
+            fprintf(stderr, "hil_stub: restart %lu: session and controller back to power-up\n",
+                    (unsigned long)last_restarts);
         }
         if (t->open && !was_open) {
             last_hb_ms = now; /* no frame right behind the channel-open answer */

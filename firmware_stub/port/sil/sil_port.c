@@ -35,21 +35,30 @@ void sil_port_init(sil_port_t *p, int hb_always, int64_t now_ns)
     p->hb_always = hb_always;
     p->tx_overflows = 0ul;
     p->restarts = 0ul;
+    p->rx_errors_base = 0ul;
     start_session(p, now_ns);
 }
 
-void sil_port_restart(sil_port_t *p, int64_t now_ns)
+static unsigned long deframer_errors(const sil_port_t *p)
 {
-    /* the portable code starts over, the link (and what it holds) stays: the stub's SIGUSR1 */
-    start_session(p, now_ns);
-    p->last_hb_ns = now_ns - SIL_PORT_HEARTBEAT_NS; /* announce itself at once */
-    p->restarts++;
+    return (unsigned long)p->deframer.crc_errors + p->deframer.cobs_errors +
+           p->deframer.length_errors + p->deframer.overruns;
 }
 
 unsigned long sil_port_rx_errors(const sil_port_t *p)
 {
-    return (unsigned long)p->deframer.crc_errors + p->deframer.cobs_errors +
-           p->deframer.length_errors + p->deframer.overruns;
+    return deframer_errors(p) - p->rx_errors_base;
+}
+
+/* a power cycle of the portable code (CMD RESTART: it said so with a HEARTBEAT_CTRL): the port's
+ * counters start over with it, the link (and the octets it holds) stays (port/linux/main.c) */
+static void after_restart(sil_port_t *p, int64_t now_ns)
+{
+    p->restarts = (unsigned long)p->session.restarts;
+    p->last_cycles = 0u;
+    p->last_hb_errors = 0ul;
+    p->last_hb_ns = now_ns;
+    p->rx_errors_base = deframer_errors(p);
 }
 
 /* What the stub's main loop does after each wake-up (port/linux/main.c): HEARTBEAT_CTRL while no
@@ -81,6 +90,9 @@ void sil_port_write(sil_port_t *p, const hil_octet_t *data, size_t n, int64_t no
         hil_frame_t f;
         if (hil_deframer_push(&p->deframer, data[i], &f) == 1) {
             hil_session_on_frame(&p->session, &f);
+            if ((unsigned long)p->session.restarts != p->restarts) {
+                after_restart(p, now_ns);
+            }
         }
     }
     service(p, now_ns);

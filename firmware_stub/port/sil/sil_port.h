@@ -40,15 +40,15 @@ typedef struct {
     uint32_t last_cycles;
     unsigned long last_hb_errors;
     unsigned long tx_overflows;     /**< frames lost: the host did not read (counted) */
-    unsigned long restarts;
+    unsigned long restarts;         /**< power cycles (CMD RESTART) seen */
+    unsigned long rx_errors_base;   /**< framing errors counted before the last restart */
 } sil_port_t;
 
 /** Power-up at now_ns; hb_always as the stub's --heartbeat-always. */
 void sil_port_init(sil_port_t *p, int hb_always, int64_t now_ns);
-/** A power cycle (the bench's controller_reset fault): the session and the controller back to
- *  power-up, announced by a HEARTBEAT_CTRL with counter 0 at the next service. */
-void sil_port_restart(sil_port_t *p, int64_t now_ns);
-/** Octets from the host: deframed and handled at once (the ISR runs on SENSE). */
+/** Octets from the host: deframed and handled at once (the ISR runs on SENSE). A CMD RESTART
+ *  among them (the bench's controller_reset) power-cycles the session (hil_session_restart); the
+ *  port's own state starts over with it, as port/linux/main.c's does. */
 void sil_port_write(sil_port_t *p, const hil_octet_t *data, size_t n, int64_t now_ns);
 /** Move up to cap transmit octets to out (oldest first); the heartbeat is serviced first.
  *  Returns the octets moved. */
