@@ -1,5 +1,10 @@
 # One entry point for a fresh clone. `make demo` and `make test` need nothing done by hand:
 # they create .venv, install the Python dependencies, build all C (CMake) and the cffi modules.
+# The development install is editable and compiles nothing (-C wheel.cmake=false); `make cmake`
+# builds the C once, in build/: the C tests, build/bin/hil_stub and the cffi modules, which it
+# also puts next to their package's sources (HIL_PYTHON_INPLACE), where the editable install
+# imports them from. After editing C, `make build` rebuilds what changed. `pip install .` or
+# `pip wheel .` (scikit-build-core) builds the same CMake project into a self-contained wheel.
 PY      ?= python3
 VENV    := .venv
 VPY     := $(VENV)/bin/python
@@ -7,22 +12,25 @@ STAMP   := $(VENV)/.installed
 BUILD   := build
 SCENARIO ?= bench/scenarios/gong_g2_500rpm.toml
 
-.PHONY: all build native cmake firmware-cm4 test test-c test-py sanitize demo perf clean fuzz fuzz-ci
+.PHONY: all build native cmake firmware-cm4 test test-c test-py sanitize demo perf clean fuzz fuzz-ci wheel
 
 all: build
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(VPY) -m pip install -q --upgrade pip
-	$(VPY) -m pip install -q -e '.[test]'
+	$(VPY) -m pip install -q -e '.[test]' -C wheel.cmake=false
 	touch $@
 
-cmake:
-	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+# the cffi modules need the venv's Python (with cffi) to generate their C
+CMAKE_PY := -DHIL_PYTHON_MODULES=ON -DPython_EXECUTABLE=$(abspath $(VPY))
+
+cmake: $(STAMP)
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo $(CMAKE_PY) -DHIL_PYTHON_INPLACE=ON >/dev/null
 	cmake --build $(BUILD) -j2
 
-native: $(STAMP)
-	$(VPY) tools/build_native.py
+# the cffi modules alone (kept for habit: `make cmake` builds them with everything else)
+native: cmake
 
 # The MCAP project's readers (@mcap/core, @mcap/support: what Foxglove reads MCAP with) and
 # protobufjs (Node.js), for the test that parses every recorded channel by Foxglove's rules
@@ -50,22 +58,32 @@ firmware-cm4:
 	  echo "arm-none-eabi-gcc not found and HIL_REQUIRE_CORTEX_M=1: apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm"; exit 1; \
 	else echo "arm-none-eabi-gcc not found: the Cortex-M firmware is not built and tests/test_pil_qemu.py will skip (apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)"; fi
 
-build: $(STAMP) cmake native firmware-cm4 $(FOXGLOVE_STAMP)
+build: $(STAMP) cmake firmware-cm4 $(FOXGLOVE_STAMP)
 
 test-c: cmake
 	ctest --test-dir $(BUILD) --output-on-failure
 
-test-py: build
-	$(VPY) -m pytest -q tests
+# The wheel, as `pip wheel .` makes it anywhere (scikit-build-core, isolated build environment,
+# Release, only what it installs: CMake target hil_wheel); build/wheel keeps its CMake tree so a
+# second `make wheel` compiles only what changed. tests/test_wheel.py inspects this file
+# ($HIL_WHEEL) and .ci/run installs it into a fresh environment outside the checkout.
+DIST    := dist
+wheel: $(STAMP)
+	rm -f $(DIST)/hil_bench-*.whl
+	$(VPY) -m pip wheel --no-deps -q -w $(DIST) -C build-dir=$(BUILD)/wheel .
+	@ls $(DIST)/hil_bench-*.whl
 
-test: build test-c sanitize test-py
+test-py: build wheel
+	HIL_WHEEL=$$(ls $(DIST)/hil_bench-*.whl) $(VPY) -m pytest -q tests
+
+test: build test-c sanitize wheel test-py
 
 # AddressSanitizer + UndefinedBehaviorSanitizer build of every C target and C test, and of the
-# cffi modules (the engine, the plant, the firmware library) into build-asan/python/, which
-# tests/test_loop_sanitized.py loads (LD_PRELOAD of libasan) to run a closed loop with the
-# sanitized engine and the sanitized stub.
+# cffi modules (the engine, the plant, the firmware library), which tools/build_native.py puts in
+# an import root of their own, build-asan/python/, that tests/test_loop_sanitized.py loads
+# (LD_PRELOAD of libasan) to run a closed loop with the sanitized engine and the sanitized stub.
 sanitize: $(STAMP)
-	cmake -S . -B $(BUILD)-asan -DCMAKE_BUILD_TYPE=Debug -DHIL_SANITIZE=ON >/dev/null
+	cmake -S . -B $(BUILD)-asan -DCMAKE_BUILD_TYPE=Debug -DHIL_SANITIZE=ON $(CMAKE_PY) >/dev/null
 	cmake --build $(BUILD)-asan -j2
 	ctest --test-dir $(BUILD)-asan --output-on-failure
 	$(VPY) tools/build_native.py --sanitize
@@ -87,4 +105,4 @@ fuzz-ci:
 	tests/fuzz/run.sh --require --time 20
 
 clean:
-	rm -rf $(BUILD) $(BUILD)-asan
+	rm -rf $(BUILD) $(BUILD)-asan $(DIST)

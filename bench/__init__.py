@@ -1,5 +1,13 @@
 """hil_bench: a hardware-in-the-loop bench for sensorless PMSM motor-control firmware.
 
+The Python API (docs/api.md), imported on first use so that ``import hil_bench`` stays cheap::
+
+    hil_bench.run(scenario, link="stub", overrides={...})  -> Result (metrics, claims, integrity,
+                                                              recording path)
+    hil_bench.check(path)                                 -> Result of a recording
+    hil_bench.load_recording(path)                        -> each channel as a pandas DataFrame
+    hil_bench.__version__
+
 The data path, one sub-package per stage (docs/architecture.md, "The house")::
 
     scenario/   what to run: scenario files, their faults, typed located errors
@@ -12,5 +20,47 @@ The data path, one sub-package per stage (docs/architecture.md, "The house")::
 
 and beneath them the plant and cycle engine (``hil_bench.plant_rt``), the wire format
 (``hil_bench.protocol``) and the portable controller C (``hil_bench.firmware_stub``). The
-command line is ``bench`` (``hil_bench.cli``).
+command line is ``bench`` (``hil_bench.cli``); the pytest plugin ``hil_bench.pytest_plugin``;
+``hil_bench.installation`` says where the compiled parts are.
 """
+from __future__ import annotations
+
+TYPE_CHECKING = False   # typing itself is not imported: `import hil_bench` stays cheap
+
+if TYPE_CHECKING:
+    from hil_bench.api import (
+        ClaimsNotReproduced,
+        ClaimTable,
+        ClaimVerdict,
+        Integrity,
+        RecordingData,
+        Result,
+        RunFailed,
+        RunInfo,
+        check,
+        load_recording,
+        run,
+    )
+
+#: the API's names, each imported from hil_bench.api on first use
+_API = ("run", "check", "load_recording", "Result", "RunInfo", "ClaimVerdict", "ClaimTable",
+        "Integrity", "RecordingData", "ClaimsNotReproduced", "RunFailed")
+__all__ = [*_API, "__version__"]
+
+
+def __getattr__(name: str):
+    if name in _API:
+        from hil_bench import api
+
+        value = getattr(api, name)
+        globals()[name] = value          # once: later lookups are plain attribute reads
+        return value
+    if name == "__version__":
+        from hil_bench.installation import version
+
+        return version()
+    raise AttributeError(f"module 'hil_bench' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

@@ -11,30 +11,13 @@ from rich.console import Console
 from rich.markup import escape
 
 
-def _parse_set(item: str) -> tuple[str, object]:
-    """``KEY=VALUE`` of ``bench run --set``: the value as TOML (number, true/false, "text", list),
-    a bare word as a string (``plant.inverter=switching``)."""
-    import tomllib
-
-    from hil_bench.scenario import ScenarioError
-
-    key, sep, text = item.partition("=")
-    if not sep or not key.strip():
-        raise ScenarioError(f"--set {item!r}: expected KEY=VALUE, e.g. plant.inverter=switching")
-    try:
-        value = tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = text.strip()
-    return key.strip(), value
-
-
 def _cmd_run(args: argparse.Namespace) -> int:
     from hil_bench.loop.links import LinkError
     from hil_bench.loop.runner import RunAborted, run_scenario
     from hil_bench.papers.check import check_recording, print_report
     from hil_bench.record.recorder import RecorderError
     from hil_bench.record.recording import RecordingError
-    from hil_bench.scenario import ScenarioError, load_scenario
+    from hil_bench.scenario import ScenarioError, derive_scenario, load_scenario
 
     out = Console()
     err = Console(stderr=True)
@@ -53,12 +36,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                   f"Lichtblick: Open connection, Foxglove WebSocket; docs/foxglove.md)")
 
     try:
-        scn = load_scenario(args.scenario)
-        if args.set:
-            from hil_bench.scenario import derive_scenario
-            overrides = tuple(_parse_set(item) for item in args.set)
-            scn = derive_scenario(args.scenario, f"{scn.name}@set", overrides,
-                                  note="bench run --set")
+        scn = (derive_scenario(args.scenario, load_scenario(args.scenario).name, args.set,
+                               note="bench run --set") if args.set else load_scenario(args.scenario))
         result = run_scenario(scn, link_spec=args.link, out_path=args.out,
                               progress=not args.no_progress, allow_slow_link=args.allow_slow_link,
                               force=args.force, realtime=True if args.realtime else None,
@@ -327,6 +306,46 @@ def _cmd_claims(args: argparse.Namespace) -> int:
     return 0
 
 
+def _override(text: str) -> tuple[str, object]:
+    """``KEY=VALUE`` of ``bench run --set``: VALUE as a TOML value, else as a plain string."""
+    import tomllib
+
+    key, eq, value = text.partition("=")
+    key = key.strip()
+    if not eq or not key or any(not part.strip() for part in key.split(".")):
+        raise argparse.ArgumentTypeError(f"{text!r}: use KEY=VALUE with a dotted scenario key, "
+                                         f"e.g. plant.inverter_nonlinear=true")
+    try:
+        return key, tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        return key, value.strip()
+
+
+def _version() -> str:
+    """pip's form: version, where it runs from, the Python; and whether the C parts are there."""
+    import platform
+
+    from hil_bench.installation import checkout_root, missing_modules, version
+
+    where = Path(__file__).resolve().parent
+    built = "C parts missing: " + ", ".join(missing_modules()) if missing_modules() else "C built"
+    origin = f"checkout {checkout_root()}" if checkout_root() else str(where)
+    return (f"bench (hil-bench) {version()} from {origin} (python "
+            f"{platform.python_version()}; {built})")
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the text is made only when asked for (it looks for the compiled parts)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help=None):  # noqa: A002 - argparse's keyword
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_version())
+        parser.exit()
+
+
 def add_executor_args(p: argparse.ArgumentParser) -> None:
     """Where the runs go (hil_bench.cluster): the same options on every command that spreads runs."""
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
@@ -339,6 +358,8 @@ def add_executor_args(p: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="bench", description="HIL bench for sensorless PMSM firmware")
+    p.add_argument("--version", action=_VersionAction, help="show the version, where hil-bench "
+                   "runs from and whether its C parts are built, then exit")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("run", help="run a scenario against a controller and record it")
@@ -350,6 +371,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "socketcand interface), 'serial:<port-or-url>[@baud]' or "
                         "'can:<interface>:<channel>[@bitrate][,fd]' for a real drive")
     r.add_argument("--out", type=Path, default=None, help="recording path (.mcap)")
+    r.add_argument("--set", metavar="KEY=VALUE", type=_override, action="append", default=[],
+                   help="override a scenario value by its dotted key (as campaigns do), e.g. "
+                        "--set plant.inverter_nonlinear=true --set controller.params.SMO_K_V=30 "
+                        "--set controller.estimator=SMO_TANH; VALUE is read as TOML (a number, "
+                        "true/false, [array], \"string\"), else as a plain string; repeatable")
     r.add_argument("--force", action="store_true",
                    help="replace an existing --out file and the run's side files beside it "
                         "(<out>.serial.bin, <out>.log)")
@@ -373,10 +399,6 @@ def build_parser() -> argparse.ArgumentParser:
                         "real time (the run is then slower than real time, results unchanged)")
     r.add_argument("--strict", action="store_true",
                    help="exit 1 if any paper claim does not reproduce")
-    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a scenario value by its dotted key (repeatable), e.g. "
-                        "--set plant.inverter=switching --set controller.speed_ref_rpm=800; "
-                        "the recording attaches the derived scenario")
     r.set_defaults(func=_cmd_run)
 
     lay = sub.add_parser("layout", help="write a Foxglove / Lichtblick layout for a scenario's "
@@ -460,10 +482,24 @@ def build_parser() -> argparse.ArgumentParser:
                    help="reuse recordings already in <out>/recordings (development)")
     k.set_defaults(func=_cmd_claims)
 
-    from hil_bench.replay.cli import add_parser as add_replay_parser
+    try:
+        from hil_bench.replay.cli import add_parser as add_replay_parser
+    except ImportError as exc:   # its options come from the C engine: --help/--version still work
+        from hil_bench.installation import is_native_import_error
 
-    add_replay_parser(sub)
+        if not is_native_import_error(exc):
+            raise
+        q = sub.add_parser("replay", help="rerun a logged capture (needs the compiled C)")
+        q.set_defaults(func=_native_missing(exc))
+    else:
+        add_replay_parser(sub)
     return p
+
+
+def _native_missing(exc: ImportError):
+    def fail(args: argparse.Namespace) -> int:
+        raise exc
+    return fail
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -478,6 +514,14 @@ def main(argv: list[str] | None = None) -> int:
         # anywhere else a Ctrl-C ends the command, without a traceback
         Console(stderr=True).print("interrupted by the user")
         rc = 130
+    except ImportError as exc:
+        from hil_bench.installation import how_to_build, is_native_import_error
+
+        if not is_native_import_error(exc):
+            raise
+        Console(stderr=True).print(f"[red]error:[/red] hil-bench's compiled C is missing "
+                                   f"({exc.name or exc}): {how_to_build()}", highlight=False)
+        return 2
     if rc == 130:
         # the command ends because the user interrupted it: a further Ctrl-C (the user pressing
         # again) must not turn the exit into a KeyboardInterrupt at interpreter shutdown

@@ -3,9 +3,10 @@
 Declarations live in ``firmware_stub/cdef/*.cdef`` (one file per C module, cffi syntax; partial
 structs end in ``...;`` so the real header fixes the layout). Every ``firmware_stub/src/*.c`` is
 compiled in, with the generated protocol codec, exactly as the stub and the DSP build them.
-Built by ``tools/build_native.py`` (``make build``) into ``hil_bench.firmware_stub._fw_c``;
-``make_builder(sanitize=True)`` is the AddressSanitizer + UndefinedBehaviorSanitizer build
-(``tools/build_native.py --sanitize``, into build-asan/python/).
+Built by CMake (cmake/cffi_modules.cmake: into the wheel, or by ``make build`` next to this
+file) into ``hil_bench.firmware_stub._fw_c``; ``make_builder(sanitize=True)`` is the
+AddressSanitizer + UndefinedBehaviorSanitizer build (``make sanitize``, imported from
+build-asan/python/).
 """
 from pathlib import Path
 

@@ -1,9 +1,10 @@
 """cffi API-mode builder for the C plant: module ``hil_bench.plant_rt._plant_c``.
 
-Run ``python tools/build_native.py`` (or ``make build``), which compiles ``ffibuilder`` and
-places the extension next to this file. ``make_builder(sanitize=True)`` is the same module built
-with AddressSanitizer + UndefinedBehaviorSanitizer (``tools/build_native.py --sanitize``, into
-build-asan/python/, never next to this file). The cdef below mirrors ``plant_rt/c/plant.h`` (and the
+CMake compiles ``ffibuilder`` (cmake/cffi_modules.cmake through cmake/cffi_emit.py): into the
+wheel, or for development (``make build``) into build/ and next to this file.
+``make_builder(sanitize=True)`` is the same module built with AddressSanitizer +
+UndefinedBehaviorSanitizer (``make sanitize``: build-asan/, imported from build-asan/python/,
+never next to this file). The cdef below mirrors ``plant_rt/c/plant.h`` (and the
 parts' headers for their stand-alone functions); the structs are declared field by field, so cffi checks their layout against the real header
 when it compiles the module (a field added to the header without updating this file fails
 the build).
@@ -426,14 +427,16 @@ def make_builder(sanitize: bool = False) -> FFI:
         + [str(PROTOCOL_C / "hil_msgs.c"), str(PROTOCOL_C / "hil_framing.c"),
            str(SIL_PORT / "sil_port.c")],
         include_dirs=[str(C_DIR), str(FW_SRC), str(PROTOCOL_C), str(SIL_PORT)],
-        # ISO C (-std=c99): no FMA contraction, so -O3 and LTO give the same results as -O2
+        # ISO C (-std=c99): no FMA contraction, so -O3 and LTO give the same results as -O2;
+        # -flto=auto: LTO's link step in parallel under make's jobserver (plain -flto warns
+        # "using serial compilation")
         extra_compile_args=(SANITIZE_COMPILE_ARGS if sanitize
-                            else ["-O3", "-std=c99", "-flto", "-ffp-contract=off",
+                            else ["-O3", "-std=c99", "-flto=auto", "-ffp-contract=off",
                                   "-fno-semantic-interposition"]),
         # -fno-semantic-interposition: calls between the module's own C files inline under LTO
         # (nothing outside the module interposes them); no effect on floating-point results
         extra_link_args=(SANITIZE_LINK_ARGS if sanitize
-                         else ["-O3", "-flto", "-fno-semantic-interposition"]),
+                         else ["-O3", "-flto=auto", "-fno-semantic-interposition"]),
         libraries=["m"],
     )
     return builder

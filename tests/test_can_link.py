@@ -234,6 +234,115 @@ def test_docs_can_table_is_current():
     assert m.group(1) == budget.can_link_table(), "regenerate with hil_bench.protocol.budget.can_link_table()"
 
 
+# -- python-can's own configuration (docs/protocol.md 8.2) ----------------------------------------
+
+@pytest.fixture(autouse=True)
+def python_can_config(tmp_path, monkeypatch):
+    """Each test sees only the python-can configuration it writes: no CAN_* variables, no can.rc,
+    and the config file list pointed at tmp_path/canrc (not ~/.canrc or /etc/can.conf)."""
+    for var in [v for v in __import__("os").environ if v.startswith("CAN_")]:
+        monkeypatch.delenv(var)
+    monkeypatch.setattr(can, "rc", {})
+    path = tmp_path / "canrc"
+    monkeypatch.setattr(can.util, "CONFIG_FILES", [str(path)])
+    return path
+
+
+def test_bare_can_takes_interface_channel_and_bitrate_from_the_environment(monkeypatch):
+    monkeypatch.setenv("CAN_INTERFACE", "virtual")
+    monkeypatch.setenv("CAN_CHANNEL", "lab-bus")
+    monkeypatch.setenv("CAN_BITRATE", "500000")
+    s = parse_can_spec("can")
+    assert (s.interface, s.channel, s.bitrate, s.bitrate_given, s.fd) == \
+        ("virtual", "lab-bus", 500_000, True, False)
+    assert s.config_note == "interface, channel, bit rate from python-can's configuration"
+
+
+def test_the_link_string_wins_over_the_configuration(monkeypatch, python_can_config):
+    python_can_config.write_text("[default]\ninterface = pcan\nchannel = PCAN_USBBUS1\n"
+                                 "bitrate = 250000\n")
+    monkeypatch.setenv("CAN_BITRATE", "500000")           # environment beats the file
+    s = parse_can_spec("can:virtual:mine")
+    assert (s.interface, s.channel, s.bitrate) == ("virtual", "mine", 500_000)
+    assert s.config_note == "bit rate from python-can's configuration"
+    s = parse_can_spec("can:virtual:mine@125k")
+    assert (s.bitrate, s.config_note) == (125_000, "")
+    s = parse_can_spec("can@1M")                          # interface and channel from the file
+    assert (s.interface, s.channel, s.bitrate) == ("pcan", "PCAN_USBBUS1", 1_000_000)
+    s = parse_can_spec("can:kvaser")                      # the channel alone from the file
+    assert (s.interface, s.channel) == ("kvaser", "PCAN_USBBUS1")
+
+
+def test_a_context_selects_a_section_and_its_environment_suffix(monkeypatch, python_can_config):
+    python_can_config.write_text(
+        "[default]\ninterface = virtual\nchannel = office\n"
+        "[bench2]\ninterface = virtual\nchannel = bench2-bus\nbitrate = 500000\nfd = True\n"
+        "data_bitrate = 2000000\nreceive_own_messages = True\n")
+    assert parse_can_spec("can").channel == "office"
+    s = parse_can_spec("can,context=bench2")
+    assert (s.channel, s.bitrate, s.fd, s.data_bitrate) == ("bench2-bus", 500_000, True, 2_000_000)
+    assert s.options == {"receive_own_messages": True}   # the rest goes to can.Bus
+    assert s.config_note == ("interface, channel, bit rate, fd, data bit rate from python-can's "
+                             "configuration, context 'bench2'")
+    # the budget follows what the configuration said: FD with a 2 Mbit/s data phase
+    from hil_bench.loop.links import spec_max_cycle_rate_hz
+
+    rate, name = spec_max_cycle_rate_hz("can,context=bench2", 0)
+    assert rate == pytest.approx(budget.can_max_rate_hz(500_000, 0, fd=True, data_bitrate=2_000_000))
+    monkeypatch.setenv("CAN_CHANNEL_bench2", "from-env")   # CAN_<VAR>_<context> beats the file
+    assert parse_can_spec("can,context=bench2").channel == "from-env"
+
+
+def test_can_rc_is_read_first(monkeypatch):
+    monkeypatch.setenv("CAN_INTERFACE", "pcan")
+    monkeypatch.setattr(can, "rc", {"interface": "virtual", "channel": "rc-bus"})
+    s = parse_can_spec("can")
+    assert (s.interface, s.channel, s.bitrate_given) == ("virtual", "rc-bus", False)
+    assert s.bus_name == "classic CAN 1 Mbit/s (assumed: give the bus's @bitrate)"
+
+
+@pytest.mark.parametrize("setup, spec, message", [
+    ({}, "can", "names no CAN interface and python-can's configuration has none (CAN_INTERFACE"),
+    ({"CAN_INTERFACE": "virtual"}, "can", "names no CAN channel and python-can's configuration "
+                                          "has none (CAN_CHANNEL"),
+    ({}, "can,context=lab9", "configuration (context 'lab9') has none"),
+    ({"CAN_INTERFACE": "nosuchbus", "CAN_CHANNEL": "0"}, "can",
+     "CAN interface (from python-can's configuration) is not available here"),
+    ({"CAN_INTERFACE": "virtual", "CAN_CHANNEL": "x", "CAN_CONFIG": '{"data_bitrate": 2000000}'},
+     "can", "data_bitrate needs CAN FD"),
+    ({}, "can:", "use can:<interface>:<channel>"),
+    ({}, "canx", "unknown link spec"),
+])
+def test_configuration_gaps_are_named(monkeypatch, setup, spec, message):
+    for k, v in setup.items():
+        monkeypatch.setenv(k, v)
+    with pytest.raises(LinkError) as info:
+        open_link(spec) if spec == "canx" else parse_can_spec(spec)
+    assert message in str(info.value) and spec in str(info.value)
+
+
+def test_a_link_opened_from_the_configuration_says_so_and_the_stub_links_ignore_it(
+        python_can_config, tmp_path):
+    python_can_config.write_text("[default]\ninterface = virtual\nchannel = cfg-bus\n"
+                                 "bitrate = 500000\nreceive_own_messages = True\n")
+    opened = open_link("can")
+    try:
+        assert opened.link.description == ("virtual cfg-bus, classic CAN 500 kbit/s (interface, "
+                                           "channel, bit rate from python-can's configuration)")
+        assert opened.link.bus.receive_own_messages is True     # a configured Bus argument
+    finally:
+        opened.close()
+    # a spec that is complete (the stub's links) gets exactly what it says: python-can does not
+    # merge ~/.canrc into it (receive_own_messages would echo every frame back to the bench)
+    from hil_bench.loop.links.can_link import open_can_bus
+
+    bus = open_can_bus(CanSpec("virtual", "stub-bus"))
+    try:
+        assert bus.receive_own_messages is False
+    finally:
+        bus.shutdown()
+
+
 class _FakeSocketcand:
     """A socketcand gateway on 127.0.0.1 that greets, opens, enters rawmode and then sends what the
     test gives it (bounded: one client, closed by the test)."""

@@ -1,8 +1,10 @@
 """The house's rules (docs/architecture.md, "The house"), read from the source by
 tools/import_graph.py: no import circle between modules or between sub-packages, nothing in
 plant_rt, protocol or firmware_stub imports the bench above it, and the claims registry
-(hil_bench.claims) imports nothing of the bench; and pyproject.toml installs every package of the
-namespace."""
+(hil_bench.claims) imports nothing of the bench; pyproject.toml maps the namespace over the same
+folders the graph reads (the wheel holds every package of them and their data files:
+tests/test_wheel.py); and no module hides the API's names (hil_bench.run, .check,
+.load_recording)."""
 from __future__ import annotations
 
 import importlib.util
@@ -51,22 +53,38 @@ def test_the_lower_layers_import_nothing_of_the_bench(graph):
     assert {m: d for m, d in up.items() if d} == {}
 
 
+def namespace_folders() -> dict[str, Path]:
+    """pyproject.toml's map of the namespace onto the repository's folders (scikit-build-core:
+    bench/ by force-include, the others by wheel.packages): dotted name -> folder."""
+    wheel = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["scikit-build"]["wheel"]
+    pairs = [(dest, src) for src, dest in wheel["force-include"].items()]
+    pairs += list(wheel["packages"].items())
+    return {dest.replace("/", "."): ROOT / src for dest, src in pairs}
+
+
 def _package_dirs() -> dict[str, Path]:
-    """Every package of the namespace on disk (a folder with an __init__.py under the folders of
-    pyproject.toml's package-dir): dotted name -> folder."""
-    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    """Every package of the namespace on disk (a folder with an __init__.py under the mapped
+    folders): dotted name -> folder."""
     out: dict[str, Path] = {}
-    for name, folder in project["tool"]["setuptools"]["package-dir"].items():
-        for init in (ROOT / folder).rglob("__init__.py"):
-            rel = init.parent.relative_to(ROOT / folder).parts
+    for name, folder in namespace_folders().items():
+        for init in folder.rglob("__init__.py"):
+            rel = init.parent.relative_to(folder).parts
             out[".".join((name,) + rel)] = init.parent
     return out
 
 
-def test_pyproject_installs_every_package():
-    """pyproject.toml lists its packages by hand: one left out is missing from the wheel."""
-    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    assert listed == set(_package_dirs())
+def test_pyproject_maps_the_folders_the_import_graph_reads(ig):
+    """Packages are found, not listed (every folder is copied whole into the wheel): what must
+    agree is the map of the namespace onto folders, here and in tools/import_graph.py."""
+    assert namespace_folders() == ig.FOLDERS
+
+
+def test_the_api_names_are_not_hidden_by_modules():
+    """``hil_bench.run`` is the API's function: a sub-package or module named run, check or
+    load_recording would replace it as an attribute once imported."""
+    names = {name.split(".")[1] for name in _package_dirs() if name.count(".") >= 1}
+    names |= {p.stem for p in namespace_folders()["hil_bench"].glob("*.py")}
+    assert names.isdisjoint({"run", "check", "load_recording"})
 
 
 def test_the_graph_sees_every_module_of_the_namespace(ig, graph):

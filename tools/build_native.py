@@ -1,13 +1,18 @@
 #!/usr/bin/env python3
-"""Compile the cffi API-mode extension modules in place (next to their Python package).
+"""Build the cffi extension modules for development, with CMake, where Python imports them from.
 
-Each package that has C bindings exposes an ``ffibuilder`` in ``<package>/_build_cffi.py``.
-Intermediate files go to ``build/cffi/<package>``; only the extension module is copied into the
-package directory. Run from the repository root: ``python tools/build_native.py``.
+CMake builds every module from its package's ``_build_cffi.py`` (cmake/cffi_modules.cmake; the
+same build makes the wheel's modules). ``make build`` configures build/ with
+``HIL_PYTHON_INPLACE=ON``, so each build also puts the module next to its package's sources,
+where the development install (an editable install of the Python alone) imports it from; after
+editing a .c file, ``make build`` (or ``cmake --build build``) rebuilds what changed and puts the
+new module in place. ``python tools/build_native.py`` does the same for the modules alone
+(configuring build/ first if needed). Run from anywhere; the interpreter running it is the one
+the modules are built for.
 
 ``--sanitize`` builds the same modules with AddressSanitizer + UndefinedBehaviorSanitizer
-(``<package>/_build_cffi.py``'s ``make_builder(sanitize=True)``) into a separate import root,
-``build-asan/python/hil_bench/``: the installed layout (``hil_bench`` = bench/, with
+(``make_builder(sanitize=True)``, CMake's ``HIL_SANITIZE``) in build-asan/ and makes a separate
+import root, ``build-asan/python/hil_bench/``: the installed layout (``hil_bench`` = bench/, with
 ``plant_rt``, ``firmware_stub`` and ``protocol`` inside it) as directories of symlinks to the
 repository's files, with the sanitized extensions in place of the normal ones, so the normal
 build is untouched. A process uses it with (``make sanitize`` builds it;
@@ -17,29 +22,55 @@ tests/test_loop_sanitized.py runs the closed loop on it)::
     UBSAN_OPTIONS=halt_on_error=1 PYTHONPATH=build-asan/python python ...
 
 (from the repository root, or with an absolute PYTHONPATH from anywhere: the root holds no
-``hil_bench`` that could come first on ``sys.path``). The interpreter is not instrumented:
+``hil_bench`` that could come first on ``sys.path``). The editable install's import redirect
+(scikit-build-core's, first on ``sys.meta_path``) would still serve ``hil_bench`` from the
+checkout: the import root's ``sitecustomize.py``, which Python runs at start-up from
+PYTHONPATH, takes it out. The interpreter is not instrumented:
 ASan's runtime must be loaded first (LD_PRELOAD), and leak detection is off because CPython
 keeps memory until exit by design.
 """
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("plant_rt", "firmware_stub")
 SANITIZED_ROOT = ROOT / "build-asan" / "python"
+SUBPACKAGES = ("plant_rt", "firmware_stub", "protocol")   # folders installed inside hil_bench
 
 
-def _builder(package: str, sanitize: bool):
-    # by path: the builder needs only cffi, not the package (which needs the built module)
-    spec = importlib.util.spec_from_file_location(f"_build_cffi_{package}",
-                                                  ROOT / package / "_build_cffi.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.make_builder(sanitize=True) if sanitize else module.ffibuilder
+def packages_with_modules() -> list[str]:
+    """The repository folders that have a cffi builder (one extension module each)."""
+    return sorted(p.parent.name for p in ROOT.glob("*/_build_cffi.py"))
+
+
+def cmake_build(build_dir: Path, sanitize: bool) -> None:
+    """Configure ``build_dir`` for the modules if it is not yet, then build their targets."""
+    cache = build_dir / "CMakeCache.txt"
+    lines = set(cache.read_text().splitlines()) if cache.exists() else set()
+    wanted = {"HIL_PYTHON_MODULES:BOOL=ON", f"Python_EXECUTABLE:FILEPATH={sys.executable}"}
+    wanted |= ({"CMAKE_BUILD_TYPE:STRING=Debug", "HIL_SANITIZE:BOOL=ON"} if sanitize else
+               {"HIL_PYTHON_INPLACE:BOOL=ON"})
+    if not wanted <= lines:
+        build_type = "Debug" if sanitize else "RelWithDebInfo"
+        args = ["cmake", "-S", str(ROOT), "-B", str(build_dir), f"-DCMAKE_BUILD_TYPE={build_type}"]
+        args += sorted("-D" + w.replace(":BOOL", "").replace(":FILEPATH", "").replace(":STRING", "")
+                       for w in wanted if not w.startswith("CMAKE_BUILD_TYPE"))
+        subprocess.run(args, check=True, stdout=subprocess.DEVNULL)
+    targets = [f"cffi_{p}" for p in packages_with_modules()]
+    subprocess.run(["cmake", "--build", str(build_dir), "-j2", "--target", *targets], check=True)
+
+
+def built_module(build_dir: Path, package: str) -> Path:
+    """The module CMake built for ``package`` (build_dir/cffi/<package>/<name>.<SOABI>.so)."""
+    found = sorted((build_dir / "cffi" / package).glob("*.so"))
+    if len(found) != 1:
+        raise SystemExit(f"expected one extension module in {build_dir / 'cffi' / package}, "
+                         f"found {[p.name for p in found]}")
+    return found[0]
 
 
 def _install(built: Path, target: Path) -> Path:
@@ -49,13 +80,6 @@ def _install(built: Path, target: Path) -> Path:
     shutil.copy2(built, tmp)
     tmp.replace(target)
     return target
-
-
-def build(package: str) -> Path:
-    tmpdir = ROOT / "build" / "cffi" / package
-    tmpdir.mkdir(parents=True, exist_ok=True)
-    built = Path(_builder(package, False).compile(tmpdir=str(tmpdir), verbose=False))
-    return _install(built, ROOT / package / built.name)
 
 
 def _farm(source: Path, farm: Path, skip) -> None:
@@ -71,16 +95,14 @@ def _farm(source: Path, farm: Path, skip) -> None:
         (farm / entry.name).symlink_to(entry)
 
 
-def build_sanitized(package: str) -> Path:
+def sanitized_farm(package: str) -> Path:
     """build-asan/python/hil_bench/<package>/: symlinks to the package's entries, the sanitized
-    module; hil_bench itself (bench/) and protocol/ as symlinks."""
-    tmpdir = ROOT / "build-asan" / "cffi" / package
-    tmpdir.mkdir(parents=True, exist_ok=True)
-    built = Path(_builder(package, True).compile(tmpdir=str(tmpdir), verbose=False))
+    module; hil_bench itself (bench/) and the other sub-packages as symlinks."""
+    built = built_module(ROOT / "build-asan", package)
     ext_prefix = built.name.split(".", 1)[0] + "."          # e.g. "_plant_c."
     top = SANITIZED_ROOT / "hil_bench"
-    _farm(ROOT / "bench", top, lambda e: e.name in ("plant_rt", "firmware_stub", "protocol"))
-    for sub in ("plant_rt", "firmware_stub", "protocol"):
+    _farm(ROOT / "bench", top, lambda e: e.name in SUBPACKAGES)
+    for sub in SUBPACKAGES:
         if sub != package and not (top / sub).exists():
             (top / sub).symlink_to(ROOT / sub)
     if (top / package).is_symlink():
@@ -91,15 +113,33 @@ def build_sanitized(package: str) -> Path:
     return _install(built, farm / built.name)
 
 
+SITECUSTOMIZE = '''"""build-asan/python/ (tools/build_native.py --sanitize): this import root's hil_bench, with
+the sanitized modules, must be the one imported. Python runs this at start-up when
+PYTHONPATH=build-asan/python; it takes the checkout's editable-install import redirect (which
+maps hil_bench onto the checkout's folders, ahead of PYTHONPATH) out of sys.meta_path."""
+import sys
+
+sys.meta_path[:] = [f for f in sys.meta_path
+                    if not type(f).__module__.startswith("_editable_skbc_hil_bench")]
+'''
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sanitize", action="store_true",
                     help="ASan + UBSan build into build-asan/python/ (the normal build untouched)")
     args = ap.parse_args(argv)
-    for package in PACKAGES:
-        if not (ROOT / package / "_build_cffi.py").exists():
-            continue
-        target = build_sanitized(package) if args.sanitize else build(package)
+    build_dir = ROOT / ("build-asan" if args.sanitize else "build")
+    cmake_build(build_dir, args.sanitize)
+    if args.sanitize:
+        SANITIZED_ROOT.mkdir(parents=True, exist_ok=True)
+        (SANITIZED_ROOT / "sitecustomize.py").write_text(SITECUSTOMIZE)
+    for package in packages_with_modules():
+        if args.sanitize:
+            target = sanitized_farm(package)
+        else:
+            built = built_module(build_dir, package)
+            target = ROOT / package / built.name          # put there by the POST_BUILD step
         print(f"built {target.relative_to(ROOT)}{' (ASan + UBSan)' if args.sanitize else ''}")
     return 0
 

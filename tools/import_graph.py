@@ -17,7 +17,8 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-#: the repository folder of each top-level part of the namespace (pyproject.toml's package-dir)
+#: the repository folder of each top-level part of the namespace (pyproject.toml's folder map,
+#: [tool.scikit-build] wheel.force-include and wheel.packages: tests/test_house.py holds them equal)
 FOLDERS = {"hil_bench": ROOT / "bench", "hil_bench.plant_rt": ROOT / "plant_rt",
            "hil_bench.protocol": ROOT / "protocol", "hil_bench.firmware_stub": ROOT / "firmware_stub"}
 

@@ -27,6 +27,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from hil_bench.cluster.limits import expired
+from hil_bench.installation import checkout_root, version
 from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
 from hil_bench.plant_rt.profile import load_profile
@@ -39,7 +40,6 @@ from .host_session import HostSession
 from .links import STUB_CAN_MODES, LinkError, OpenedLink, open_link
 from .links.engine_fd import engine_link_for
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
 RECORDINGS_DIR = Path("recordings")
 MAX_CONSECUTIVE_BAD_DUTIES = 10
 STATS_EVERY_CYCLES = 1000
@@ -225,11 +225,17 @@ def controller_params(scn, profile, plant_params, ts_s: float, mode: str = "lock
 
 
 def git_revision() -> str:
+    """The checkout's git revision (``-dirty`` with local changes); an installed package has
+    none (its version is recorded beside it: ``hil_bench_version``), and a virtual environment
+    that happens to sit inside some git work tree must not lend it that tree's revision."""
+    root = checkout_root()
+    if root is None:
+        return "none (installed package)"
     try:
-        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True,
+        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
                              text=True, timeout=5).stdout.strip()
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=REPO_ROOT, capture_output=True, text=True,
+                               cwd=root, capture_output=True, text=True,
                                timeout=5).stdout.strip()
         return (rev or "unknown") + ("-dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
@@ -638,6 +644,7 @@ class Runner:
                            "firmware_stub/src in process (software in the loop)"
                            if _is_sil_link(self.link_spec) else self.link_spec),
             "git_revision": git_revision(),
+            "hil_bench_version": version(),
             "python": platform.python_version(),
             "numpy": np.__version__,
             "mcap": getattr(mcap, "__version__", "?"),

@@ -298,11 +298,11 @@ def print_faults(faults: list, console: Console) -> None:
         if o.trip_s is not None:
             react = escape(f"; after the trip: {o.duties_after_trip} DUTY frame(s) not all legs "
                            f"off, state {o.state_after or '?'}")
-        console.print(f"{head} at {o.t_on_s:.4f} s: {what}; peak |i| {_fmt(o.peak_current_a, 'A')}, "
-                      f"|T_e| {_fmt(o.peak_torque_nm, 'N m')}{react}")
+        console.print(f"{head} at {o.t_on_s:.4f} s: {what}; peak |i| {fmt_value(o.peak_current_a, 'A')}, "
+                      f"|T_e| {fmt_value(o.peak_torque_nm, 'N m')}{react}")
 
 
-def _fmt(v: float, unit: str = "") -> str:
+def fmt_value(v: float, unit: str = "") -> str:
     if not math.isfinite(v):
         return "n/a"
     s = f"{v:.4g}"
@@ -332,7 +332,7 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
     console.print(f"window {w0:g}..{w1:g} s, speed reference {ctx.speed_ref_rpm:g} rpm")
     s = report.summary
     if s:
-        console.print("  ".join(f"{k}={_fmt(v)}" for k, v in s.items()))
+        console.print("  ".join(f"{k}={fmt_value(v)}" for k, v in s.items()))
     for cid in scn.claims:         # a claim asked for that no single recording measures
         if cid in CLAIMS and not any(r.claim.id == cid for r in report.results):
             console.print(escape(f"{cid}: no quantity of this claim is measured on one "
@@ -351,8 +351,8 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
                   "INVALID": "yellow"}.get(r.verdict, "red")
         paper = r.quantity.paper_value
         table.add_row(escape(r.claim.id), escape(r.quantity.what or r.quantity.metric),
-                      escape(paper if isinstance(paper, str) else _fmt(paper, unit)),
-                      _fmt(r.measured, unit), escape(r.quantity.rule_text()),
+                      escape(paper if isinstance(paper, str) else fmt_value(paper, unit)),
+                      fmt_value(r.measured, unit), escape(r.quantity.rule_text()),
                       f"[{colour}]{r.verdict}[/{colour}]" + escape(f" ({r.note})" if r.note else ""))
     console.print(table)
     shown = set()

@@ -106,6 +106,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--n", type=int, default=20000, help="measured calls per case")
     ap.add_argument("--json", action="store_true", help="also print one JSON line per case")
     args = ap.parse_args(argv)
+    if not SRC.is_dir() or not DRIVER.is_file():
+        sys.exit("hil_bench.perf.estimators compiles the firmware's C sources "
+                 f"({SRC}, {DRIVER.name}): run it in a checkout (an installed wheel has no C)")
     if shutil.which("valgrind") is None:
         sys.exit("valgrind not found (apt-get install valgrind)")
     exe, notes = build(OPTIONAL)

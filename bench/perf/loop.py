@@ -47,8 +47,6 @@ from pathlib import Path
 from hil_bench.protocol import budget
 from hil_bench.protocol.messages import HelloFlag
 
-REPO = Path(__file__).resolve().parents[2]
-
 G2 = """
 [scenario]
 name = "perf_loop"
@@ -106,9 +104,12 @@ def scenario(duration_s: float, mode: str = "lockstep", rate_hz: float = 10000.0
 
 
 def pty_ceiling(iterations: int) -> dict:
-    exe = REPO / "build" / "bin" / "pty_pingpong"
-    if not exe.exists():
-        sys.exit(f"{exe} not found: run `make build`")
+    from hil_bench.installation import find_executable
+
+    try:
+        exe = find_executable("pty_pingpong")
+    except FileNotFoundError as exc:
+        sys.exit(str(exc))
     up = budget.serial_frame_bytes(8) * 2                        # SENSE_AUX + SENSE
     down = budget.serial_frame_bytes(8) * 3                      # TELEM + TELEM_EMF + DUTY
     out = subprocess.run([str(exe), str(iterations), str(up), str(down)], capture_output=True,

@@ -47,7 +47,7 @@ from pathlib import Path
 
 from hil_bench.cluster import process_cpu_s as cpu_s
 
-REPO = Path(__file__).resolve().parents[2]
+PACKAGE = Path(__file__).resolve().parents[1]     # hil_bench (bench/ in a checkout)
 G2 = "gong_g2_500rpm"
 SHORT_S = 0.15
 
@@ -105,9 +105,12 @@ def pingpong(iterations: int) -> dict:
 
 
 def wakeup_floor(period_us: int, periods: int) -> dict:
-    exe = REPO / "build" / "bin" / "wakeup_latency"
-    if not exe.exists():
-        sys.exit(f"{exe} not found: run `make build`")
+    from hil_bench.installation import find_executable
+
+    try:
+        exe = find_executable("wakeup_latency")
+    except FileNotFoundError as exc:
+        sys.exit(str(exc))
     out = json.loads(subprocess.run([str(exe), str(period_us), str(periods)], capture_output=True,
                                     text=True, check=True).stdout)
     out["lost_rate"] = out["throttled"] / periods
@@ -137,7 +140,7 @@ def sweep_rate() -> dict:
         t0 = time.monotonic()
         c0 = cpu_s()
         proc = subprocess.run([sys.executable, "-m", "hil_bench", "sweep",
-                               str(REPO / "bench" / "sweeps" / "observers_speed_load.toml"),
+                               str(PACKAGE / "sweeps" / "observers_speed_load.toml"),
                                "--quick", "--out", tmp, "--no-progress"],
                               capture_output=True, text=True)
         wall = time.monotonic() - t0

@@ -14,6 +14,14 @@ spec                                                            meaning
                                                                 ...); default 1 Mbit/s; ``key=value`` go to
                                                                 ``can.Bus`` (e.g. ``host=``, ``port=`` for
                                                                 socketcand, ``tty_baudrate=`` for slcan)
+``can[:<interface>[:<channel>]][@bitrate][...][,context=NAME]`` what the spec leaves out (interface, channel, bit
+                                                                rate, fd, data bit rate, other Bus arguments)
+                                                                comes from python-can's own configuration:
+                                                                ``can.rc``, ``CAN_INTERFACE`` / ``CAN_CHANNEL`` /
+                                                                ``CAN_BITRATE`` / ``CAN_CONFIG`` (``_<NAME>``
+                                                                with a context), ~/.canrc and the other
+                                                                config files (section ``[NAME]``, else
+                                                                ``[default]``): ``can.util.load_config``
 ``stub-slcan[@bitrate][,fd][,data_bitrate=N]``                  the stub as a USB-CAN adapter speaking SLCAN on a
                                                                 pty, opened with python-can's slcan interface
 ``stub-socketcand[@bitrate]``                                   the stub as a socketcand server on loopback TCP,
@@ -100,8 +108,9 @@ def _option_value(text: str) -> object:
 
 
 def _parse_can_tail(head: str, options: list[str], spec: str, interface: str):
-    """``channel[@bitrate]`` and the comma options -> CanSpec (python-can imported here)."""
-    from .can_link import CanSpec
+    """``channel[@bitrate]`` and the comma options -> CanSpec (python-can imported here); the
+    spec's ``given`` names what it stated."""
+    from .can_link import CanSpec, check_can_rates
 
     channel, at, rate = head.rpartition("@")
     if not at:
@@ -110,41 +119,48 @@ def _parse_can_tail(head: str, options: list[str], spec: str, interface: str):
     fd = False
     data_bitrate = None
     extra: dict[str, object] = {}
+    given = {"bitrate"} if rate else set()
     for opt in options:
         key, eq, value = (s.strip() for s in opt.partition("="))
         if not key:
             raise LinkError(f"empty option in link spec {spec!r}")
         if key == "fd":
             fd = True if not eq else bool(_option_value(value))
+            given.add("fd")
         elif key == "data_bitrate":
             if not eq or not value:
                 raise LinkError(f"link spec {spec!r}: data_bitrate needs a value, e.g. data_bitrate=5M")
             data_bitrate = parse_rate(value, "data bit rate", spec)
+            given.add("data_bitrate")
         elif not eq:
             raise LinkError(f"link spec {spec!r}: option {key!r} needs a value (key=value); the "
                             f"flags are 'fd'")
         else:
             extra[key] = _option_value(value)
-    if data_bitrate is not None and not fd:
-        raise LinkError(f"link spec {spec!r}: data_bitrate needs CAN FD: add ',fd'")
-    if data_bitrate is not None and data_bitrate < bitrate:
-        raise LinkError(f"link spec {spec!r}: the data bit rate ({data_bitrate}) is below the "
-                        f"nominal bit rate ({bitrate})")
-    return CanSpec(interface=interface, channel=channel, bitrate=bitrate, fd=fd,
-                   data_bitrate=data_bitrate, bitrate_given=bool(rate), options=extra)
+    can_spec = CanSpec(interface=interface, channel=channel, bitrate=bitrate, fd=fd,
+                       data_bitrate=data_bitrate, bitrate_given=bool(rate), options=extra,
+                       given=frozenset(given | {k for k, v in (("interface", interface),
+                                                               ("channel", channel)) if v}))
+    check_can_rates(can_spec, spec)
+    return can_spec
 
 
 def parse_can_spec(spec: str):
-    """``can:<interface>:<channel>[@bitrate][,fd][,data_bitrate=N][,key=value...]`` -> CanSpec."""
-    body = spec[len("can:"):] if spec.startswith("can:") else spec
-    interface, colon, rest = body.partition(":")
-    head, *options = rest.split(",")
-    channel = head.rpartition("@")[0] if "@" in head else head
-    if not interface.strip() or not colon or not channel.strip():
-        raise LinkError(f"link spec {spec!r}: use can:<interface>:<channel>[@bitrate][,fd]"
-                        f"[,data_bitrate=N], e.g. can:socketcan:can0@500000, can:pcan:PCAN_USBBUS1@1M, "
-                        f"can:slcan:/dev/ttyACM0@1M, can:socketcand:can0,host=10.0.0.5,port=29536")
-    return _parse_can_tail(head, options, spec, interface.strip())
+    """``can[:<interface>[:<channel>]][@bitrate][,fd][,data_bitrate=N][,context=NAME]
+    [,key=value...]`` -> CanSpec. What the spec leaves out comes from python-can's own
+    configuration (``can.util.load_config``, section/suffix ``context``): can_link.py."""
+    from .can_link import CAN_SPEC_USAGE, with_python_can_config
+
+    body = spec[len("can"):] if spec.startswith("can") else spec
+    head, *options = body.split(",")
+    where, at, rate = head.rpartition("@") if "@" in head else (head, "", "")
+    if where and not where.startswith(":"):
+        raise LinkError(f"link spec {spec!r}: {CAN_SPEC_USAGE}")
+    interface, _, channel = where[1:].partition(":")
+    if where and not interface.strip():
+        raise LinkError(f"link spec {spec!r}: {CAN_SPEC_USAGE}")
+    can_spec = _parse_can_tail(channel.strip() + at + rate, options, spec, interface.strip())
+    return with_python_can_config(can_spec, spec)
 
 
 def parse_stub_can_spec(kind: str, tail: str, spec: str):

@@ -80,6 +80,10 @@ class CanSpec:
     data_bitrate: int | None = None
     bitrate_given: bool = True
     options: dict[str, object] = field(default_factory=dict)   #: extra keyword arguments of can.Bus
+    #: what the link spec stated (interface, channel, bitrate, fd, data_bitrate)
+    given: frozenset[str] = frozenset({"interface", "channel", "bitrate"})
+    #: which values came from python-can's configuration, and its context ("" if none did)
+    config_note: str = ""
 
     @property
     def bus_name(self) -> str:
@@ -87,6 +91,100 @@ class CanSpec:
         if self.bitrate_given or self.interface not in _NO_BITRATE_ARG:
             return name
         return f"{name} (assumed: give the bus's @bitrate)"
+
+
+def check_can_rates(can_spec: CanSpec, spec: str) -> None:
+    """The data bit rate needs FD and cannot be below the nominal one."""
+    if can_spec.data_bitrate is not None and not can_spec.fd:
+        raise LinkError(f"link spec {spec!r}: data_bitrate needs CAN FD: add ',fd'")
+    if can_spec.data_bitrate is not None and can_spec.data_bitrate < can_spec.bitrate:
+        raise LinkError(f"link spec {spec!r}: the data bit rate ({can_spec.data_bitrate}) is "
+                        f"below the nominal bit rate ({can_spec.bitrate})")
+
+
+CAN_SPEC_USAGE = ("use can:<interface>:<channel>[@bitrate][,fd][,data_bitrate=N], e.g. "
+                  "can:socketcan:can0@500000, can:pcan:PCAN_USBBUS1@1M, can:slcan:/dev/ttyACM0@1M, "
+                  "can:socketcand:can0,host=10.0.0.5,port=29536; or leave out what python-can's "
+                  "configuration gives (can, can:pcan, can,context=lab2)")
+
+
+#: what python-can's configuration may fill in that the bench reads itself (the rest goes to can.Bus)
+_CONFIG_FIELDS = ("interface", "channel", "bitrate", "fd", "data_bitrate")
+
+
+def with_python_can_config(spec: CanSpec, link_spec: str) -> CanSpec:
+    """``spec`` (a ``can...`` link spec, parsed) completed the python-can way: what it leaves out
+    -- interface, channel, bit rate, FD, data bit rate, any other Bus argument -- from
+    ``can.util.load_config(config=<what the spec gives>, context=<its context= option>)``, i.e.
+    from ``can.rc``, then ``CAN_INTERFACE`` / ``CAN_CHANNEL`` / ``CAN_BITRATE`` / ``CAN_CONFIG``
+    (with ``_<CONTEXT>`` first when a context is given), then the config files (~/.canrc,
+    ~/.can, ~/can.conf, /etc/can.conf; section ``[<context>]``, then ``[default]``). The link
+    spec always wins. The result says which values came from there (``config_note``: the run's
+    link description, recorded with the run)."""
+    options = dict(spec.options)
+    context = options.pop("context", None)
+    context = None if context in (None, "") else str(context)
+    given: dict[str, object] = {k: getattr(spec, k) for k in _CONFIG_FIELDS if k in spec.given}
+    given.update(options)
+    where = f" (context {context!r})" if context else ""
+    if not given.get("interface") and not _configured_interface(context):
+        raise LinkError(f"link spec {link_spec!r} names no CAN interface and python-can's "
+                        f"configuration{where} has none (CAN_INTERFACE, interface = ... in "
+                        f"~/.canrc): {CAN_SPEC_USAGE}")
+    try:
+        cfg = dict(can.util.load_config(config=given, context=context))
+    except can.CanInterfaceNotImplementedError as exc:
+        known = ", ".join(sorted(can.interfaces.VALID_INTERFACES))
+        name = repr(given["interface"]) if given.get("interface") else \
+            "(from python-can's configuration)"
+        raise LinkError(f"link spec {link_spec!r}: CAN interface {name} is not available here: "
+                        f"{exc} (python-can interfaces: {known})") from None
+    except (ValueError, TypeError, KeyError) as exc:
+        raise LinkError(f"link spec {link_spec!r}: python-can's configuration{where} is not "
+                        f"usable: {type(exc).__name__}: {exc}") from None
+    from_config = [k for k in _CONFIG_FIELDS
+                   if k not in given and cfg.get(k) not in (None, "", False)]
+    if cfg.get("channel") in (None, ""):
+        raise LinkError(f"link spec {link_spec!r} names no CAN channel and python-can's "
+                        f"configuration{where} has none (CAN_CHANNEL, channel = ... in "
+                        f"~/.canrc): {CAN_SPEC_USAGE}")
+    timing = cfg.get("timing")
+    bitrate = cfg.get("bitrate")
+    if bitrate is None and timing is not None:       # f_clock, brp, tseg1 ... in the config
+        bitrate = getattr(timing, "nom_bitrate", None) or getattr(timing, "bitrate", None)
+        from_config.append("bitrate")
+    data_bitrate = cfg.get("data_bitrate")
+    if data_bitrate is None and timing is not None and hasattr(timing, "data_bitrate"):
+        data_bitrate = timing.data_bitrate
+    try:
+        out = CanSpec(interface=str(cfg["interface"]), channel=str(cfg["channel"]),
+                      bitrate=int(bitrate) if bitrate is not None else DEFAULT_BITRATE,
+                      fd=bool(cfg.get("fd", False)),
+                      data_bitrate=int(data_bitrate) if data_bitrate is not None else None,
+                      bitrate_given=bitrate is not None,
+                      options={k: v for k, v in cfg.items() if k not in _CONFIG_FIELDS},
+                      given=spec.given)
+    except (TypeError, ValueError) as exc:
+        raise LinkError(f"link spec {link_spec!r}: python-can's configuration gives a bad value: "
+                        f"{exc}") from None
+    if from_config:
+        names = {"bitrate": "bit rate", "data_bitrate": "data bit rate"}
+        what = ", ".join(names.get(k, k) for k in sorted(set(from_config), key=from_config.index))
+        out.config_note = (f"{what} from python-can's configuration"
+                           + (f", context {context!r}" if context else ""))
+    check_can_rates(out, link_spec)
+    return out
+
+
+def _configured_interface(context: str | None) -> bool:
+    """Does any of python-can's configuration sources name an interface (load_config's own
+    sources, in its order)? Without one, load_config only says 'Unknown interface type None'."""
+    util = can.util
+    sources = (lambda: can.rc, lambda: util.load_environment_config(context),
+               lambda: util.load_environment_config(),
+               lambda: util.load_file_config(None, context) if context else {},
+               lambda: util.load_file_config())
+    return any(cfg.get("interface") or cfg.get("bustype") for cfg in (s() for s in sources))
 
 
 def _bus_kwargs(spec: CanSpec) -> dict[str, object]:
@@ -119,10 +217,13 @@ def open_can_bus(spec: CanSpec, handshake_timeout_s: float = HANDSHAKE_TIMEOUT_S
             # python-can reads the greeting with a blocking recv: bound it, so a server that accepts
             # but never answers cannot hang the bench
             socket.setdefaulttimeout(handshake_timeout_s)
+        # the spec is complete (with_python_can_config merged the configuration once): python-can
+        # must not add to it (a ~/.canrc with fd = True would change a stub link's frames)
         if spec.interface == "socketcand":
             bus = SocketcandBus(channel=spec.channel, **kwargs)
         else:
-            bus = can.Bus(interface=spec.interface, channel=spec.channel, **kwargs)
+            bus = can.Bus(interface=spec.interface, channel=spec.channel, ignore_config=True,
+                          **kwargs)
         if spec.interface == "slcan" and spec.fd:
             bus.set_bitrate(spec.bitrate, spec.data_bitrate)   # S<n> + Y<n> (CANable 2.0 style)
     except can.CanInterfaceNotImplementedError as exc:
@@ -229,7 +330,8 @@ class CanLink(Link):
         self.spec = spec
         self.fd = spec.fd
         self.brs = spec.fd and spec.data_bitrate is not None
-        self.description = description or f"{spec.interface} {spec.channel}, {spec.bus_name}"
+        self.description = description or (f"{spec.interface} {spec.channel}, {spec.bus_name}"
+                                           + (f" ({spec.config_note})" if spec.config_note else ""))
         self.counters.extra.update({k: 0 for k in COUNTERS})
         self._warned: set[tuple[str, int]] = set()
         #: called when the interface fails, to say why if it can (StubProcess: "the stub died: ...")

@@ -26,23 +26,23 @@ import threading
 import tty
 from pathlib import Path
 
+from hil_bench.installation import find_executable
+
 from .base import LinkError
 from .serial_link import FdTransport, SerialLink
 
-REPO_ROOT = Path(__file__).resolve().parents[3]
 STUB_SOCKETCAND_BUS = "hil0"   #: the bus name the stub serves as a socketcand server
 STUB_GREETING_TIMEOUT_S = 1.0  #: the stub greets within milliseconds of starting
 MODES = ("serial", "slcan", "socketcand", "socketcan")
 
 
 def stub_path() -> Path:
-    """The stub executable: $HIL_STUB if set, else build/bin/hil_stub of this checkout."""
-    env = os.environ.get("HIL_STUB")
-    path = Path(env) if env else REPO_ROOT / "build" / "bin" / "hil_stub"
-    if not path.is_file() or not os.access(path, os.X_OK):
-        raise LinkError(f"firmware stub not found at {path}: run `make build` first "
-                        f"(or point $HIL_STUB at an hil_stub executable)")
-    return path
+    """The stub executable: $HIL_STUB if set, else the installed package's bin/hil_stub, else
+    build/bin/hil_stub of the checkout (hil_bench.installation)."""
+    try:
+        return find_executable("hil_stub", env="HIL_STUB")
+    except FileNotFoundError as exc:
+        raise LinkError(f"firmware stub: {exc}") from None
 
 
 STUB_START_TIMEOUT_S = 5.0   # for the stub to open its port ("listening on" on stderr)

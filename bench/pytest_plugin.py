@@ -1,0 +1,176 @@
+"""pytest plugin (entry point ``pytest11``, loaded wherever hil-bench is installed): a drive team's
+tests run scenarios against its controller, in CI against the bundled stub and on the bench
+against the drive, with the same tests (docs/api.md, examples/firmware_ci/)::
+
+    def test_startup_reproduces_gong(hil_run):
+        result = hil_run("gong_g2_500rpm")
+        result.assert_claims()              # fails with the paper-vs-measured table
+
+    pytest                                                # the bundled C stub on a pty
+    pytest --hil-link serial:/dev/ttyUSB0@3000000         # the drive on the bench
+    pytest --hil-link can                                 # python-can's own configuration
+
+Options: ``--hil-link SPEC`` (default: ini ``hil_link``, else ``stub``), ``--hil-stub PATH`` (the
+stub executable: a team's own host build of its firmware; default the bundled one or
+$HIL_STUB), ``--hil-recordings DIR`` (default: ``hil-recordings/`` in pytest's temporary
+folder). Fixtures: ``hil_link`` (the link spec, session-wide) and ``hil_run`` (a function that
+runs a scenario on it and returns a :class:`hil_bench.Result`). Every run's measured values go
+into the JUnit XML as properties (``<scenario>/<quantity>/measured``, ``.../verdict``, ...: the
+test's user_properties, as record_property does), and a failed test's report names its
+recordings.
+"""
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+_RECORDINGS = pytest.StashKey[list]()
+
+
+@dataclass(frozen=True)
+class HilLink:
+    """The controller the session's runs talk to (``--hil-link``)."""
+
+    spec: str
+
+    @property
+    def is_stub(self) -> bool:
+        """The bundled firmware stub (on any of its links), not a real drive."""
+        return self.spec == "stub" or self.spec.startswith(("stub-", "stub@", "stub,"))
+
+    def __str__(self) -> str:
+        return self.spec
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("hil-bench", "hil-bench: scenarios against a motor controller")
+    group.addoption("--hil-link", default=None, metavar="SPEC",
+                    help="the controller under test, as `bench run --link`: stub (the bundled C "
+                         "firmware stub, the default), stub-slcan, serial:/dev/ttyUSB0@3000000, "
+                         "can:<interface>:<channel>[@bitrate], can (python-can's configuration)")
+    group.addoption("--hil-stub", default=None, metavar="PATH",
+                    help="the stub executable for the stub links (default: $HIL_STUB, else the "
+                         "one hil-bench ships)")
+    group.addoption("--hil-recordings", default=None, metavar="DIR",
+                    help="where runs record (default: hil-recordings/ in pytest's basetemp)")
+    parser.addini("hil_link", "default of --hil-link", default="stub")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    stub = config.getoption("--hil-stub")
+    if stub:
+        # read by the stub launcher (hil_bench.installation.find_executable) in this process
+        os.environ["HIL_STUB"] = str(Path(stub).resolve())
+
+
+def _link(config: pytest.Config) -> HilLink:
+    return HilLink(config.getoption("--hil-link") or config.getini("hil_link") or "stub")
+
+
+def pytest_report_header(config: pytest.Config) -> list[str] | None:
+    if not _uses_hil(config):
+        return None
+    from hil_bench.installation import version
+
+    link = _link(config)
+    what = link.spec
+    if link.is_stub:
+        try:
+            from hil_bench.installation import find_executable
+
+            what += f" ({find_executable('hil_stub', env='HIL_STUB')})"
+        except FileNotFoundError as exc:
+            what += f" (not found: {exc})"
+    return [f"hil-bench {version()}: link {what}"]
+
+
+def _uses_hil(config: pytest.Config) -> bool:
+    """Only sessions that ask for it get the header (every session loads the plugin)."""
+    return any(config.getoption(o) for o in ("--hil-link", "--hil-stub", "--hil-recordings")) \
+        or bool(config.inicfg.get("hil_link"))
+
+
+@pytest.fixture(scope="session")
+def hil_link(pytestconfig: pytest.Config) -> HilLink:
+    """The link spec of this session's runs (``--hil-link``; ``.is_stub`` for the bundled stub)."""
+    return _link(pytestconfig)
+
+
+@pytest.fixture(scope="session")
+def hil_recordings(pytestconfig: pytest.Config, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The folder the session's recordings go to (``--hil-recordings``)."""
+    given = pytestconfig.getoption("--hil-recordings")
+    if given:
+        path = Path(given)
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+    return tmp_path_factory.mktemp("hil-recordings", numbered=False)
+
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
+
+
+@pytest.fixture
+def hil_run(request: pytest.FixtureRequest, hil_link: HilLink,
+            hil_recordings: Path) -> Callable[..., Any]:
+    """``hil_run(scenario, overrides=None, **kwargs) -> hil_bench.Result``: run a scenario on
+    ``hil_link``, record it under ``hil_recordings`` (named after the test), check it; its
+    measured values become JUnit XML properties. Keyword arguments are ``hil_bench.run``'s."""
+    from hil_bench.api import run
+
+    stem = _UNSAFE.sub("_", request.node.nodeid).strip("_")[-120:]
+    count = [0]
+
+    def _run(scenario: str | Path, overrides: Mapping[str, Any] | None = None,
+             **kwargs: Any) -> Any:
+        count[0] += 1
+        out = kwargs.pop("out", None) or hil_recordings / f"{stem}-{count[0]}.mcap"
+        request.node.stash.setdefault(_RECORDINGS, []).append(Path(out))
+        result = run(scenario, link=kwargs.pop("link", hil_link.spec), overrides=overrides,
+                     out=out, force=kwargs.pop("force", True), **kwargs)
+        _record(request.node.user_properties, result)
+        return result
+
+    return _run
+
+
+def _record(user_properties: list, result: Any) -> None:
+    """The run's figures as JUnit XML properties, prefixed with the scenario's name: what the
+    ``record_property`` fixture does, without its warning per test under junit_family xunit2
+    (pytest writes the properties for every family; xunit2's schema has no place for them:
+    junit_family = "xunit1" gives a file that validates)."""
+
+    def record_property(name: str, value: object) -> None:
+        user_properties.append((name, value))
+
+    pre = result.scenario
+    record_property(f"{pre}/recording", str(result.recording))
+    record_property(f"{pre}/integrity", "ok" if result.integrity.ok
+                    else "; ".join(result.integrity.problems) or "not ok")
+    if result.run is not None and result.run.error:
+        record_property(f"{pre}/run_error", result.run.error)
+    for c in result.claims:
+        key = f"{pre}/{c.quantity}"
+        record_property(f"{key}/measured", c.measured)
+        record_property(f"{key}/paper", c.paper)
+        record_property(f"{key}/unit", c.unit)
+        record_property(f"{key}/rule", c.rule)
+        record_property(f"{key}/verdict", c.verdict + (" (diagnostic)" if c.diagnostic else ""))
+    for name, value in result.metrics.items():
+        record_property(f"{pre}/metrics/{name}", value)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
+    outcome = yield
+    report = outcome.get_result()
+    paths = item.stash.get(_RECORDINGS, None)
+    if paths and report.failed:
+        lines = [f"{p}" + ("" if p.exists() else " (not written)") for p in paths]
+        report.sections.append(("hil-bench recordings", "\n".join(lines)))
