@@ -401,6 +401,14 @@ def check_params(params: Mapping[str, Any], *, step_limits: bool = True) -> tupl
     return None
 
 
+#: keys added after profiles were first attached to recordings (the switching inverter): a
+#: profile without them (a recording made before, replayed) reads them as what the plant did then
+#: (the averaged inverter; the switching-only keys at their bundled values). Every bundled profile
+#: states them.
+LATER_KEYS: dict[str, str] = {"inverter": "averaged", "carrier_at_start": "valley",
+                              "pwm_load": "extremum", "dual_sample_at": "delay"}
+
+
 #: "Off" values of the non-ideality fields = a zero-initialised plant_params_t.
 NONIDEAL_DEFAULTS: dict[str, Any] = {
     k: (False if kind == BOOL else "none" if kind == LOAD_KIND else () if kind == FLOAT_LIST
@@ -619,6 +627,9 @@ def parse_profile(doc: Mapping[str, Any], path: Path) -> MotorProfile:
             if key not in names:
                 raise unknown_key_error(where, f"{section}.{key}", key, names)
         for pname in names:
+            if pname not in tab and pname in LATER_KEYS:
+                params[pname] = LATER_KEYS[pname]   # a profile written before the key existed
+                continue
             if pname not in tab:
                 raise ProfileError(f"{where}: {section}.{pname}: missing")
             params[pname] = coerce_value(where, f"{section}.{pname}", tab[pname], PARAM_FIELDS[pname][1])

@@ -16,7 +16,8 @@ from hil_bench.record.recording import load_recording as read_columns
 from hil_bench.scenario import ScenarioError
 
 REPO = Path(__file__).resolve().parents[1]
-#: G2 cut to its start-up: the window (0.2..0.4 s) is the I-f ramp, so the 500 rpm claim fails
+#: G2 cut to its start-up: the window (0.2..0.4 s) is the I-f ramp, not G2's window: the claim
+#: does not apply to what ran (INVALID, never PASS or FAIL)
 SHORT_STARTUP = {"scenario.duration_s": 0.4, "metrics.window_s": [0.2, 0.4]}
 
 
@@ -33,11 +34,11 @@ def test_run_returns_claims_integrity_metrics_and_the_recording(short_run):
     assert r.integrity.ok and r.integrity.problems == ()
     keys = [c.quantity for c in r.claims]
     assert keys == ["G2.sf", "G2.sf.telemetry", "G2.pee", "G2.thd", "G2.current"]
-    # the start-up window does not hold 500 rpm: the verdict follows what ran
-    assert {c.quantity: c.verdict for c in r.claims}["G2.sf"] == "FAIL"
+    # another window than G2's: the verdict follows what ran, not the scenario's name
+    assert {c.verdict for c in r.claims} == {"INVALID"}
     assert not r.passed
-    # measured values are the check's, and the summary numbers the window's
-    assert r.measured("G2.pee") == pytest.approx(r.metrics["pee_max_rad"])
+    # the summary numbers are the window's
+    assert r.metrics["pee_max_rad"] > 0.0
     assert r.metrics["t_end_s"] == pytest.approx(0.3999)
     with pytest.raises(KeyError, match="measured no 'G9.x'.*G2.pee"):
         r.measured("G9.x")
@@ -56,12 +57,12 @@ def test_assert_claims_fails_with_the_paper_vs_measured_table(short_run):
     with pytest.raises(hil_bench.ClaimsNotReproduced) as info:
         short_run.assert_claims()
     text = str(info.value)
-    assert text.startswith("claims not reproduced: G2.sf FAIL; G2.pee FAIL")
+    assert text.startswith("claims not reproduced: G2.sf INVALID; G2.pee INVALID")
     assert str(short_run.recording) in text
     header = next(line for line in text.splitlines() if line.startswith("claim "))
     assert header.split() == ["claim", "quantity", "paper", "measured", "rule", "verdict"]
     assert "7.5 rpm" in text                                       # the paper's value
-    assert "[1] the drive did not hold 500 rpm" in text            # the verdict's reason
+    assert "[1] not G2's set-up (run G2): window" in text          # the verdict's reason
     with pytest.raises(hil_bench.ClaimsNotReproduced, match=r"measures no claim \['Y1'\]"):
         short_run.assert_claims(only="Y1")
 

@@ -201,7 +201,9 @@ def test_a_viewer_that_stops_reading_does_not_hold_the_run(tmp_path):
         assert result.cycles_done == result.cycles_planned
         assert viewer.error is None, repr(viewer.error)
         assert viewer.messages, "the viewer never got a message: it did not stall anything"
-        assert viewer.unread_octets > 64 * 1024, viewer.unread_octets
+        # the viewer holds data it never read (measured 45-70 KiB: the sockets' buffers, how
+        # full depends on how fast the run went); the run did not wait on it
+        assert viewer.unread_octets > 16 * 1024, viewer.unread_octets
     finally:
         viewer.release.set()
         viewer.done.wait(10)

@@ -93,13 +93,17 @@ def test_the_conformance_kit_passes_on_the_target(elf):
 def test_g2_on_the_target_has_the_host_stubs_verdicts(g2_runs):
     from hil_bench.papers.check import check_recording
 
-    verdicts = {}
+    verdicts, pee = {}, {}
     for link, (path, _) in g2_runs.items():
         report = check_recording(path)
         assert report.integrity.ok, f"{link}: {report.integrity}"
         verdicts[link] = {r.quantity.key: r.verdict for r in report.results}
+        pee[link] = report.summary["pee_max_rad"]
     assert verdicts["stub"] and verdicts["pil-qemu"] == verdicts["stub"]
-    assert verdicts["stub"]["G2.pee"] == "PASS"
+    # shortened for CI, the run is not G2's set-up (its window): INVALID on both, never PASS;
+    # the window's PEE itself is within the paper's 0.1 rad on both
+    assert verdicts["stub"]["G2.pee"] == "INVALID"
+    assert pee["stub"] < 0.1 and pee["pil-qemu"] < 0.1
 
 
 def test_g2_differences_to_the_host_build_are_float32_sized(g2_runs):
