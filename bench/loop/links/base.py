@@ -6,6 +6,7 @@ methods do the common work (counting, timeouts); backends implement ``_write_fra
 """
 from __future__ import annotations
 
+import subprocess
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -104,3 +105,17 @@ class Link(ABC):
 
     def _close(self) -> None:
         pass
+
+
+def reap(proc: subprocess.Popen, timeout_s: float) -> int:
+    """Wait for a controller process the bench owns (the stub, QEMU) to exit; terminate it, then
+    kill it, if it lingers past ``timeout_s`` each time. Returns its exit status."""
+    try:
+        return proc.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.terminate()
+        try:
+            return proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            return proc.wait()

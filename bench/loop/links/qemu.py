@@ -41,7 +41,7 @@ import time
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from .base import LinkError
+from .base import LinkError, reap
 from .serial_link import FdTransport, SerialLink
 
 REPO_ROOT = Path(__file__).resolve().parents[3]
@@ -417,14 +417,7 @@ class QemuProcess:
             except LinkError:
                 pass
         try:
-            return self.proc.wait(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            self.proc.terminate()
-            try:
-                return self.proc.wait(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                return self.proc.wait()
+            return reap(self.proc, timeout_s)
         finally:
             try:
                 self.proc.stdin.close()

@@ -28,7 +28,7 @@ from pathlib import Path
 
 from hil_bench.installation import find_executable
 
-from .base import LinkError
+from .base import LinkError, reap
 from .serial_link import FdTransport, SerialLink
 
 STUB_SOCKETCAND_BUS = "hil0"   #: the bus name the stub serves as a socketcand server
@@ -212,13 +212,6 @@ class StubProcess:
         if self.mode == "socketcan" and self.proc.poll() is None:
             self.proc.terminate()   # no end of stream on a CAN bus: the stub exits 0 on SIGTERM
         try:
-            return self.proc.wait(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            self.proc.terminate()
-            try:
-                return self.proc.wait(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                return self.proc.wait()
+            return reap(self.proc, timeout_s)
         finally:
             self._reader.join(timeout=1.0)
