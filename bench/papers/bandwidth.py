@@ -53,7 +53,7 @@ from typing import Any, Callable
 from hil_bench.claims.model import Claim, Run
 from hil_bench.claims.registry import CLAIMS
 
-from .claim_variants import HOLDS, Judge, base_runs, claim_on, derived_run
+from .claim_variants import Holds, Judge, base_runs, claim_on, derived_run
 
 #: the grid, as multiples of the value each run chose
 SCALES = (0.25, 0.5, 1.0, 2.0, 4.0)
@@ -218,14 +218,10 @@ def plan(claims: list[str] | None = None, scales: tuple[float, ...] = SCALES,
 
 
 @dataclass
-class Point:
+class Point(Holds):
     scale: float
     verdict: str                     # the claim's verdict at this scale (report.claim_verdict)
     rows: list                       # report.Row of the claim's non-diagnostic rows
-
-    @property
-    def holds(self) -> bool:
-        return self.verdict in HOLDS
 
 
 def holds_range(points: list[Point]) -> tuple[float, float] | None:

@@ -20,6 +20,16 @@ HOLDS = ("PASS", "COMPARED")
 Judge = Callable[[Claim, dict], tuple[str, list]]
 
 
+class Holds:
+    """A point of a study: the claim's verdict there (report.claim_verdict), holding or not."""
+
+    verdict: str
+
+    @property
+    def holds(self) -> bool:
+        return self.verdict in HOLDS
+
+
 def base_runs(c: Claim) -> list[Run]:
     """The runs the claim's non-diagnostic quantities read (its verdict's runs)."""
     want: list[str] = []

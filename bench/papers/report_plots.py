@@ -511,14 +511,8 @@ ANGLE_PERIODS = 3.0
 
 def _angle_runs(c) -> list:
     """The claim's runs its verdict reads (non-diagnostic rows), in order, at most ANGLE_RUNS."""
-    want: list[str] = []
-    for q in c.quantities:
-        if q.diagnostic or q.study or q.calibration:
-            continue
-        for rid in q.runs:
-            if rid not in want:
-                want.append(rid)
-    return [c.run(rid) for rid in want[:ANGLE_RUNS]]
+    from .claim_variants import base_runs
+    return base_runs(c)[:ANGLE_RUNS]
 
 
 def plot_angle(rep, c) -> Path | None:

@@ -23,7 +23,7 @@ from typing import Any
 from hil_bench.claims.model import Claim, Run
 from hil_bench.claims.registry import CLAIMS
 
-from .claim_variants import HOLDS, Judge, base_runs, claim_on, derived_run
+from .claim_variants import Holds, Judge, base_runs, claim_on, derived_run
 
 #: the claims the inverter's error decides
 RESIDUAL_CLAIMS = ("Y1", "Y2", "Y8", "H1", "H2", "H3")
@@ -70,14 +70,10 @@ def plan(claims: list[str] | None = None, residuals: tuple[float, ...] = RESIDUA
 
 
 @dataclass
-class Point:
+class Point(Holds):
     residual: float
     verdict: str                     # the claim's verdict at this residual (report.claim_verdict)
     rows: list                       # report.Row of the claim's non-diagnostic rows
-
-    @property
-    def holds(self) -> bool:
-        return self.verdict in HOLDS
 
 
 def holds_up_to(points: list[Point]) -> float | None:
