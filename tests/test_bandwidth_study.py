@@ -119,6 +119,9 @@ def test_a_points_recording_carries_the_scaled_bandwidth(tmp_path: Path):
     params = json.loads(read_header(out).run["controller_params"])
     assert params["PLL_KP"] == pytest.approx(600.0) and params["PLL_KI"] == pytest.approx(90000.0)
     assert "PLL bandwidth wn 300 rad/s, zeta 1" in estimator_settings(out)
+    assert bw.recorded_value(out, bw.PLL) == pytest.approx(300.0)
+    assert bw.recorded_value(out, bw.SMO_WC) == pytest.approx(1000.0)     # not sent: default
+    assert bw.recorded_value(tmp_path / "missing.mcap", bw.PLL) is None
 
 
 def _scale_of(run_id: str) -> float:
@@ -187,6 +190,7 @@ def test_the_report_section_tables_each_sweep(tmp_path: Path):
     assert "| HFI tracking bandwidth (x chosen) | 150 rad/s (0.5 x) | 300 rad/s (1 x) | " \
            "600 rad/s (2 x) |" in md
     assert "| claim verdict | FAIL | COMPARED | COMPARED |" in md
+    assert "| as recorded (CONFIG) | not recorded | not recorded | not recorded |" in md
     assert "| relation: H1.10 what | 2.5 rpm FAIL | 1.2 rpm PASS | 0.8 rpm PASS |" in md
     assert "![bandwidth_H1_hfi_bw](plots/bandwidth_H1_hfi_bw.png)" in md
     html = "\n".join(bw.html_section(rep, _img))
@@ -204,3 +208,19 @@ def test_the_cli_and_the_command_line_carry_the_flag():
     assert args.no_bandwidth
     assert command_of(Path("o"), ["Y1"], 2, False, False, False, None, False, False).endswith(
         "--no-residual --no-bandwidth")
+
+
+def test_a_cell_says_why_a_figure_is_not_the_papers_operating_point():
+    held_not = Row("Y1", "Y1.improved.50", "w", "3 rpm", "0.4839 rpm", "rpm", "", "", "FAIL",
+                   note="the drive did not hold 50 rpm: true speed 0.235 rpm in the window "
+                        "(range 0.214..0.257; bench definition: ...)", value=0.4839)
+    assert bw._cell(held_not) == "0.4839 rpm FAIL (not at 50 rpm: true speed 0.235 rpm)"
+    assert bw._verdict_class(bw._cell(held_not)) == "FAIL"
+    fault = Row("H1", "H1.hfi.10", "w", "1.5 rpm", "no value: ...", "rpm", "", "", "FAIL",
+                note="the run ended early: at cycle 1726 (t = 0.1726 s): controller fault: "
+                     "controller reported fault OVERCURRENT at seq 1726 (detail 2) [...]")
+    assert bw._cell(fault) == "no value: OVERCURRENT at t = 0.173 s FAIL"
+    ok = Row("H1", "H1.hfi.10", "w", "1.5 rpm", "5.193 rpm", "rpm", "", "", "COMPARED",
+             value=5.193)
+    assert bw._cell(ok) == "5.193 rpm COMPARED" and bw._verdict_class("5.193 rpm COMPARED") \
+        == "COMPARED"

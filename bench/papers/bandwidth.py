@@ -47,6 +47,7 @@ them; ``markdown`` / ``html_section`` write the section; plots go to
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -222,6 +223,19 @@ class Point(Holds):
     scale: float
     verdict: str                     # the claim's verdict at this scale (report.claim_verdict)
     rows: list                       # report.Row of the claim's non-diagnostic rows
+    recorded: dict[str, float | None] = field(default_factory=dict)  # swept run -> its CONFIG's
+
+
+def recorded_value(recording, bw: Bandwidth) -> float | None:
+    """The bandwidth a recording's CONFIG says ran (rad/s; a gain not sent is the controller's
+    default, as for the plan); None without a readable recording."""
+    import json
+    from hil_bench.record.recording import read_header
+    try:
+        params = json.loads(read_header(recording).run.get("controller_params", "{}"))
+    except Exception:  # noqa: BLE001 - said in the table ("not recorded"), never a crash
+        return None
+    return bw.chosen({k: float(v) for k, v in params.items()})
 
 
 def holds_range(points: list[Point]) -> tuple[float, float] | None:
@@ -245,8 +259,15 @@ def measure(pl: Plan, rep, judge: Judge) -> dict[str, list[Point]]:
     for sw in pl.sweeps:
         pts = []
         for s in sw.scales:
-            verdict, rows = judge(claim_at(CLAIMS[sw.claim], sw.bw, s), rep.outcomes)
-            pts.append(Point(s, verdict, rows))
+            c = claim_at(CLAIMS[sw.claim], sw.bw, s)
+            verdict, rows = judge(c, rep.outcomes)
+            rec = {}
+            for run in c.runs:
+                if run.id.startswith(tag(sw.bw, s) + "."):
+                    o = rep.outcomes.get(run.id)
+                    base = run.id[len(tag(sw.bw, s)) + 1:]
+                    rec[base] = recorded_value(o.recording, sw.bw) if o else None
+            pts.append(Point(s, verdict, rows, rec))
         out[sw.key] = pts
     return out
 
@@ -300,7 +321,28 @@ def holds_text(sw: Sweep, points: list[Point]) -> str:
 
 
 def _cell(row) -> str:
+    """A row at one point: the measured figure and verdict, and why a figure is not the paper's
+    operating point (the drive did not hold it: the true speed) or there is none (the fault and
+    when)."""
+    note = str(row.note)
+    if not math.isfinite(row.value) and "ended early" in note:
+        m = re.search(r"at cycle (\d+) \(t = ([0-9.]+) s\)", note)
+        f = re.search(r"fault (\w+) at seq", note)
+        return (f"no value: {f.group(1) if f else 'the run ended'}"
+                + (f" at t = {float(m.group(2)):.3g} s" if m else "") + f" {row.verdict}")
+    m = re.search(r"did not hold (\S+ rpm): true speed (\S+ rpm)", note)
+    if m:
+        return f"{row.measured} {row.verdict} (not at {m.group(1)}: true speed {m.group(2)})"
     return f"{row.measured} {row.verdict}"
+
+
+def _recorded_cell(p: Point) -> str:
+    """The value each swept run's recording says ran: 'wn 37.5 rad/s' (per run if they differ)."""
+    vals = set(p.recorded.values())
+    fmt = lambda v: "not recorded" if v is None else f"{v:.4g} rad/s"  # noqa: E731
+    if len(vals) == 1:
+        return fmt(vals.pop())
+    return ", ".join(f"{rid} {fmt(v)}" for rid, v in p.recorded.items())
 
 
 def table(sw: Sweep, points: list[Point]) -> tuple[list[str], list[list[str]]]:
@@ -311,7 +353,8 @@ def table(sw: Sweep, points: list[Point]) -> tuple[list[str], list[list[str]]]:
     head = [f"{sw.bw.label} (x chosen)"] + [
         (f"{p.scale * vals[0]:g} rad/s ({p.scale:g} x)" if len(vals) == 1 else f"{p.scale:g} x")
         for p in pts]
-    rows = [["claim verdict"] + [p.verdict for p in pts]]
+    rows = [["claim verdict"] + [p.verdict for p in pts],
+            ["as recorded (CONFIG)"] + [_recorded_cell(p) for p in pts]]
     keys: list[tuple[str, str]] = []
     for p in pts:
         for r in p.rows:
@@ -392,8 +435,9 @@ _VERDICTS = ("NOT REPRODUCIBLE", "NOT RESOLVED", "COMPARED", "INVALID", "PARTLY"
 
 
 def _verdict_class(cell: str) -> str:
-    """The CSS class of a cell: the verdict it ends with."""
-    return next((v.replace(" ", "_") for v in _VERDICTS if cell.endswith(v)), "")
+    """The CSS class of a cell: the verdict it states (after the figure, before a reason)."""
+    head = cell.split(" (not at ")[0]
+    return next((v.replace(" ", "_") for v in _VERDICTS if head.endswith(v)), "")
 
 
 def to_json(out: dict) -> dict:
@@ -406,7 +450,7 @@ def to_json(out: dict) -> dict:
             "claim": sw.claim, "bandwidth": sw.bandwidth, "label": sw.bw.label,
             "chosen_rad_s": sw.chosen, "holds_scales": list(rng) if rng else None,
             "holds": holds_text(sw, pts),
-            "points": [{"scale": p.scale, "verdict": p.verdict,
+            "points": [{"scale": p.scale, "verdict": p.verdict, "recorded_rad_s": p.recorded,
                         "rows": [{"key": r.key, "measured": _finite(r.value),
                                   "verdict": r.verdict, "note": r.note} for r in p.rows]}
                        for p in sorted(pts, key=lambda p: p.scale)]}

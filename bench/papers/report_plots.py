@@ -621,7 +621,7 @@ def _plot_verdict_sweep(xs, points, title: str, xlabel: str, mark: tuple[float, 
     set-up the claims run at marked by a dotted line."""
     fig, ax = plt.subplots(figsize=(8.0, 4.2))
     keys = [r.key for r in points[0].rows if not r.is_relation]
-    plotted = 0
+    plotted = not_held = 0
     for key in keys:
         ys = []
         for p in points:
@@ -633,6 +633,13 @@ def _plot_verdict_sweep(xs, points, title: str, xlabel: str, mark: tuple[float, 
         if any(math.isfinite(y) for y in ys):
             ax.plot(xs, ys, "o-", ms=4, label=key)
             plotted += 1
+            # a figure measured where the drive did not hold the paper's operating point
+            off = [(x, y) for x, y, p in zip(xs, ys, points) if math.isfinite(y) and any(
+                r.key == key and "did not hold" in str(r.note) for r in p.rows)]
+            if off:
+                ax.scatter(*zip(*off), s=70, facecolors="none", edgecolors="k", lw=0.8,
+                           label="operating point not held" if not_held == 0 else None)
+                not_held += 1
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
     ax.axvline(mark[0], color="tab:gray", lw=1.0, ls=":")
     ax.text(mark[0], 1.02, mark[1], transform=ax.get_xaxis_transform(), fontsize=7,
