@@ -278,8 +278,11 @@ def evaluate(pl: Plan, rep, judge: Judge) -> dict[str, Any]:
     plots = []
     for sw in pl.sweeps:
         pts = points[sw.key]
+        rng = holds_range(pts)
         p = plot_bandwidth(rep, f"bandwidth_{sw.claim}_{sw.bandwidth}",
-                           f"{sw.claim} vs {sw.bw.label}: {holds_text(sw, pts)}",
+                           f"{sw.claim} vs {sw.bw.label}: " + (
+                               "does not hold at the chosen value" if rng is None else
+                               f"holds for {rng[0]:g} .. {rng[1]:g} x the chosen"),
                            f"{sw.bw.label} / the chosen value ({_chosen_text(sw)})", pts)
         if p is not None:
             plots.append(p)
