@@ -341,7 +341,7 @@ def _cmd_claims(args: argparse.Namespace) -> int:
             import shlex
             rep = run_report(args.out, only=only, jobs=args.jobs, beyond=not args.no_beyond,
                              reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler,
-                             residual=not args.no_residual,
+                             residual=not args.no_residual, bandwidth=not args.no_bandwidth,
                              command=".venv/bin/bench " + shlex.join(args.argv))
         except ValueError as exc:
             Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
@@ -357,6 +357,10 @@ def _cmd_claims(args: argparse.Namespace) -> int:
             out.print("inverter-compensation residual: " + ", ".join(
                 f"{cid} holds up to " + ("none" if r is None else f"{100 * r:g} %")
                 for cid, r in summary(rep.residual).items()))
+        if rep.bandwidth:
+            from hil_bench.papers.bandwidth import summary as bandwidth_summary
+            for key, text in bandwidth_summary(rep.bandwidth).items():
+                out.print(escape(f"bandwidth {key}: {text}"))
         out.print(escape(f"report: {rep.out_dir / 'report.md'}, {rep.out_dir / 'report.html'} "
                          f"({rep.wall_s:.0f} s)"))
         return 0
@@ -544,10 +548,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip the studies beyond the papers (error vs speed, initial position "
                         "over 360 deg, parameter sensitivity, speed reversal)")
     k.add_argument("--quick", action="store_true",
-                   help="the studies beyond the papers on a coarse grid (fewer runs)")
+                   help="the studies beyond the papers and the bandwidth sweeps on a coarse grid "
+                        "(fewer runs)")
     k.add_argument("--no-residual", action="store_true",
                    help="skip the inverter-compensation residual study of Y1, Y2, Y8, H1, H2, H3 "
                         "(each claim's runs at residuals 0 .. 100 %%, docs/inverter_comp.md)")
+    k.add_argument("--no-bandwidth", action="store_true",
+                   help="skip the estimator-bandwidth sweeps of Y1, Y2, Y8, H1, H2 (each chosen "
+                        "PLL / HFI tracking bandwidth / SMO EMF cut-off at 0.25 .. 4 x; --quick: "
+                        "0.5 .. 2 x; bench/papers/bandwidth.py)")
     k.add_argument("--reuse", action="store_true",
                    help="reuse recordings already in <out>/recordings (development)")
     k.set_defaults(func=_cmd_claims)

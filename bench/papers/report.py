@@ -88,6 +88,7 @@ class Report:
     plots: dict[str, list[Path]] = field(default_factory=dict)
     beyond: dict[str, Any] = field(default_factory=dict)
     residual: dict[str, Any] = field(default_factory=dict)
+    bandwidth: dict[str, Any] = field(default_factory=dict)
     wall_s: float = 0.0
     jobs: int = 1
     command: str = ""       # the exact command that produced the report
@@ -342,7 +343,8 @@ def _short_fault(note: str) -> str:
 
 
 def judge_claim(claim: Claim, outcomes: dict) -> tuple[str, list]:
-    """One claim's verdict and rows on the runs' outcomes (no studies: the residual study's)."""
+    """One claim's verdict and rows on the runs' outcomes (no studies: the residual study's and
+    the bandwidth sweeps' judge, bench/papers/claim_variants.py)."""
     rows = measure_claims([claim], outcomes, {}, {})
     return claim_verdict(rows), rows
 
@@ -485,7 +487,8 @@ def estimator_settings(recording: Path) -> str:
 
 
 def command_of(out_dir: Path, only: list[str] | None, jobs: int | None, beyond: bool,
-               reuse: bool, beyond_quick: bool, scheduler: str | None, residual: bool) -> str:
+               reuse: bool, beyond_quick: bool, scheduler: str | None, residual: bool,
+               bandwidth: bool = True) -> str:
     """The command line that runs this report (when it was not started from one)."""
     import shlex
     argv = ["claims", "--run", "--out", str(out_dir)]
@@ -503,6 +506,8 @@ def command_of(out_dir: Path, only: list[str] | None, jobs: int | None, beyond: 
         argv += ["--scheduler", scheduler]
     if not residual:
         argv.append("--no-residual")
+    if not bandwidth:
+        argv.append("--no-bandwidth")
     return ".venv/bin/bench " + shlex.join(argv)
 
 
@@ -579,6 +584,9 @@ def write_markdown(rep: Report) -> Path:
     if rep.residual:
         from .residual import markdown as residual_md
         L += residual_md(rep)
+    if rep.bandwidth:
+        from .bandwidth import markdown as bandwidth_md
+        L += bandwidth_md(rep)
     if rep.beyond:
         from .beyond import markdown as beyond_md
         L += beyond_md(rep)
@@ -654,6 +662,9 @@ def write_html(rep: Report) -> Path:
     if rep.residual:
         from .residual import html_section as residual_html
         H += residual_html(rep, _img)
+    if rep.bandwidth:
+        from .bandwidth import html_section as bandwidth_html
+        H += bandwidth_html(rep, _img)
     if rep.beyond:
         from .beyond import html_section
         H += html_section(rep, _img)
@@ -668,9 +679,11 @@ def write_html(rep: Report) -> Path:
 def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = None,
                beyond: bool = True, reuse: bool = False, console: Console | None = None,
                beyond_quick: bool = False, scheduler: str | None = None,
-               residual: bool = True, command: str | None = None) -> Report:
+               residual: bool = True, command: str | None = None,
+               bandwidth: bool = True) -> Report:
     """``command``: the command line that started it (the report's "Command:"; default: the
-    equivalent of the arguments given)."""
+    equivalent of the arguments given). ``bandwidth``: the estimator-bandwidth sweeps
+    (bench/papers/bandwidth.py; ``beyond_quick``: on the coarse grid)."""
     t0 = time.monotonic()
     console = console or Console(stderr=True)
     out_dir = Path(out_dir)
@@ -696,10 +709,16 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
         residual_plan = rs.plan(ids)
         for r in residual_plan.runs:
             runs.setdefault(r.id, r)
+    bandwidth_plan = None
+    if bandwidth:
+        from . import bandwidth as bw
+        bandwidth_plan = bw.plan(ids, bw.QUICK_SCALES if beyond_quick else bw.SCALES)
+        for r in bandwidth_plan.runs:
+            runs.setdefault(r.id, r)
     jobs = jobs or default_jobs()
     rep = Report(out_dir, claims, jobs=jobs,
                  command=command or command_of(out_dir, only, jobs, beyond, reuse, beyond_quick,
-                                               scheduler, residual))
+                                               scheduler, residual, bandwidth))
     console.print(escape(f"{len(runs)} runs ({jobs} in parallel) for claims {', '.join(ids)}"
                          + (" and the studies beyond the papers" if beyond else "")))
     rep.outcomes = execute(runs, out_dir / "recordings", jobs, console, reuse=reuse,
@@ -727,6 +746,10 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
         rep.residual = rs.evaluate(residual_plan, rep, judge_claim)
         (out_dir / "residual.json").write_text(json.dumps(rs.to_json(rep.residual), indent=1))
         rep.residual["refine_s"] = time.monotonic() - t_res
+    if bandwidth_plan is not None and bandwidth_plan.sweeps:
+        from . import bandwidth as bw
+        rep.bandwidth = bw.evaluate(bandwidth_plan, rep, judge_claim)
+        (out_dir / "bandwidth.json").write_text(json.dumps(bw.to_json(rep.bandwidth), indent=1))
     if beyond_plan is not None:
         from . import beyond as by
         rep.beyond = by.evaluate(beyond_plan, rep)

@@ -511,14 +511,8 @@ ANGLE_PERIODS = 3.0
 
 def _angle_runs(c) -> list:
     """The claim's runs its verdict reads (non-diagnostic rows), in order, at most ANGLE_RUNS."""
-    want: list[str] = []
-    for q in c.quantities:
-        if q.diagnostic or q.study or q.calibration:
-            continue
-        for rid in q.runs:
-            if rid not in want:
-                want.append(rid)
-    return [c.run(rid) for rid in want[:ANGLE_RUNS]]
+    from .claim_variants import base_runs
+    return base_runs(c)[:ANGLE_RUNS]
 
 
 def plot_angle(rep, c) -> Path | None:
@@ -595,10 +589,39 @@ def plot_residual(rep, claim_id: str, points, holds_up_to, realistic: float) -> 
     verdict at each residual on top, the residual the scenarios run at marked."""
     if not points:
         return None
+    up_to = "fails at 0 %" if holds_up_to is None else f"holds up to {100 * holds_up_to:g} %"
+    fig, ax = _plot_verdict_sweep(
+        [100.0 * p.residual for p in points], points, f"{claim_id}: {up_to}",
+        "compensation residual [% of the plant's dead time and drops] (100 % = none)",
+        (100.0 * realistic, f" scenarios: {100 * realistic:g} %"), "residual")
+    ax.set_xscale("symlog", linthresh=1.0)
+    ax.set_xlim(-0.3, 130.0)
+    return _save(fig, rep, f"residual_{claim_id}")
+
+
+def plot_bandwidth(rep, name: str, title: str, xlabel: str, points) -> Path | None:
+    """One estimator-bandwidth sweep of one claim (bench/papers/bandwidth.py): each
+    non-diagnostic quantity as measured / the paper's value against the bandwidth's scale (x the
+    value the bench chose), the claim's verdict at each scale on top, the chosen value marked."""
+    if not points:
+        return None
+    fig, ax = _plot_verdict_sweep([p.scale for p in points], points, title, xlabel,
+                                  (1.0, " chosen"), "bandwidth")
+    ax.set_xscale("log", base=2)
+    xs = [p.scale for p in points]
+    ax.set_xlim(min(xs) / 1.3, max(xs) * 1.3)
+    ax.set_xticks(xs, [f"{x:g}" for x in xs])
+    return _save(fig, rep, name)
+
+
+def _plot_verdict_sweep(xs, points, title: str, xlabel: str, mark: tuple[float, str],
+                        what: str):
+    """The figure both studies draw: measured / paper's value of each non-diagnostic quantity
+    at each point (log y), the paper's value at 1, the claim's verdict above each point, the
+    set-up the claims run at marked by a dotted line."""
     fig, ax = plt.subplots(figsize=(8.0, 4.2))
-    xs = [100.0 * p.residual for p in points]
     keys = [r.key for r in points[0].rows if not r.is_relation]
-    plotted = 0
+    plotted = not_held = 0
     for key in keys:
         ys = []
         for p in points:
@@ -610,27 +633,31 @@ def plot_residual(rep, claim_id: str, points, holds_up_to, realistic: float) -> 
         if any(math.isfinite(y) for y in ys):
             ax.plot(xs, ys, "o-", ms=4, label=key)
             plotted += 1
+            # a figure measured where the drive did not hold the paper's operating point
+            off = [(x, y) for x, y, p in zip(xs, ys, points) if math.isfinite(y) and any(
+                r.key == key and "did not hold" in str(r.note) for r in p.rows)]
+            if off:
+                ax.scatter(*zip(*off), s=70, facecolors="none", edgecolors="k", lw=0.8,
+                           label="operating point not held" if not_held == 0 else None)
+                not_held += 1
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
-    ax.axvline(100.0 * realistic, color="tab:gray", lw=1.0, ls=":")
-    ax.text(100.0 * realistic, 1.02, f" scenarios: {100 * realistic:g} %", transform=ax.get_xaxis_transform(),
-            fontsize=7, color="tab:gray", va="bottom")
-    ax.set_xscale("symlog", linthresh=1.0)
-    ax.set_xlim(-0.3, 130.0)
+    ax.axvline(mark[0], color="tab:gray", lw=1.0, ls=":")
+    ax.text(mark[0], 1.02, mark[1], transform=ax.get_xaxis_transform(), fontsize=7,
+            color="tab:gray", va="bottom")
     ax.set_yscale("log")
-    ax.set_xlabel("compensation residual [% of the plant's dead time and drops] (100 % = none)")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel("measured / paper's value")
     for x, p in zip(xs, points):
         ax.annotate(p.verdict, (x, 1.0), xycoords=("data", "axes fraction"), xytext=(0, 2),
                     textcoords="offset points", ha="center", va="bottom", fontsize=6, rotation=90,
                     color="tab:green" if p.holds else "tab:red")
-    up_to = "fails at 0 %" if holds_up_to is None else f"holds up to {100 * holds_up_to:g} %"
-    ax.set_title(f"{claim_id}: {up_to}", pad=38)
+    ax.set_title(title, pad=38)
     if plotted:
         ax.legend(fontsize=6, loc="lower right")
     else:
-        ax.text(0.5, 0.5, "no quantity measured at any residual (every run ended early)",
+        ax.text(0.5, 0.5, f"no quantity measured at any {what} (every run ended early)",
                 ha="center", va="center", transform=ax.transAxes)
-    return _save(fig, rep, f"residual_{claim_id}")
+    return fig, ax
 
 
 def _paper_number(text: str) -> float:

@@ -16,13 +16,14 @@ residual a real feed-forward leaves) is ``REALISTIC``; where it comes from: docs
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 from hil_bench.claims.model import Claim, Run
 from hil_bench.claims.registry import CLAIMS
+
+from .claim_variants import Holds, Judge, base_runs, claim_on, derived_run
 
 #: the claims the inverter's error decides
 RESIDUAL_CLAIMS = ("Y1", "Y2", "Y8", "H1", "H2", "H3")
@@ -31,7 +32,6 @@ RESIDUALS = (0.0, 0.01, 0.02, 0.03, 0.05, 0.10, 0.20, 0.50, 1.00)
 #: the residual the claims' scenarios run at: docs/inverter_comp.md, "What residual a real drive has"
 REALISTIC = 0.05
 KEY = "controller.inverter_comp.residual"
-HOLDS = ("PASS", "COMPARED")
 
 
 def tag(r: float) -> str:
@@ -40,39 +40,16 @@ def tag(r: float) -> str:
 
 
 def _base_runs(c: Claim) -> list[Run]:
-    """The runs the claim's non-diagnostic quantities read (its verdict's runs)."""
-    want: list[str] = []
-    for q in c.quantities:
-        if q.diagnostic or q.study or q.calibration:
-            continue
-        for rid in q.runs:
-            if rid not in want:
-                want.append(rid)
-    return [c.run(rid) for rid in want]
+    return base_runs(c)
 
 
 def variant(run: Run, r: float) -> Run:
-    return Run(f"{tag(r)}.{run.id}", run.scenario, run.overrides + ((KEY, r),),
-               (run.label + ", " if run.label else "") + f"compensation residual {100 * r:g} %")
+    return derived_run(run, tag(r), ((KEY, r),), f"compensation residual {100 * r:g} %")
 
 
 def claim_at(c: Claim, r: float) -> Claim:
     """The claim measured on its residual-r runs: its non-diagnostic quantities and relations."""
-    ids = {run.id: variant(run, r).id for run in _base_runs(c)}
-
-    def remap(q):
-        if not q.runs:
-            return q
-        new = tuple(ids[x] for x in q.runs)
-        return dataclasses.replace(q, run=new[0] if isinstance(q.run, str) else new)
-
-    qs = tuple(remap(q) for q in c.quantities if not q.diagnostic and not q.study
-               and not q.calibration)
-    keys = {q.key for q in qs}
-    rels = tuple(rel for rel in c.relations if not rel.diagnostic
-                 and all(k in keys or k.startswith("#") for k in rel.keys))
-    return dataclasses.replace(c, quantities=qs, relations=rels,
-                               runs=tuple(variant(run, r) for run in _base_runs(c)))
+    return claim_on(c, lambda run: variant(run, r))
 
 
 @dataclass
@@ -93,14 +70,10 @@ def plan(claims: list[str] | None = None, residuals: tuple[float, ...] = RESIDUA
 
 
 @dataclass
-class Point:
+class Point(Holds):
     residual: float
     verdict: str                     # the claim's verdict at this residual (report.claim_verdict)
     rows: list                       # report.Row of the claim's non-diagnostic rows
-
-    @property
-    def holds(self) -> bool:
-        return self.verdict in HOLDS
 
 
 def holds_up_to(points: list[Point]) -> float | None:
@@ -120,11 +93,6 @@ def first_flip(points: list[Point]) -> tuple[float, float] | None:
         if a.holds and not b.holds:
             return a.residual, b.residual
     return None
-
-
-#: how the report judges one claim on the runs' outcomes: (verdict, rows); the report hands its
-#: own (report.judge_claim), so this module does not import the report that imports it
-Judge = Callable[[Claim, dict], tuple[str, list]]
 
 
 def measure(pl: Plan, rep, judge: Judge) -> dict[str, list[Point]]:
