@@ -154,6 +154,26 @@ def test_dead_or_silent_stub_ends_the_run_within_a_second(tmp_path, inject, expe
     assert rec.metadata["run_result"]["error"] == result.error
 
 
+def test_a_batch_run_waits_longer_for_the_benchs_own_stub_and_records_the_wait(tmp_path):
+    """bench claims / sweep runs (batch=True) on a shared machine: a descheduled stub is not a
+    late controller, so each lockstep attempt waits BATCH_RETRY_TIMEOUT_S; the silent stub is
+    still found (after 4 x 1 s), the wait is in the recording, and an interactive run keeps the
+    scenario's 50 ms."""
+    from hil_bench.loop.runner import BATCH_RETRY_TIMEOUT_S
+
+    assert Runner(short_scenario(0.3), out_path=None, progress=False,
+                  record=False).retry_timeout_s == pytest.approx(0.05)
+    assert Runner(short_scenario(0.3), out_path=None, progress=False, record=False,
+                  realtime=True, batch=True).retry_timeout_s == pytest.approx(0.05)
+    out = tmp_path / "batch.mcap"
+    result = Runner(short_scenario(2.0), out_path=out, progress=False, batch=True,
+                    stub_args=("--inject", "silent@500")).run()
+    assert f"no valid DUTY after 3 retries ({4 * BATCH_RETRY_TIMEOUT_S:g} s)" in result.error
+    assert result.cycles_done == 500
+    rec = load_recording(out)
+    assert float(rec.metadata["run"]["retry_timeout_s"]) == BATCH_RETRY_TIMEOUT_S
+
+
 def test_garbage_between_frames_is_counted_and_survived(tmp_path):
     out = tmp_path / "garbage.mcap"
     result = Runner(short_scenario(0.2), out_path=out, progress=False,

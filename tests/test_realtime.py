@@ -545,7 +545,10 @@ def test_an_out_of_range_duty_is_never_applied_in_real_time(tmp_path, update):
     rec = load_recording(out)
     events = rec.topic(ch.EVENTS)
     bad = [t for k, t in zip(events["kind"], events["text"]) if k == "bad_duty"]
-    assert len(bad) == 1 and "40000" in bad[0] and "previous duties held" in bad[0], bad
+    # on time it is validated and the previous duties held; under load it may come after its
+    # period ended: then it is late, and still counted as out of range, never applied
+    assert len(bad) == 1 and "40000" in bad[0], bad
+    assert "previous duties held" in bad[0] or "late (its period had ended)" in bad[0], bad
     assert result.link_stats["bad_duties"] == 1
     telem = rec.topic(ch.CONTROLLER_TELEMETRY)
     assert np.all(telem["duty_a"][np.isfinite(telem["duty_a"])] <= 1.0)   # never 40000/32768

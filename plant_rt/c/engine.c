@@ -1307,6 +1307,26 @@ static void length_error(engine_t *e, cycle_t *c, const eng_frame_t *f, const ch
     }
 }
 
+/** A late DUTY is never applied, but an out-of-range one is still a controller that sent
+ *  garbage: counted in bad_duties with its /events row (not in the consecutive count, which is
+ *  about duties the bench had to hold in place of one it would have applied). */
+static void late_duty_in_range(engine_t *e, const cycle_t *c, const hil_duty_t *d)
+{
+    const uint32_t raw[3] = {d->d_a, d->d_b, d->d_c};
+    int k;
+    for (k = 0; k < 3; ++k) {
+        if (raw[k] != e->cfg.duty_raw_off && raw[k] > e->cfg.duty_raw_full) {
+            char text[160];
+            e->n.bad_duties++;
+            snprintf(text, sizeof text, "DUTY seq %u raw [%u, %u, %u] out of range, and late "
+                     "(its period had ended): never applied", (unsigned)d->seq,
+                     (unsigned)raw[0], (unsigned)raw[1], (unsigned)raw[2]);
+            record_event(e, c->t_s, "bad_duty", text, (double)d->seq);
+            return;
+        }
+    }
+}
+
 /**
  * Handle one received frame while cycle c waits (lockstep and real time alike).
  * Returns 1 if it completed the cycle (the first valid DUTY(k)), 0 otherwise, -1 if it ends
@@ -1340,6 +1360,7 @@ static int handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle
              * ago, up to the window: after a stall of the host the answers come in a burst) */
             e->late_state[d.seq & (ENGINE_LATE_WINDOW - 1)] = 2;
             e->n.late_duty++;
+            late_duty_in_range(e, c, &d);
         } else if (late_state_of(e, c, d.seq) == 2) {
             e->n.duplicates++; /* a second late answer to the same period */
         } else {
