@@ -9,8 +9,8 @@ records a viewer asked for and hands them to foxglove-sdk's server. So
 * the engine never waits for a viewer: it writes into the ring as ever, and the recorder never
   blocks on a socket (foxglove-sdk queues each client's messages in Rust, at most
   ``backlog`` of them, and drops the oldest of a client that does not read: it does not say how
-  many, only logs "outbox for client ADDR full", at most once per 30 s; :class:`ViewerStats`
-  counts those reports and what the bench itself sent, decimated and cut);
+  many, only logs "outbox for client ADDR full", at most once per 30 s; :meth:`LiveView.stats`
+  counts those reports, what the bench sent and what it cut itself);
 * the per-cycle channels reach a viewer decimated to ``rate_hz`` per channel (the newest record
   of a batch, at most once per 1/rate_hz of wall time): a 10 kHz run does not flood a browser.
   /events, /faults and /link/stats go out whole (a few rows per second);
@@ -77,9 +77,9 @@ OPERATOR_TOPICS = {
     "/operator/resume": ("LIVE_IN_RESUME", None, "resume"),
 }
 RAD_S_PER_RPM = 2.0 * 3.141592653589793 / 60.0
-#: foxglove-sdk's logger and message when it drops a client's oldest queued frames (send_lossy.rs;
-#: throttled to one line per 30 s per process, whatever the client)
-SDK_DROP_LOGGER = "foxglove.websocket.connected_client.send_lossy"
+#: what foxglove-sdk logs (logger foxglove.websocket.connected_client.send_lossy, INFO) when it
+#: drops a client's oldest queued frames (send_lossy.rs; throttled to one line per 30 s per
+#: process, whatever the client)
 SDK_DROP_MESSAGE = re.compile(r"outbox for client (\S+) full")
 
 
