@@ -11,7 +11,77 @@ from rich.console import Console
 from rich.markup import escape
 
 
+class _PressOnce:
+    """Ctrl-C for ``bench run``: a press raises KeyboardInterrupt once (the runner stops the run
+    and finalises its recording, deferring further presses while it does: DeferredInterrupts);
+    from then on presses are counted, not raised, except while wait_for waits on the check after
+    the run (the next press ends the command). Deciding in the handler, not in ``except`` blocks,
+    leaves no window where a quick second press escapes as a traceback while the first is being
+    handled. A no-op outside the main thread (only it receives signals)."""
+
+    def __init__(self):
+        self.armed = True
+        self.count = 0
+        self._previous = None
+
+    def __call__(self, signum, frame) -> None:   # noqa: ARG002 - a signal handler's signature
+        self.count += 1
+        if self.armed:
+            self.armed = False
+            raise KeyboardInterrupt
+
+    def wait_for(self, fn, *args):
+        """fn(*args) in a worker thread while the main thread only waits, armed: a press ends
+        the wait at once with KeyboardInterrupt (the worker, a daemon reading a finalised file,
+        is left to the interpreter's exit). In the main thread itself a press could land in a
+        library's weakref or GC callback, where Python prints it ("Exception ignored") and
+        swallows it."""
+        import threading
+
+        box: dict = {}
+
+        def work() -> None:
+            try:
+                box["value"] = fn(*args)
+            except BaseException as exc:   # noqa: BLE001 - handed to the main thread as is
+                box["error"] = exc
+
+        worker = threading.Thread(target=work, name="bench-check", daemon=True)
+        worker.start()
+        self.armed = True
+        try:
+            while worker.is_alive():
+                worker.join(0.05)
+        finally:
+            self.armed = False
+        if "error" in box:
+            raise box["error"]
+        return box["value"]
+
+    def __enter__(self) -> "_PressOnce":
+        import signal
+        import threading
+
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import signal
+
+        if self._previous is not None:
+            # pressed: the command is ending interrupted, and a press on the way out must not
+            # become a KeyboardInterrupt at interpreter shutdown (main() does the same for 130)
+            signal.signal(signal.SIGINT, signal.SIG_IGN if self.count else self._previous)
+            self._previous = None
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
+    with _PressOnce() as presses:
+        return _run_and_check(args, presses)
+
+
+def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     from hil_bench.loop.links import LinkError
     from hil_bench.loop.runner import RunAborted, run_scenario
     from hil_bench.papers.check import check_recording, print_report
@@ -79,7 +149,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                   f"`bench check {escape(str(result.recording))}` checks it")
         return 130
     try:
-        report = check_recording(result.recording)
+        report = presses.wait_for(check_recording, result.recording)
         print_report(report, out)
     except RecordingError as exc:
         err.print(f"[red]error:[/red] {escape(str(exc))}")

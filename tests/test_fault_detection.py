@@ -376,3 +376,53 @@ def test_a_locked_rotor_under_the_sensorless_smo_is_a_stall(tmp_path):
     assert o.detected_by == "FAULT_CTRL STALL" and 0.1 <= o.detection_s <= 0.15, (o.detected_by,
                                                                                   o.detection_s)
     assert o.duties_after_trip == 0 and o.state_after == "FAULT"
+
+
+class _FaultRows:
+    """The channels fault_outcomes reads, for one fault whose trace came before the trip."""
+
+    def __init__(self, target: str, trip: bool):
+        from hil_bench.protocol.messages import Fault
+
+        self.metadata = {}
+        rows = {"t_s": [1.2, 1.25], "index": [0, 0], "target": [target, target],
+                "kind": ["locked_rotor" if target == "plant" else "drop"] * 2,
+                "action": ["on", "trace"],
+                "text": ["", "duplicates +2, stale_frames +4, retries +2"],
+                "value": [0.0, 0.0208]}
+        if trip:
+            for key, v in (("t_s", 1.3158), ("index", -1), ("target", ""), ("kind", ""),
+                           ("action", "trip"), ("text", "STALL"), ("value", float(Fault.STALL))):
+                rows[key].append(v)
+        t = [1.2 + 1e-4 * k for k in range(2000)]
+        self._topics = {
+            "/faults": rows,
+            "/plant/state": {"t_s": t, "i_a_a": [1.0] * 2000, "i_b_a": [-0.5] * 2000,
+                             "i_c_a": [-0.5] * 2000, "torque_e_nm": [2.0] * 2000},
+            "/controller/telemetry": {"state": []},
+        }
+
+    def topic(self, name):
+        return self._topics[name]
+
+
+@pytest.mark.parametrize("trip", [True, False])
+def test_a_plant_fault_is_detected_by_the_drive_not_by_the_links_counters(trip):
+    """The link's counters that moved after a locked rotor (a loaded host's retries) are its trace,
+    not its detection: the detection time is the drive's FAULT_CTRL, and without one it is not
+    detected. A link fault keeps the first of the two."""
+    from hil_bench.record import channels as ch
+    from hil_bench.record.fault_outcomes import outcomes
+
+    assert (ch.FAULTS, ch.PLANT_STATE, ch.CONTROLLER_TELEMETRY) == \
+        ("/faults", "/plant/state", "/controller/telemetry")
+    (o,) = outcomes(_FaultRows("plant", trip))
+    if trip:
+        assert o.detected_by == "FAULT_CTRL STALL"
+        assert o.detection_s == pytest.approx(0.1158)
+    else:
+        assert not o.detected and o.detected_by == ""
+        assert "the drive reported no fault" in o.notes[0] and "retries +2" in o.notes[0]
+    (link,) = outcomes(_FaultRows("link", trip))
+    assert link.detection_s == pytest.approx(0.0208)
+    assert link.detected_by == "duplicates +2, stale_frames +4, retries +2"

@@ -224,6 +224,9 @@ def test_ctrl_c_finalises_the_recording(tmp_path):
     scn = tmp_path / "long.toml"
     # 600 s of plant time (minutes of wall time): the run cannot end by itself before the Ctrl-C
     scn.write_text(SHORT.format(duration=600.0))
+    # a patient link: on a loaded machine the stub answering 0.2 s late must not end the run before
+    # the Ctrl-C (what is tested is the Ctrl-C)
+    scn.write_text(scn.read_text() + "[link]\nretry_timeout_s = 1.0\n")
     # SIGINT at its default in the child whatever this process inherited: a test run started in
     # the background by a shell (`.ci/run &`) ignores SIGINT, the bench would inherit that and
     # Python would not install its KeyboardInterrupt handler (the Ctrl-C would go nowhere)

@@ -42,6 +42,9 @@ def test_repeated_ctrl_c_finalises_the_recording_and_exits_cleanly(tmp_path, gap
     out = tmp_path / "interrupted.mcap"
     scn = tmp_path / "long.toml"
     scn.write_text(SHORT.format(duration=600.0))   # the run cannot end by itself
+    # a patient link: on a loaded machine the stub answering 0.2 s late must not end the run before
+    # the Ctrl-C (what is tested is the Ctrl-C)
+    scn.write_text(scn.read_text() + "[link]\nretry_timeout_s = 1.0\n")
     proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,
@@ -57,7 +60,10 @@ def test_repeated_ctrl_c_finalises_the_recording_and_exits_cleanly(tmp_path, gap
         if proc.poll() is None:
             proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
-    assert proc.returncode == 130, (stdout, stderr)
+    # 130, or ended by SIGINT itself: CPython exits that way on purpose when a KeyboardInterrupt
+    # ran through its machinery (bpo-1054041), so the calling shell sees an interrupt; a shell
+    # reports both as 130. Seen about 1 run in 20 with presses during the check after the run.
+    assert proc.returncode in (130, -signal.SIGINT), (stdout, stderr)
     assert "Traceback" not in stderr and "Traceback" not in stdout, stderr
     assert "interrupted" in stderr
     rec = load_recording(out)

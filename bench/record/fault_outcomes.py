@@ -32,8 +32,8 @@ class FaultOutcome:
 
     @property
     def detected_by(self) -> str:
-        """The controller's FAULT_CTRL (when it came first, within a period), else the counters
-        that moved."""
+        """The controller's FAULT_CTRL (when it came first, within a period; for a plant fault
+        always: only the drive detects the machine's faults), else the counters that moved."""
         if not self.detected:
             return ""
         if self.trip_s is not None and self.trip_s <= self.detection_s + 1e-6:
@@ -107,8 +107,18 @@ def outcomes(rec) -> list[FaultOutcome]:
                 o.trip_code = Fault(int(later[0][1])).name
             except ValueError:
                 o.trip_code = str(int(later[0][1]))
-        candidates = [x for x in (o.trip_s, o.evidence_s) if x is not None]
-        o.detection_s = min(candidates) if candidates else None
+        if o.target == "plant":
+            # a fault of the machine or the inverter is detected by the drive: its FAULT_CTRL.
+            # The link's counters that moved after it (retries, duplicates, stale frames) are the
+            # host's, and move as well when a loaded host answers late (measured: a locked rotor
+            # "detected after 20.8 ms by retries +2" at load 12, its STALL trip at 115.8 ms)
+            o.detection_s = o.trip_s
+            if o.trip_s is None and o.evidence_s is not None:
+                o.notes.append(f"the drive reported no fault; the link's counters moved: "
+                               f"{o.evidence.split('; the run ended')[0]}")
+        else:
+            candidates = [x for x in (o.trip_s, o.evidence_s) if x is not None]
+            o.detection_s = min(candidates) if candidates else None
         window = (t_state >= o.t_on_s - 1e-12) & (t_state < t_end)
         if window.any():
             o.peak_current_a = float(np.max(i_abs[window]))
