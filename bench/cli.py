@@ -102,8 +102,9 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
             return 2
 
     def said_live(port: int) -> None:
-        err.print(f"live view: Foxglove WebSocket on ws://127.0.0.1:{port} (Foxglove or "
-                  f"Lichtblick: Open connection, Foxglove WebSocket; docs/foxglove.md)")
+        from hil_bench.record.live_view import listening_line
+
+        err.print(escape(listening_line(port)))
 
     try:
         scn = (derive_scenario(args.scenario, load_scenario(args.scenario).name, args.set,
@@ -135,6 +136,10 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     elif tm:
         out.print(f"cycle time p50 {tm['cycle_p50_us']:.1f} us, p99 {tm['cycle_p99_us']:.1f} us, "
                   f"max {tm['cycle_max_us']:.1f} us")
+    if result.live_stats is not None:
+        from hil_bench.record.live_view import stats_line
+
+        err.print(escape(stats_line(result.live_stats)))
     if result.error:
         err.print(f"[red]run ended early:[/red] {escape(result.error)}")
     if result.cycles_done == 0:

@@ -110,6 +110,8 @@ class RunResult:
     realtime_notes: str = ""
     ts_s: float = 0.0              # the control period [s]
     target: dict = field(default_factory=dict)   # pil-qemu: the target's own figures (qemu.py)
+    #: --live: the viewer's end-of-run figures (record/live_view.py LiveView.stats), else None
+    live_stats: dict | None = None
     timed_out: bool = False        # ended by the executor's per-run time limit
     interrupts_while_closing: int = 0   # Ctrl-C pressed while the recording was being finalised
 
@@ -557,6 +559,7 @@ class Runner:
             result.interrupts_while_closing = closing.count
             closing.release()
             result.recording = rec.final_path or self.out_path
+            result.live_stats = rec.live_stats
             if result.cycles_done == 0 and result.error and rec.final_path:
                 result.error += (f" (no cycle ran; the recording of the attempt, with its "
                                  f"handshake frames, is {rec.final_path})")

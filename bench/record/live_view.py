@@ -8,7 +8,9 @@ records a viewer asked for and hands them to foxglove-sdk's server. So
 
 * the engine never waits for a viewer: it writes into the ring as ever, and the recorder never
   blocks on a socket (foxglove-sdk queues each client's messages in Rust, at most
-  ``backlog`` of them, and drops the oldest of a client that does not read);
+  ``backlog`` of them, and drops the oldest of a client that does not read: it does not say how
+  many, only logs "outbox for client ADDR full", at most once per 30 s; :meth:`LiveView.stats`
+  counts those reports, what the bench sent and what it cut itself);
 * the per-cycle channels reach a viewer decimated to ``rate_hz`` per channel (the newest record
   of a batch, at most once per 1/rate_hz of wall time): a 10 kHz run does not flood a browser.
   /events, /faults and /link/stats go out whole (a few rows per second);
@@ -19,6 +21,9 @@ fork, never in the bench's.
 """
 from __future__ import annotations
 
+import logging
+import os
+import re
 import threading
 import time
 from dataclasses import dataclass
@@ -50,6 +55,8 @@ class LiveOptions:
     background: bool = True
     #: the scenario's [live] inputs: a viewer's operator inputs are applied (else refused)
     inputs: bool = False
+    #: why an operator input is refused when ``inputs`` is False (the /events row says it)
+    refused_why: str = "the scenario does not allow operator inputs ([live] inputs = false)"
 
     def __post_init__(self) -> None:
         if not 0 <= int(self.port) <= 65535:
@@ -70,6 +77,44 @@ OPERATOR_TOPICS = {
     "/operator/resume": ("LIVE_IN_RESUME", None, "resume"),
 }
 RAD_S_PER_RPM = 2.0 * 3.141592653589793 / 60.0
+#: what foxglove-sdk logs (logger foxglove.websocket.connected_client.send_lossy, INFO) when it
+#: drops a client's oldest queued frames (send_lossy.rs; throttled to one line per 30 s per
+#: process, whatever the client)
+SDK_DROP_MESSAGE = re.compile(r"outbox for client (\S+) full")
+
+
+class _SdkDropReports(logging.Handler):
+    """Counts foxglove-sdk's "outbox for client ADDR full" log lines (its only word on the frames
+    it dropped for a client that does not read) and keeps the clients they name."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.INFO)
+        self.reports = 0
+        self.clients: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        m = SDK_DROP_MESSAGE.search(record.getMessage())
+        if m is None:
+            return
+        self.reports += 1
+        if m.group(1) not in self.clients:
+            self.clients.append(m.group(1))
+
+
+def _listen_to_sdk_log(fox) -> _SdkDropReports:
+    """Route foxglove-sdk's Rust log (INFO) into Python logging, to a handler of ours only (the
+    "foxglove" logger does not propagate: nothing is printed). FOXGLOVE_LOG_LEVEL above INFO
+    silences the reports: the figure then says so (``sdk_log``)."""
+    handler = _SdkDropReports()
+    log = logging.getLogger("foxglove")
+    log.setLevel(logging.INFO)
+    log.propagate = False
+    log.addHandler(handler)
+    try:
+        fox.set_log_level("INFO")
+    except Exception:  # noqa: BLE001 - an sdk without the bridge: the reports stay 0 (said so)
+        handler.reports = -1
+    return handler
 
 
 class _Listener:
@@ -80,6 +125,7 @@ class _Listener:
         self.view = view
 
     def on_subscribe(self, client, channel) -> None:
+        self.view.clients_seen.add(client.id)
         self.view._subscribed(channel.topic, +1)
 
     def on_unsubscribe(self, client, channel) -> None:
@@ -112,6 +158,7 @@ class LiveView:
             raise LiveViewError(f"live view: foxglove-sdk is not installed ({exc}); "
                                 f"`pip install foxglove-sdk`") from None
         self._fox = foxglove
+        self._sdk_drops = _listen_to_sdk_log(foxglove)   # before the server: the sdk's rule
         self.opts = opts
         self._lock = threading.Lock()
         self._subs: dict[str, int] = {}
@@ -148,8 +195,12 @@ class LiveView:
         self._picks = ffi.new("live_pick_t[]", PICKS_PER_BATCH)
         self._cut = ffi.new("uint64_t *")
         self._any = False
-        #: what the viewer was sent, and the records it was not (picks beyond a batch's cap)
+        #: what the viewer was sent (each message once, whatever the number of clients), the
+        #: messages times the clients subscribed to their channel, and the records it was not
+        #: (picks beyond a batch's cap: :attr:`cut`)
         self.forwarded = 0
+        self.client_frames = 0
+        self.clients_seen: set[int] = set()
         #: operator inputs the full mailbox could not take
         self.inputs_lost = 0
 
@@ -221,10 +272,12 @@ class LiveView:
                 modes[c] = lib.LIVE_SKIP
             self._due_ns = now + self._period_ns
         view = memoryview(buf)
+        subs = self._subs
         for i in range(picked):
             p = self._picks[i]
             self.channels[p.channel].log(bytes(view[p.offset:p.offset + p.length]),
                                          log_time=start_ns + p.t_ns)
+            self.client_frames += subs.get(self.topics[p.channel], 0)
         self.forwarded += picked
 
     def _operator_input(self, client_id: int, client_channel_id: int, data: bytes) -> None:
@@ -255,7 +308,7 @@ class LiveView:
             else:
                 who += f": {what}"
             if why is None and not self.inputs_allowed:
-                why = "the scenario does not allow operator inputs ([live] inputs = false)"
+                why = self.opts.refused_why
             if why is None:
                 kind = getattr(lib, name)
         text = who if why is None else f"{who}: refused: {why}"
@@ -266,8 +319,56 @@ class LiveView:
                                    text.encode()[:lib.LIVE_INPUT_TEXT - 1]) != 0:
                 self.inputs_lost += 1
 
+    def stats(self) -> dict:
+        """The viewer's end-of-run figures (the recording's ``live_view`` metadata, the bench's
+        line after the run): see :func:`stats_line`."""
+        level = os.environ.get("FOXGLOVE_LOG_LEVEL", "").upper()
+        return {
+            "port": self.port, "rate_hz": self.opts.rate_hz, "backlog": self.opts.backlog,
+            "clients": len(self.clients_seen),
+            "messages_sent": self.forwarded, "client_frames_sent": self.client_frames,
+            "cut_by_bench": self.cut, "operator_inputs_lost": self.inputs_lost,
+            "sdk_outbox_full_reports": self._sdk_drops.reports,
+            "sdk_outbox_full_clients": list(self._sdk_drops.clients),
+            "sdk_log": ("unavailable" if self._sdk_drops.reports < 0 else
+                        f"silenced (FOXGLOVE_LOG_LEVEL={level})"
+                        if level in ("WARN", "WARNING", "ERROR", "OFF") else "info"),
+        }
+
     def stop(self) -> None:
         try:
             self.server.stop()
         except Exception:  # noqa: BLE001 - stopping a server that failed is not news
             pass
+
+
+def viewer_dropped(stats: dict) -> int:
+    """Viewer frames known to be lost for back-pressure or by the bench: the bench's own cut
+    picks, plus one per foxglove-sdk overflow report (each stands for at least one frame the sdk
+    dropped; it does not say how many, so this is a lower bound whenever a report was made)."""
+    return int(stats.get("cut_by_bench", 0)) + max(int(stats.get("sdk_outbox_full_reports", 0)), 0)
+
+
+def listening_line(port: int) -> str:
+    """What the bench prints once the live view listens (bench run, bench replay)."""
+    return (f"live view: Foxglove WebSocket on ws://127.0.0.1:{port} (Foxglove or Lichtblick: "
+            f"Open connection, Foxglove WebSocket; docs/foxglove.md)")
+
+
+def stats_line(stats: dict) -> str:
+    """One line for stderr after a run with --live."""
+    reports = int(stats.get("sdk_outbox_full_reports", 0))
+    if reports > 0:
+        sdk = (f"foxglove-sdk dropped queued frames of a client that did not read "
+               f"({', '.join(stats.get('sdk_outbox_full_clients', [])) or '?'}): {reports} "
+               f"overflow report(s), each at least one frame (the sdk does not count them, and "
+               f"reports at most once per 30 s)")
+    elif reports < 0 or stats.get("sdk_log", "info") != "info":
+        sdk = f"foxglove-sdk's overflow reports not available (its log: {stats.get('sdk_log')})"
+    else:
+        sdk = "no client's queue overflowed (foxglove-sdk reported none)"
+    return (f"live view: {stats.get('clients', 0)} client(s); {stats.get('messages_sent', 0)} "
+            f"messages sent ({stats.get('client_frames_sent', 0)} client frames, the per-cycle "
+            f"channels decimated to {float(stats.get('rate_hz', 0)):g} Hz by design); viewer "
+            f"frames dropped: at least {viewer_dropped(stats)} ({stats.get('cut_by_bench', 0)} "
+            f"cut by the bench; {sdk})")

@@ -27,6 +27,7 @@ closed pipe into ``RecorderError("recorder process (pid N) for PATH died (killed
 """
 from __future__ import annotations
 
+import json
 import mmap
 import os
 import struct
@@ -571,8 +572,17 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     except Exception as exc:  # noqa: BLE001 - report, then finalise what we can
         error = f"recorder: {type(exc).__name__}: {exc} (writing {target})"
     finally:
+        live_stats = None
         if live_view is not None:
             live_view.stop()
+            live_stats = live_view.stats()
+            if writer is not None and error is None:
+                try:   # the viewer's end-of-run figures (docs/foxglove.md "Dropped frames")
+                    writer.add_metadata(name="live_view", data={
+                        k: (v if isinstance(v, str) else json.dumps(v))
+                        for k, v in live_stats.items()})
+                except Exception as exc:  # noqa: BLE001 - the file matters more than the figure
+                    error = f"recorder: cannot write the live view's figures: {exc}"
         for side in raw_files.values():
             try:
                 write_end(side, time.monotonic_ns(), closed_by if error is None else
@@ -602,7 +612,7 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
             except OSError as exc:
                 error = f"recorder: cannot rename {tmp} to {target}: {exc}"
         try:
-            conn.send(("closed", messages, final, error))
+            conn.send(("closed", messages, final, error, live_stats))
         except (BrokenPipeError, OSError):
             pass
         conn.close()
@@ -671,6 +681,8 @@ class ProcessRecorder:
         self.final_path: Path | None = None
         self.messages = 0
         self.error: str | None = None
+        #: the live view's end-of-run figures (live_view.LiveView.stats), once closed
+        self.live_stats: dict | None = None
         first = self._request(None, "start", timeout_s=10.0)
         if first[0] != "ready":
             self._proc.join(5.0)
@@ -850,7 +862,7 @@ class ProcessRecorder:
                               f"({self._exit_text()}); {self._leftover()}")
             raise RecorderError(self.error)
         self._proc.join(10.0)
-        _, self.messages, final, error = reply
+        _, self.messages, final, error, self.live_stats = reply
         self.final_path = Path(final)
         if error:
             self.error = error

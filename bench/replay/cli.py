@@ -37,6 +37,13 @@ def add_parser(sub) -> None:
     r.add_argument("--rate", type=float, default=None,
                    help="pace the replay at this multiple of the recorded rate (1.0 = as "
                         "recorded) from absolute deadlines; default: as fast as possible")
+    r.add_argument("--live", type=int, nargs="?", const=8765, default=None, metavar="PORT",
+                   help="serve the new recording's channels live over the Foxglove WebSocket "
+                        "protocol on 127.0.0.1:PORT (default 8765; 0: any free port) while the "
+                        "replay goes on; a viewer's operator inputs are refused (docs/foxglove.md)")
+    r.add_argument("--live-rate", type=float, default=50.0, metavar="HZ",
+                   help="--live: messages per second per per-cycle channel sent to a viewer "
+                        "(default 50); pace the replay for watching with --rate 1")
     r.add_argument("--link", default="stub", help="controller mode: the link (as bench run --link)")
     r.add_argument("--set", action="append", default=[], metavar="PARAM=value",
                    help="controller mode: a CONFIG parameter other than the capture's, e.g. "
@@ -82,9 +89,20 @@ def build_options(args: argparse.Namespace):
     if args.window:
         a, _, b = args.window.partition(",")
         window = (float(a), float(b))
+    live = None
+    if getattr(args, "live", None) is not None:
+        from hil_bench.record.live_view import LiveOptions
+
+        live = LiveOptions(port=args.live, rate_hz=args.live_rate)   # ValueError: bad values
     return ReplayOptions(mode=args.mode, out=args.out, force=args.force, estimators=est,
                          est_config=cfg, profile=args.profile, rate=args.rate, link=args.link,
-                         set_params=params, window_s=window)
+                         set_params=params, window_s=window, live=live, on_live=_said_live)
+
+
+def _said_live(port: int) -> None:
+    from hil_bench.record.live_view import listening_line
+
+    Console(stderr=True).print(escape(listening_line(port)))
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -153,6 +171,10 @@ def print_result(res, out: Console, err: Console) -> None:
                   f"{p['start_err_max_us']:.1f} us")
     for n in res.notes:
         out.print(f"[dim]note: {escape(n)}[/dim]")
+    if res.live_stats is not None:
+        from hil_bench.record.live_view import stats_line
+
+        err.print(escape(stats_line(res.live_stats)))
     if res.error:
         err.print(f"[red]replay ended early:[/red] {escape(res.error)}")
     if res.metrics:

@@ -28,6 +28,7 @@ from .modes import (
     derived_state,
     engine_summary,
     finish,
+    replay_live,
 )
 
 _CMD = MESSAGES["CMD"]
@@ -59,7 +60,8 @@ def run_controller(cap: Capture, opts: ReplayOptions, profile, out, window, pace
     for p, v in opts.set_params.items():
         res.notes.append(f"CONFIG {p.name} = {v:g} (capture: "
                          f"{cap.config.get(p, float('nan')):g})")
-    o = _Out(cap, "controller", out, opts.force, [], ch.REPLAY_CONTROLLER)
+    o = _Out(cap, "controller", out, opts.force, [], ch.REPLAY_CONTROLLER,
+             live=replay_live(opts, pace_s), on_live=opts.on_live)
     o.pole_pairs = int(profile.pole_pairs)
     opened = None
     link = None
@@ -96,13 +98,14 @@ def run_controller(cap: Capture, opts: ReplayOptions, profile, out, window, pace
                 rx = " ".join(f"{f:03X}#{p.hex().upper()}" for d, f, p in setup if d == "rx")
                 o.frames.write_values(0.0, (0.0, -1, tx, rx))
             link = engine_link_for(opened.link)
-            e = eng.Engine(None, ts_s=cap.ts_s, n_cycles=cap.n, link_fd=link.fd,
-                           link_kind=link.kind, ring=o.rec.ring_mem,
-                           channels=o.channels(ch_state=NO_CHANNEL),
-                           source="replay_controller", replay_cycles=cap.rows,
-                           replay_frames=cap.frames, pole_pairs=int(profile.pole_pairs),
-                           rpm_per_rad_s=RPM_PER_RAD_S, estimator_expected=int(h["estimator"]),
-                           pace_s=pace_s)
+            e = o.attach(eng.Engine(None, ts_s=cap.ts_s, n_cycles=cap.n, link_fd=link.fd,
+                                    link_kind=link.kind, ring=o.rec.ring_mem,
+                                    channels=o.channels(ch_state=NO_CHANNEL),
+                                    source="replay_controller", replay_cycles=cap.rows,
+                                    replay_frames=cap.frames,
+                                    pole_pairs=int(profile.pole_pairs),
+                                    rpm_per_rad_s=RPM_PER_RAD_S,
+                                    estimator_expected=int(h["estimator"]), pace_s=pace_s))
             py = opened.link
             deframer = getattr(py, "deframer", None)
             pending = list(getattr(py, "_pending", []))

@@ -57,6 +57,10 @@ class ReplayOptions:
     window_s: tuple[float, float] | None = None
     progress: bool = False
     stub_args: tuple[str, ...] = ()
+    #: --live: a hil_bench.record.live_view.LiveOptions (the replay's recording served to
+    #: Foxglove while it is written; operator inputs refused); on_live(port) once it listens
+    live: object | None = None
+    on_live: object | None = None
 
 
 @dataclass
@@ -74,6 +78,7 @@ class ReplayResult:
     compare: dict = field(default_factory=dict)
     window_s: tuple[float, float] = (0.0, 0.0)
     notes: list[str] = field(default_factory=list)
+    live_stats: dict | None = None     # --live: the viewer's end-of-run figures
 
     @property
     def ok(self) -> bool:
@@ -352,11 +357,37 @@ def _window(cap: Capture, opts: ReplayOptions) -> tuple[float, float]:
     return float(t[0] + 0.5 * (t[-1] - t[0])), float(t[-1])
 
 
-class _Out:
-    """The new recording: channels, metadata, the rows Python writes."""
+#: why a viewer's operator input is refused in a replay (its /events row)
+REPLAY_REFUSES = ("a replay plays the capture's own inputs (bench run --live takes operator "
+                  "inputs where the scenario says [live] inputs = true)")
 
-    def __init__(self, cap: Capture, mode: str, path: Path, force: bool, refs, extra_kind=None):
-        self.rec = ProcessRecorder(path, force=force)
+
+def replay_live(opts: ReplayOptions, pace_s: float):
+    """The live view's options for a replay (None without --live): no operator input is taken,
+    and the recorder keeps its background priority unless the replay is paced (--rate), as a run
+    paced for watching does."""
+    import dataclasses
+
+    if opts.live is None:
+        return None
+    return dataclasses.replace(opts.live, inputs=False, refused_why=REPLAY_REFUSES,
+                               background=not pace_s > 0)
+
+
+class _Out:
+    """The new recording: channels, metadata, the rows Python writes; with ``live`` (see
+    :func:`replay_live`) served to Foxglove while it is written."""
+
+    def __init__(self, cap: Capture, mode: str, path: Path, force: bool, refs, extra_kind=None,
+                 live=None, on_live=None):
+        self.inbox = None
+        if live is not None:
+            from hil_bench.loop.runner import new_live_inbox
+
+            self.inbox = new_live_inbox()   # the viewer's inputs: refused, each on /events
+        self.rec = ProcessRecorder(path, force=force, live=live, live_inbox=self.inbox)
+        if self.rec.live_port is not None and on_live is not None:
+            on_live(self.rec.live_port)
         r = self.rec
         self.state = r.channel(ch.PLANT_STATE)
         self.sense = r.channel(ch.PLANT_SENSE)
@@ -380,6 +411,12 @@ class _Out:
 
     def event(self, t_s: float, kind: str, text: str, value: float = 0.0) -> None:
         self.events.write_values(t_s, (t_s, kind, text, value))
+
+    def attach(self, e: eng.Engine) -> eng.Engine:
+        """The engine takes the viewer's inputs (to refuse them at the row they arrive)."""
+        if self.inbox is not None:
+            e.attach_inbox(self.inbox)
+        return e
 
 
 def _write_metadata(o: _Out, cap: Capture, mode: str, profile, plant, refs_cfg, window,
@@ -542,5 +579,8 @@ def finish(o: _Out, e: eng.Engine | None, res: ReplayResult, extra: dict | None 
         "rows_dropped": o.rec.dropped, "timing": json.dumps(res.pacing),
         "counters": json.dumps(e.counters() if e is not None else {}),
         **({k: json.dumps(v) for k, v in (extra or {}).items()})})
-    o.rec.close()
+    try:
+        o.rec.close()
+    finally:
+        res.live_stats = o.rec.live_stats
     res.out = o.rec.final_path or res.out

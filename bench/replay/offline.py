@@ -26,6 +26,7 @@ from .modes import (
     finish,
     make_estimators,
     reference_list,
+    replay_live,
     t_delay_of,
 )
 
@@ -43,17 +44,19 @@ def run_offline(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
     # the voltage over the last period: delay-weighted duties, as live (a CSV of measured phase
     # voltages already is that average: no split)
     t_delay = t_delay_of(cap, profile) if cap.voltage_is_duty else 0.0
-    o = _Out(cap, "offline", out, opts.force, refs)
+    o = _Out(cap, "offline", out, opts.force, refs,
+             live=replay_live(opts, pace_s), on_live=opts.on_live)
     o.pole_pairs = int(profile.pole_pairs)
     e = None
     try:
         _write_metadata(o, cap, "offline", profile, None, refs_cfg, window, opts)
         _write_capture_events(o, cap)
         _write_rows(o, cap, derived_state(cap, int(profile.pole_pairs)))
-        e = eng.Engine(None, ts_s=cap.ts_s, n_cycles=cap.n, ring=o.rec.ring_mem,
-                       channels=o.channels(), source="replay_estimators", replay_cycles=cap.rows,
-                       t_delay_s=t_delay, pole_pairs=int(profile.pole_pairs),
-                       rpm_per_rad_s=RPM_PER_RAD_S, pace_s=pace_s, stats_every_cycles=0)
+        e = o.attach(eng.Engine(None, ts_s=cap.ts_s, n_cycles=cap.n, ring=o.rec.ring_mem,
+                                channels=o.channels(), source="replay_estimators",
+                                replay_cycles=cap.rows,
+                                t_delay_s=t_delay, pole_pairs=int(profile.pole_pairs),
+                                rpm_per_rad_s=RPM_PER_RAD_S, pace_s=pace_s, stats_every_cycles=0))
         for (_name, kind, est), chan in zip(refs, o.refs):
             e.add_reference(kind, est, chan.index)
         interrupted = _watch(e, o, cap.n, opts.progress)

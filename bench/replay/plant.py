@@ -26,6 +26,7 @@ from .modes import (
     make_estimators,
     plant_overrides,
     reference_list,
+    replay_live,
 )
 
 
@@ -52,17 +53,19 @@ def run_plant(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
     plant.set_initial(theta0, w0)
     refs_cfg = reference_list(cap, opts, res.notes) if opts.estimators else {}
     refs = make_estimators(refs_cfg, profile, cap.ts_s)
-    o = _Out(cap, "plant", out, opts.force, refs, ch.REPLAY_PLANT)
+    o = _Out(cap, "plant", out, opts.force, refs, ch.REPLAY_PLANT,
+             live=replay_live(opts, pace_s), on_live=opts.on_live)
     e = None
     try:
         _write_metadata(o, cap, "plant", profile, plant, refs_cfg, window, opts)
         _write_capture_events(o, cap)
         load = st.get("torque_load_nm")
-        e = eng.Engine(plant, ts_s=cap.ts_s, n_cycles=cap.n, ring=o.rec.ring_mem,
-                       channels=o.channels(), source="replay_plant", replay_cycles=cap.rows,
-                       t_delay_s=float(plant.params.t_delay_s),
-                       pole_pairs=int(profile.pole_pairs), rpm_per_rad_s=RPM_PER_RAD_S,
-                       pace_s=pace_s, record_frames=0)
+        e = o.attach(eng.Engine(plant, ts_s=cap.ts_s, n_cycles=cap.n, ring=o.rec.ring_mem,
+                                channels=o.channels(), source="replay_plant",
+                                replay_cycles=cap.rows,
+                                t_delay_s=float(plant.params.t_delay_s),
+                                pole_pairs=int(profile.pole_pairs), rpm_per_rad_s=RPM_PER_RAD_S,
+                                pace_s=pace_s, record_frames=0))
         if load is not None and np.isfinite(load).any():
             # the recorded load torque, from the cycle it changes (the recording's truth)
             plant.set_load_torque(float(np.nan_to_num(load[0])))

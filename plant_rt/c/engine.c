@@ -1084,6 +1084,12 @@ static void apply_input(engine_t *e, const cycle_t *c, const live_input_t *in)
 {
     char text[LIVE_INPUT_TEXT + 64];
     const int lockstep = e->cfg.mode == ENGINE_LOCKSTEP;
+    if (e->cfg.source != ENGINE_SOURCE_PLANT && in->kind != LIVE_IN_REFUSED) {
+        /* a replay plays the capture's own inputs (the live view refuses before; this holds
+         * whatever a producer pushes) */
+        operator_refused(e, c, in, "a replay plays the capture's own inputs");
+        return;
+    }
     switch (in->kind) {
     case LIVE_IN_SPEED_REF:
         if (!isfinite(in->value)) {
@@ -2145,6 +2151,7 @@ static int replay_begin(engine_t *e, cycle_t *c, long k, int64_t *c0, int64_t *s
     c->smp.v_dc_v = row->v_dc_v;
     c->snap.theta_e_rad = row->has_theta ? row->theta_rad : (double)NAN;
     c->theta_enc = (double)NAN;
+    take_inputs(e, c);   /* bench replay --live: a viewer's inputs, every one refused on /events */
     return 0;
 }
 

@@ -40,7 +40,9 @@
  *   load torque into the plant before its sample; each writes an /events row naming the cycle
  *   (kind "operator", or "operator_refused" with the reason). Lockstep only: a pause holds the
  *   run before the cycle's SENSE (the link is still read: heartbeats, a FAULT_CTRL) until a
- *   resume or a stop; the pause leaves no trace in the rows but its /events rows.
+ *   resume or a stop; the pause leaves no trace in the rows but its /events rows. A replay
+ *   (bench replay --live) takes them too, at the start of each replayed row, and refuses every
+ *   one (an "operator_refused" row at that row's time): it plays the capture's own inputs.
  *
  * Frame rules, both modes (docs/protocol.md section 6): frames are handled in arrival order, one
  * at a time, so the outcome never depends on how reads were batched. The first valid DUTY(k)
@@ -403,7 +405,8 @@ int engine_add_event(engine_t *e, const engine_event_t *ev);
  *  no-op): the windows the metrics read. 0, or -1 (full). */
 int engine_add_full_rate(engine_t *e, long from_k, long to_k);
 /** Take operator inputs from a live view's mailbox in `mem` (live.h, formatted): every pending
- *  input at the start of each cycle of the live loop (lockstep and real time). 0, or -1 with
+ *  input at the start of each cycle of the live loop (lockstep and real time), or of each
+ *  replayed row (a replay refuses them all). 0, or -1 with
  *  e->message (not formatted). */
 int engine_attach_inbox(engine_t *e, void *mem, size_t size);
 /** Add a link fault (engine_faults.h). 0, or -1 with e->message (bad values, full, not possible
