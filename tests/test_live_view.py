@@ -159,6 +159,29 @@ def _recording(path: Path):
     return chans, rows
 
 
+def _advertised_as_recorded(viewer, path: Path):
+    """The channels the viewer was told of, checked against the recording's: the same topics,
+    each with the recording's schema (name, encoding, data) and message encoding. Returns the
+    advertised channels by topic, the recording's messages by (topic, log time) and the
+    message class of /plant/state built from what the viewer was told, nothing of ours."""
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    chans, rows = _recording(path)
+    advertised = {c["topic"]: c for c in viewer.advertised.values()}
+    assert set(advertised) == set(chans)
+    for topic, c in advertised.items():
+        name, encoding, data, msg_encoding = chans[topic]
+        assert (c["schemaName"], c["schemaEncoding"], c["encoding"]) == (name, encoding, msg_encoding)
+        assert base64.b64decode(c["schema"]) == data, topic
+    state = advertised["/plant/state"]
+    fds = descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(state["schema"]))
+    pool = descriptor_pool.DescriptorPool()
+    for fd in fds.file:
+        pool.Add(fd)
+    cls = message_factory.GetMessageClass(pool.FindMessageTypeByName(state["schemaName"]))
+    return advertised, rows, cls
+
+
 def _run(tmp_path: Path, *, live: LiveOptions, pace: float | None, make_viewer, **kw):
     scn = load_scenario("gong_g2_500rpm")
     out = tmp_path / "live.mcap"
@@ -176,8 +199,6 @@ def _run(tmp_path: Path, *, live: LiveOptions, pace: float | None, make_viewer, 
 
 
 def test_a_viewer_sees_the_recordings_channels_and_decodes_plant_state(tmp_path):
-    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
-
     result, viewers = _run(tmp_path, live=LiveOptions(port=0), pace=1.0,
                            make_viewer=lambda port: Viewer(port, ("/plant/state",)))
     assert result.ok, result.error
@@ -189,21 +210,9 @@ def test_a_viewer_sees_the_recordings_channels_and_decodes_plant_state(tmp_path)
     assert viewer.error is None, repr(viewer.error)
     assert viewer.subprotocol in SUBPROTOCOLS
 
-    chans, rows = _recording(result.recording)
-    advertised = {c["topic"]: c for c in viewer.advertised.values()}
-    assert set(advertised) == set(chans)
-    for topic, c in advertised.items():
-        name, encoding, data, msg_encoding = chans[topic]
-        assert (c["schemaName"], c["schemaEncoding"], c["encoding"]) == (name, encoding, msg_encoding)
-        assert base64.b64decode(c["schema"]) == data, topic
-
     # decode with what the viewer was told, nothing of ours
+    advertised, rows, cls = _advertised_as_recorded(viewer, result.recording)
     state = advertised["/plant/state"]
-    fds = descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(state["schema"]))
-    pool = descriptor_pool.DescriptorPool()
-    for fd in fds.file:
-        pool.Add(fd)
-    cls = message_factory.GetMessageClass(pool.FindMessageTypeByName(state["schemaName"]))
     got = [(t, payload) for cid, t, payload in viewer.messages if cid == state["id"]]
     # 1.5 s paced to real time, 50 Hz: about 75 (fewer on a loaded machine, the first ones
     # before the viewer subscribed)
@@ -602,8 +611,6 @@ def test_a_viewer_watches_a_replay_into_the_plant_and_its_inputs_are_refused(tmp
     /plant/state message decodes with the advertised schema and is the recording's row of that
     time; the load torque it publishes is refused on /events (a replay plays the capture's own
     inputs) and changes nothing (the plant's currents still equal the recorded, bit for bit)."""
-    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
-
     from hil_bench.replay import ReplayOptions, read_capture, run_replay
 
     viewers = []
@@ -622,19 +629,9 @@ def test_a_viewer_watches_a_replay_into_the_plant_and_its_inputs_are_refused(tmp
     assert viewer.error is None, repr(viewer.error)
     assert viewer.published, "the replay ended before the viewer saw 3 messages"
 
-    chans, rows = _recording(res.out)
-    advertised = {c["topic"]: c for c in viewer.advertised.values()}
-    assert set(advertised) == set(chans) and "/replay/plant" in advertised
-    for topic, c in advertised.items():
-        name, encoding, data, msg_encoding = chans[topic]
-        assert (c["schemaName"], c["schemaEncoding"], c["encoding"]) == (name, encoding, msg_encoding)
-        assert base64.b64decode(c["schema"]) == data, topic
+    advertised, rows, cls = _advertised_as_recorded(viewer, res.out)
+    assert "/replay/plant" in advertised
     state = advertised["/plant/state"]
-    fds = descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(state["schema"]))
-    pool = descriptor_pool.DescriptorPool()
-    for fd in fds.file:
-        pool.Add(fd)
-    cls = message_factory.GetMessageClass(pool.FindMessageTypeByName(state["schemaName"]))
     got = [(t, p) for cid, t, p in viewer.messages if cid == state["id"]]
     assert len(got) >= 3, len(got)
     for t, payload in got:

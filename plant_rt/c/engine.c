@@ -1307,6 +1307,16 @@ static void length_error(engine_t *e, cycle_t *c, const eng_frame_t *f, const ch
     }
 }
 
+/** A DUTY's raw duty as the plant takes it: -1 OFF (the leg disabled), 0..1 the high-side on
+ *  fraction, NaN out of range (a bad duty, docs/protocol.md 6.6). */
+static double duty_of_raw(const engine_t *e, uint32_t raw)
+{
+    if (raw == e->cfg.duty_raw_off) {
+        return -1.0;
+    }
+    return (raw <= e->cfg.duty_raw_full) ? (double)raw / (double)e->cfg.duty_raw_full : (double)NAN;
+}
+
 /** A late DUTY is never applied, but an out-of-range one is still a controller that sent
  *  garbage: counted in bad_duties with its /events row (not in the consecutive count, which is
  *  about duties the bench had to hold in place of one it would have applied). */
@@ -1315,7 +1325,7 @@ static void late_duty_in_range(engine_t *e, const cycle_t *c, const hil_duty_t *
     const uint32_t raw[3] = {d->d_a, d->d_b, d->d_c};
     int k;
     for (k = 0; k < 3; ++k) {
-        if (raw[k] != e->cfg.duty_raw_off && raw[k] > e->cfg.duty_raw_full) {
+        if (isnan(duty_of_raw(e, raw[k]))) {
             char text[160];
             e->n.bad_duties++;
             snprintf(text, sizeof text, "DUTY seq %u raw [%u, %u, %u] out of range, and late "
@@ -1566,12 +1576,8 @@ static int take_duties(engine_t *e, const cycle_t *c)
     double d[3];
     int k, bad = 0;
     for (k = 0; k < 3; ++k) {
-        const uint32_t r = c->duty_raw[k];
-        if (r == e->cfg.duty_raw_off) {
-            d[k] = -1.0;
-        } else if (r <= e->cfg.duty_raw_full) {
-            d[k] = (double)r / (double)e->cfg.duty_raw_full;
-        } else {
+        d[k] = duty_of_raw(e, c->duty_raw[k]);
+        if (isnan(d[k])) {
             bad = 1;
             d[k] = 0.0;
         }
@@ -2072,14 +2078,6 @@ static int run_lockstep(engine_t *e)
 }
 
 /* ---- replay ------------------------------------------------------------------------------------ */
-
-static double duty_of_raw(const engine_t *e, uint32_t raw)
-{
-    if (raw == e->cfg.duty_raw_off) {
-        return -1.0;
-    }
-    return (raw <= e->cfg.duty_raw_full) ? (double)raw / (double)e->cfg.duty_raw_full : (double)NAN;
-}
 
 /** Replay rows as fast as possible, or paced: row k starts at t0 + (its recorded time - the
  *  first row's) * pace_s / ts_s (absolute deadlines; pace_s = Ts / rate), so a gap in the
