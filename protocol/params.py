@@ -96,6 +96,11 @@ PARAMS: tuple[ParamInfo, ...] = (
     _p("HANDOVER_TIME_S", "s", "real", "start-up: d-current ramp-down time after the hand-over", default=0.05),
     _p("CTRL_DELAY_S", "s", "real", "computation delay t_d the controller assumes: sampling to new duties "
        "(the plant's own t_d, sent by the host)", default=0),
+    _p("LOOP_ANGLE", "-", "enum", "the angle the closed loop's Park transforms use when an SMO closes it "
+       "(HF injection and the encoder have one angle); also the angle TELEMETRY reports",
+       ((0, "the observer's EMF angle (atan2 of the estimated EMF, lag-compensated)"),
+        (1, "the PLL's angle that tracks it (type 2; the EMF angle's noise filtered at the PLL's bandwidth)")),
+       default=0),
     _p("SMO_K_V", "V", "real", "SMO switching gain k; SMO_SIGN: <= 0 adapts it every step, k = max(SMO_K_MIN_V, SMO_K_FACTOR "
        "min(|w^| PSI_F_WB, 2 |E^| sqrt(1 + (w^ / SMO_WC_RAD_S)^2))); SMO_SIGMOID, SMO_TANH: **required** "
        "(> 0; the host sends Yuan eq. 18 / Gong eq. 17)", default=0),
