@@ -154,7 +154,10 @@ PARAMS: tuple[ParamInfo, ...] = (
        "fraction of V_DC_NOM_V / sqrt(3) while the reading stands still", default=0.1),
     _p("PROT_ENC_FROZEN_TIME_S", "s", "real", "frozen encoder: for this long", default=0.002),
     _p("PROT_STALL_TIME_S", "s", "real", "stall: the speed loop at IQ_MAX_A, that current delivered, "
-       "for this long with less progress than PROT_STALL_SPEED_RAD_S is a STALL", default=0.1),
+       "for this long with less progress than PROT_STALL_SPEED_RAD_S is a STALL; with a back-EMF observer "
+       "closing the loop also its EMF below 0.1 of |w^_e| PSI_F_WB (both low-passed over a quarter of this "
+       "time, where |w^_e| PSI_F_WB >= 5 % of V_DC_NOM_V / sqrt(3)) once that has held for this long "
+       "(docs/faults.md)", default=0.1),
     _p("PROT_STALL_SPEED_RAD_S", "rad/s", "real", "stall: the least the speed error must shrink over "
        "PROT_STALL_TIME_S at the limit, mechanical", default=1),
     # super-twisting SMO (SMO_STA, firmware_stub/src/est_smo_sta.h: Hou's comparator)

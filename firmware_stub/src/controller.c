@@ -10,6 +10,8 @@
  * averaged over about 1 / (1 - r) = 10 samples (1.25 periods of a 1250 Hz injection at 10 kHz) */
 #define INV_HF_OBS_RADIUS 0.9f
 
+static const est_pll_t *smo_pll(const controller_t *c);
+
 void ctrl_config_defaults(ctrl_config_t *cfg)
 {
     /* motor: must come from the host; zeros fail ctrl_start's validation */
@@ -163,6 +165,10 @@ static int protect_motion(controller_t *c, const ctrl_sample_t *s, fw_vec2_t i_a
     m.enc_valid = s->theta_enc_valid;
     m.theta_enc_rad = s->theta_enc_rad;
     m.emf_v = 0.0f;
+    /* the back-EMF observer's own EMF against the EMF its speed stands for (the stall check) */
+    m.emf_hat_v = smo_pll(c) != NULL ? sqrtf(c->est.e_alpha_v * c->est.e_alpha_v +
+                                             c->est.e_beta_v * c->est.e_beta_v) : -1.0f;
+    m.emf_of_speed_v = fabsf(c->est.omega_e_rad_s) * k->psi_f_wb;
     if (m.encoder_used && c->prot_i_prev_valid) {
         /* back-EMF of the last period from the voltage balance: v - R i - L di/dt (mean L) */
         const float ls = 0.5f * (k->ld_h + k->lq_h);
