@@ -96,6 +96,11 @@ PARAMS: tuple[ParamInfo, ...] = (
     _p("HANDOVER_TIME_S", "s", "real", "start-up: d-current ramp-down time after the hand-over", default=0.05),
     _p("CTRL_DELAY_S", "s", "real", "computation delay t_d the controller assumes: sampling to new duties "
        "(the plant's own t_d, sent by the host)", default=0),
+    _p("LOOP_ANGLE", "-", "enum", "the angle the closed loop's Park transforms use when an SMO closes it "
+       "(HF injection and the encoder have one angle); also the angle TELEMETRY reports",
+       ((0, "the observer's EMF angle (atan2 of the estimated EMF, lag-compensated)"),
+        (1, "the PLL's angle that tracks it (type 2; the EMF angle's noise filtered at the PLL's bandwidth)")),
+       default=0),
     _p("SMO_K_V", "V", "real", "SMO switching gain k; SMO_SIGN: <= 0 adapts it every step, k = max(SMO_K_MIN_V, SMO_K_FACTOR "
        "min(|w^| PSI_F_WB, 2 |E^| sqrt(1 + (w^ / SMO_WC_RAD_S)^2))); SMO_SIGMOID, SMO_TANH: **required** "
        "(> 0; the host sends Yuan eq. 18 / Gong eq. 17)", default=0),
@@ -149,7 +154,10 @@ PARAMS: tuple[ParamInfo, ...] = (
        "fraction of V_DC_NOM_V / sqrt(3) while the reading stands still", default=0.1),
     _p("PROT_ENC_FROZEN_TIME_S", "s", "real", "frozen encoder: for this long", default=0.002),
     _p("PROT_STALL_TIME_S", "s", "real", "stall: the speed loop at IQ_MAX_A, that current delivered, "
-       "for this long with less progress than PROT_STALL_SPEED_RAD_S is a STALL", default=0.1),
+       "for this long with less progress than PROT_STALL_SPEED_RAD_S is a STALL; with a back-EMF observer "
+       "closing the loop also its EMF below 0.1 of |w^_e| PSI_F_WB (both low-passed over a quarter of this "
+       "time, where |w^_e| PSI_F_WB >= 5 % of V_DC_NOM_V / sqrt(3)) once that has held for this long "
+       "(docs/faults.md)", default=0.1),
     _p("PROT_STALL_SPEED_RAD_S", "rad/s", "real", "stall: the least the speed error must shrink over "
        "PROT_STALL_TIME_S at the limit, mechanical", default=1),
     # super-twisting SMO (SMO_STA, firmware_stub/src/est_smo_sta.h: Hou's comparator)

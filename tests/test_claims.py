@@ -244,7 +244,7 @@ def test_overcurrent_trips_before_the_adc_clips(run):
     assert asked < trip, (run.id, asked, trip)
 
 
-@pytest.mark.parametrize("run_id", ["H2.smo", "H2.smo.nodt", "Y2.conventional.nodt"])
+@pytest.mark.parametrize("run_id", ["H2.smo", "H2.smo.nodt", "H1.smo.nodt"])
 def test_runaways_end_as_named_overcurrents(tmp_path, run_id):
     """Runs that ended in SENSOR_FAULT before the trip level was set below the ADC's full scale
     (the drive ran away, the currents clipped): they now end in OVERCURRENT, and the report's

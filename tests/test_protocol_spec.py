@@ -244,7 +244,7 @@ def test_an_incomplete_configuration_is_what_the_spec_says(estimator, given, sta
     assert c.state == (4 if not starts else c.state)     # FAULT (HIL_STATE_FAULT) when refused
 
 
-@pytest.mark.parametrize("name, count", [("gong_g2_500rpm", 20), ("yuan_y2_improved", 31)])
+@pytest.mark.parametrize("name, count", [("gong_g2_500rpm", 20), ("yuan_y2_improved", 32)])
 def test_the_host_sends_exactly_the_parameters_the_spec_lists(tmp_path, name, count):
     """Issue 19, point 8: 6.2 said "the host sends every parameter it knows" while it sent 20 of 62.
     It now says which: the motor's 8, CTRL_DELAY_S, the reference observer's settings (sigmoid and

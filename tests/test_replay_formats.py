@@ -203,13 +203,29 @@ def test_corrupt_gzip_log(tmp_path):
     text decoded after the damage is garbage, so the capture is read up to its first unreadable
     line; the cycles before it replay as recorded."""
     data = bytearray((EX / "example.log.gz").read_bytes())
-    data[len(data) // 2] ^= 0x55
+    data[int(0.4 * len(data))] ^= 0x55     # (where the damage decodes to an unreadable line)
     p = tmp_path / "flip.log.gz"
     p.write_bytes(bytes(data))
     cap = read_capture(p)
     assert any("corrupt compressed stream" in x for x in cap.problems), cap.problems
+    assert any("damaged line(s) left out" in x for x in cap.problems), cap.problems
     assert 0 < cap.n < N_CYCLES
     assert _same_prefix(_ref(EX / "example.mcap"), _ref(run_replay(cap, _opts(tmp_path, "o")).out))
+
+
+def test_corrupt_gzip_log_whose_damage_still_parses(tmp_path):
+    """Where the flipped octet changes values that still parse as candump lines (here, in the
+    middle of the example's stream), no line can be left out: the capture says its values
+    cannot be trusted, and the replay records that as a capture_damage event."""
+    data = bytearray((EX / "example.log.gz").read_bytes())
+    data[len(data) // 2] ^= 0x55
+    p = tmp_path / "flip.log.gz"
+    p.write_bytes(bytes(data))
+    cap = read_capture(p)
+    assert any("the capture's values cannot be trusted" in x for x in cap.problems), cap.problems
+    res = run_replay(cap, _opts(tmp_path, "o"))
+    ev = load_recording(res.out, topics=["/events"]).topic("/events")
+    assert any("cannot be trusted" in str(t) for t in ev["text"]), ev
 
 
 def test_daq_csv_cut_inside_its_last_field(tmp_path):
@@ -230,8 +246,10 @@ def test_daq_csv_cut_inside_its_last_field(tmp_path):
 # -- MCAP -----------------------------------------------------------------------------------------
 
 def test_mcap_with_a_damaged_first_chunk(tmp_path):
-    """The first chunk holds the only copy of the channels besides the summary: they are taken
-    from the summary, and every later chunk replays."""
+    """A damaged first chunk: the bench's recorder declares every schema and channel before the
+    first chunk (and again in the summary), so every later chunk replays, with or without the
+    summary. (A file whose only channel records besides the summary sit in the damaged chunk,
+    as other writers make it, is test_mcap_whose_channels_were_in_the_damaged_chunk.)"""
     from mcap.records import Chunk
     from mcap.stream_reader import StreamReader
 
@@ -250,12 +268,43 @@ def test_mcap_with_a_damaged_first_chunk(tmp_path):
     assert 0 < cap.n < N_CYCLES
     rec = load_recording(p)
     assert rec.orphan_messages == 0 and rec.unreadable_chunks == 1
-    # without a summary the messages of the lost channels are counted, with the byte offset
+    # without the summary too: the channels declared up front still name every message
     p2 = tmp_path / "bad_cut.mcap"
     p2.write_bytes(bytes(data[: ends[-1]]))
     rec2 = load_recording(p2)
-    assert rec2.orphan_messages > 0
-    assert any("messages on channel id" in d and "byte" in d for d in rec2.damage)
+    assert rec2.orphan_messages == 0 and rec2.unreadable_chunks == 1 and rec2.messages > 0
+
+
+def test_mcap_whose_channels_were_in_the_damaged_chunk(tmp_path):
+    """mcap's own Writer puts a channel's record in the chunk of its first message: with that
+    chunk damaged and no summary, the later messages of the lost channel cannot be decoded; they
+    are counted, with the byte offset, never dropped silently."""
+    import io
+
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader
+    from mcap.writer import Writer
+
+    buf = io.BytesIO()
+    w = Writer(buf, chunk_size=2000)
+    w.start()
+    cid = w.register_channel("/a", "json", w.register_schema("s", "jsonschema", b"{}"))
+    for i in range(200):
+        w.add_message(cid, log_time=i * 1000, data=b'{"x": %d}' % i, publish_time=i * 1000)
+    w.finish()
+    data = bytearray(buf.getvalue())
+    with io.BytesIO(bytes(data)) as f:
+        ends = []
+        for r in StreamReader(f, emit_chunks=True).records:
+            if isinstance(r, Chunk):
+                ends.append(f.tell())
+    assert len(ends) > 2
+    data[ends[0] - 100] ^= 0xFF
+    p = tmp_path / "cut.mcap"
+    p.write_bytes(bytes(data[: ends[-1]]))
+    rec = load_recording(p)
+    assert rec.unreadable_chunks == 1 and rec.orphan_messages > 0
+    assert any("messages on channel id" in d and "byte" in d for d in rec.damage), rec.damage
 
 
 # -- time stamps ----------------------------------------------------------------------------------

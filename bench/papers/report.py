@@ -477,6 +477,9 @@ def estimator_settings(recording: Path) -> str:
         wn = math.sqrt(ki)
         parts.insert(0, f"PLL bandwidth wn {wn:.4g} rad/s, zeta {kp / (2 * wn):.3g} (kp {kp:.4g} "
                         f"1/s, ki {ki:.4g} 1/s^2)")
+    if params.get("LOOP_ANGLE") is not None:
+        parts.append("the loop turns with the " + ("PLL's angle" if params["LOOP_ANGLE"] >= 1
+                                                    else "observer's EMF angle") + " (LOOP_ANGLE)")
     if comp.get("on"):
         r = comp.get("residual")
         parts.append("inverter compensation on" + (f", residual {100 * r:g} %" if r is not None

@@ -456,7 +456,7 @@ def load_recording(path: str | Path, topics: Iterable[str] | None = None,
         except RecordingError:
             raise
         except (McapError, EOFError, ValueError, Exception) as exc:  # noqa: BLE001
-            if rec.messages == 0 and not rec.metadata and not channels:
+            if rec.messages == 0 and not rec.metadata and not channels and not rec.orphan_messages:
                 if not looks_like_mcap(path):
                     raise RecordingError(f"{path}: not an MCAP file (no MCAP magic at its start "
                                          f"or end): not a recording of this bench",

@@ -64,6 +64,19 @@ typedef enum {
 
 typedef enum { CTRL_MODE_SPEED = 0, CTRL_MODE_CURRENT = 1 } ctrl_mode_t;
 
+/** Which estimate of the angle the closed loop's Park transforms use (an SMO's; HF injection and
+ * the encoder have one angle). OBSERVER: the EMF angle itself (atan2 of the estimated EMF with
+ * the lag compensation), which carries the EMF estimate's noise sample by sample; PLL: the
+ * angle of the PLL that tracks it (type 2, the estimate's speed), the angle a production
+ * sensorless drive turns its frames with at low speed (the EMF angle's noise filtered at the
+ * PLL's bandwidth, no lag on a speed ramp). */
+typedef enum { CTRL_LOOP_ANGLE_OBSERVER = 0, CTRL_LOOP_ANGLE_PLL = 1 } ctrl_loop_angle_t;
+
+/** Bandwidth of the low-pass on the I-f current (open-loop frame) that seeds the speed loop at
+ * the hand-over [rad/s]: a 20 ms time constant, the 12-bit ADC's noise averaged over 200
+ * samples at 10 kHz, short against the I-f ramp (seconds). */
+#define CTRL_HANDOVER_I_LPF_RAD_S 50.0f
+
 /** Everything the host can configure (SI units). Zero gains mean "derive from the motor". */
 typedef struct {
     /* motor */
@@ -99,6 +112,8 @@ typedef struct {
     float smo_lag_comp;       /**< sigmoid SMO phase compensation: 0 none, 1 eq. 15, 2 effective */
     float smo_sta_k1_v, smo_sta_k2_v_s; /**< super-twisting SMO gains; <= 0: adaptive */
     float pll_kp, pll_ki, speed_lpf_rad_s;
+    float loop_angle;         /**< ctrl_loop_angle_t: the angle the current loop turns with once
+                                   an SMO closes it (the observer's, or its PLL's) */
     /* HF injection (Hou): amplitude, frequency, tracking loop, polarity test */
     float hfi_u_v, hfi_f_hz, hfi_bw_rad_s, hfi_kp, hfi_ki, hfi_ipd_timeout_s, hfi_pol_bias_a;
     float hfi_lock_tol_rad;   /**< IPD: |2 dtheta|/2 below this (for the lock time) counts as
@@ -166,6 +181,8 @@ typedef struct {
     float t_state_s;
     float theta_ol_rad, omega_ol_rad_s; /* open-loop angle and electrical speed */
     float id_handover_a;
+    fw_vec2_t i_ol_dq_f_a;   /* I-f current in the open-loop frame, low-passed (hand-over seed) */
+    float i_ol_lpf;          /* its coefficient 1 - exp(-w Ts) */
     /* estimator: only the selected one is live */
     union {
         est_smo_sign_t sign;

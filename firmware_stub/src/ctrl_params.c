@@ -40,6 +40,7 @@ static const param_entry_t k_params[] = {
     P(HIL_PARAM_HANDOVER_SPEED_RAD_S, handover_speed_rad_s, 0.0f, 1e5f),
     P(HIL_PARAM_HANDOVER_TIME_S, handover_time_s, 0.0f, 100.0f),
     P(HIL_PARAM_CTRL_DELAY_S, t_act_delay_s, 0.0f, 1.0f),
+    W(HIL_PARAM_LOOP_ANGLE, loop_angle, 0.0f, 1.0f),
     P(HIL_PARAM_SMO_K_V, smo_k_v, 0.0f, 1e4f),
     P(HIL_PARAM_SMO_WC_RAD_S, smo_wc_rad_s, 0.0f, 1e6f),
     P(HIL_PARAM_SMO_K_FACTOR, smo_k_factor, 0.0f, 100.0f),

@@ -49,6 +49,7 @@ int ctrl_protect_init(ctrl_protect_t *p, const ctrl_protect_config_t *cfg, float
     p->vdc_uv_v = k->vdc_uv_ratio * v_dc_nom_v;
     p->vdc_ov_v = k->vdc_ov_ratio * v_dc_nom_v;
     p->enc_emf_v = k->enc_emf_ratio * v_dc_nom_v * FW_INV_SQRT3_F;
+    p->stall_emf_min_v = CTRL_PROTECT_STALL_EMF_MIN_RATIO * v_dc_nom_v * FW_INV_SQRT3_F;
     ctrl_protect_reset(p);
     return 0;
 }
@@ -79,6 +80,9 @@ void ctrl_protect_reset(ctrl_protect_t *p)
     p->stall_dir = 0;
     p->stall_err0_rad_s = 0.0f;
     p->stall_i_int_as = 0.0f;
+    p->t_emf_s = 0.0f;
+    p->emf_hat_f_v = 0.0f;
+    p->emf_speed_f_v = 0.0f;
     p->code = CTRL_PROTECT_NONE;
     p->detail = 0;
 }
@@ -291,6 +295,28 @@ int ctrl_protect_motion_step(ctrl_protect_t *p, const ctrl_protect_motion_t *in)
         p->stall_dir = 0;
         p->t_stall_s = 0.0f;
         p->stall_i_int_as = 0.0f;
+    }
+    /* stall by the EMF: the observer sees no EMF where its speed estimate says there is one.
+     * Both magnitudes low-passed (time constant stall_time_s / 4); judged once the rule has been
+     * active for stall_time_s: a locked rotor is found some 2.3 time constants after it stopped */
+    if (in->speed_control && k->stall_time_s > 0.0f && in->emf_hat_v >= 0.0f &&
+        fw_is_finite(in->emf_hat_v) && fw_is_finite(in->emf_of_speed_v) &&
+        in->emf_of_speed_v >= p->stall_emf_min_v && p->stall_emf_min_v > 0.0f) {
+        const float a = fminf(4.0f * ts / k->stall_time_s, 1.0f);
+        if (p->t_emf_s <= 0.0f) {
+            p->emf_hat_f_v = in->emf_hat_v;
+            p->emf_speed_f_v = in->emf_of_speed_v;
+        }
+        p->t_emf_s += ts;
+        p->emf_hat_f_v += a * (in->emf_hat_v - p->emf_hat_f_v);
+        p->emf_speed_f_v += a * (in->emf_of_speed_v - p->emf_speed_f_v);
+        if (p->t_emf_s >= k->stall_time_s - 0.5f * ts &&
+            p->emf_hat_f_v < CTRL_PROTECT_STALL_EMF_RATIO * p->emf_speed_f_v) {
+            const float w = fminf(fmaxf(in->omega_m_hat_rad_s * 1000.0f, -2.0e9f), 2.0e9f);
+            return trip(p, CTRL_PROTECT_STALL, fw_is_finite(w) ? (int32_t)w : 0);
+        }
+    } else {
+        p->t_emf_s = 0.0f;
     }
     return CTRL_PROTECT_NONE;
 }

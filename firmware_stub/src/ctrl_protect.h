@@ -46,6 +46,15 @@
  *                 component, and its mean, not every sample: both are frame-free, so the check
  *                 holds when a sensorless observer's frame swings on a locked rotor (its q
  *                 current then dips below the limit in 20-50 % of the periods).
+ *                 Or, with a back-EMF observer closing the loop: the observer's own EMF
+ *                 magnitude |E^|, low-passed with the time constant stall_time_s / 4, falls
+ *                 below CTRL_PROTECT_STALL_EMF_RATIO of the EMF its speed estimate stands for
+ *                 (|w^| psi_f, low-passed alike), the rule having been active (speed control,
+ *                 |w^| psi_f >= CTRL_PROTECT_STALL_EMF_MIN_RATIO * V_dc,nom / sqrt(3)) for
+ *                 stall_time_s: the rotor has stopped (a locked rotor has no EMF) but
+ *                 the PLL's speed, fed an angle of noise, holds its last value, so the current
+ *                 need not sit at the limit (measured on Gong's motor locked at 500 rpm: |E^|
+ *                 0.01 V against |w^| psi_f = 17 V, i_q reference swinging between the limits).
  *                 detail = speed estimate [mrad/s, mechanical, signed].
  * A threshold of 0 switches its check off (i_trip_a excepted).
  */
@@ -76,6 +85,13 @@
  *  the limit (the current loop delivers what the speed loop asks: a rotor held at the voltage
  *  limit is not stalled). */
 #define CTRL_PROTECT_STALL_I_RATIO 0.9f
+/** Stall by the EMF: the observer's mean |E^| below this fraction of |w^| psi_f. An LPF'd EMF
+ *  (the sign SMO's, cut-off wc) reads 1 / sqrt(1 + (w / wc)^2) of it: 0.1 allows w up to ~10 wc;
+ *  a locked rotor reads ~0. */
+#define CTRL_PROTECT_STALL_EMF_RATIO 0.1f
+/** ... judged only where |w^| psi_f is at least this fraction of V_dc,nom / sqrt(3) (5 %: 9 V at
+ *  310 V): below, the EMF is too small against the inverter's error to tell. */
+#define CTRL_PROTECT_STALL_EMF_MIN_RATIO 0.05f
 
 /** Thresholds (SI). A zero switches that check off (see the top of this file). */
 typedef struct {
@@ -118,6 +134,8 @@ typedef struct {
     int enc_valid;         /**< a valid encoder reading arrived for this period */
     float theta_enc_rad;   /**< that reading */
     float emf_v;           /**< |back-EMF| of the voltage balance over the last period [V] */
+    float emf_hat_v;       /**< |E^| of the back-EMF observer closing the loop [V]; < 0: none */
+    float emf_of_speed_v;  /**< |w^_e| psi_f: the EMF the speed estimate stands for [V] */
 } ctrl_protect_motion_t;
 
 typedef struct {
@@ -144,6 +162,10 @@ typedef struct {
     int stall_dir;             /**< +1 / -1: at the upper / lower limit, 0: not at the limit */
     float stall_err0_rad_s;    /**< speed error at the start of the stall window */
     float stall_i_int_as;      /**< integral of |i| over the stall window [A s] */
+    float stall_emf_min_v;     /**< derived: the EMF rule's floor [V] */
+    float t_emf_s;             /**< EMF rule: time it has been active [s] */
+    float emf_hat_f_v;         /**< |E^| low-passed (time constant stall_time_s / 4) [V] */
+    float emf_speed_f_v;       /**< |w^| psi_f low-passed alike [V] */
     int code;                  /**< latched fault (CTRL_PROTECT_*), 0 = none */
     int32_t detail;
 } ctrl_protect_t;

@@ -387,6 +387,78 @@ static void test_stall(void)
     }
 }
 
+/* stall by the EMF (a back-EMF observer closes the loop): the observer sees no EMF where its speed
+ * estimate stands for 17 V (Gong's motor locked at 500 rpm: |E^| 0.01 V), the i_q reference
+ * swinging between the limits so the current rule never judges: trips at the end of the first
+ * stall_time_s window; an observer that reads its EMF (even LPF-attenuated to 0.3 of it), a speed
+ * whose EMF is below the floor (5 % of V_dc / sqrt(3)), no observer EMF (-1), current control and
+ * stall_time_s = 0 never trip */
+static void test_stall_by_emf(void)
+{
+    ctrl_protect_t p;
+    ctrl_protect_motion_t m;
+    int k;
+    const float floor_v = CTRL_PROTECT_STALL_EMF_MIN_RATIO * VDC / sqrtf(3.0f);
+    init(&p);
+    motion(&m);
+    m.encoder_used = 0;
+    m.emf_of_speed_v = 17.0f;
+    m.omega_m_hat_rad_s = 52.0f;
+    for (k = 0; k < 3000; ++k) {
+        m.i_q_ref_a = (k % 40 < 20) ? 9.0f : -9.0f;
+        m.emf_hat_v = 0.01f;
+        if (ctrl_protect_motion_step(&p, &m) != CTRL_PROTECT_NONE) break;
+    }
+    /* active from k = 0: judged from stall_time_s on, the low-passed EMF already below 0.1 of 17 V */
+    CHECK(p.code == CTRL_PROTECT_STALL && k == 999, "no EMF at 17 V of speed: %d", k);
+    CHECK(p.detail == 52000L, "detail = the speed estimate in mrad/s: %ld", (long)p.detail);
+    /* at speed with the EMF read, then the rotor stops: the low-passed |E^| (tau = 25 ms) falls
+     * below 0.1 of 17 V ln(10) tau = 58 ms later */
+    init(&p);
+    m.speed_control = 1;
+    for (k = 0; k < 3000; ++k) {
+        m.emf_hat_v = (k < 1500) ? 16.0f : 0.01f;
+        if (ctrl_protect_motion_step(&p, &m) != CTRL_PROTECT_NONE) break;
+    }
+    CHECK(p.code == CTRL_PROTECT_STALL && k >= 1500 + 560 && k <= 1500 + 600, "stopped at 0.15 s: %d", k);
+    /* a 20 ms dip of the EMF at speed is not a stall */
+    init(&p);
+    for (k = 0; k < 5000; ++k) {
+        m.emf_hat_v = (k >= 1500 && k < 1700) ? 0.0f : 16.0f;
+        CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "20 ms dip: %d", k);
+        if (p.code) break;
+    }
+    /* just below the ratio trips, just above does not */
+    init(&p);
+    m.emf_hat_v = 0.099f * 17.0f;
+    for (k = 0; k < 1000 && ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE; ++k) {}
+    CHECK(p.code == CTRL_PROTECT_STALL, "below the ratio");
+    init(&p);
+    m.emf_hat_v = 0.3f * 17.0f;
+    for (k = 0; k < 5000; ++k) CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "EMF read: %d", k);
+    init(&p);
+    m.emf_hat_v = 0.0f;
+    m.emf_of_speed_v = 0.99f * floor_v;
+    for (k = 0; k < 5000; ++k) CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "below the floor: %d", k);
+    init(&p);
+    m.emf_of_speed_v = 17.0f;
+    m.emf_hat_v = -1.0f;
+    for (k = 0; k < 5000; ++k) CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "no observer: %d", k);
+    init(&p);
+    m.emf_hat_v = 0.0f;
+    m.speed_control = 0;
+    for (k = 0; k < 5000; ++k) CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "current mode: %d", k);
+    {
+        ctrl_protect_config_t cfg;
+        ctrl_protect_default_config(&cfg);
+        cfg.i_trip_a = 30.0f;
+        cfg.stall_time_s = 0.0f;
+        CHECK(ctrl_protect_init(&p, &cfg, TS, VDC) == 0, "init");
+        m.speed_control = 1;
+        for (k = 0; k < 5000; ++k) CHECK(ctrl_protect_motion_step(&p, &m) == CTRL_PROTECT_NONE, "off: %d", k);
+    }
+}
+
 static void test_link(void)
 {
     ctrl_protect_t p;
@@ -526,6 +598,7 @@ int main(void)
     test_bus();
     test_encoder();
     test_stall();
+    test_stall_by_emf();
     test_link();
     test_config_and_params();
     test_in_controller();
