@@ -23,6 +23,7 @@ from hil_bench.plant_rt.profile import load_profile
 
 fw = pytest.importorskip("hil_bench.firmware_stub._fw_c")
 ffi, lib = fw.ffi, fw.lib
+from tests.inproc_loop import InProcessLoop  # noqa: E402  (after the skip: it imports the cffi module)
 
 FAULT_AT_S = 0.2
 OVERCURRENT, OVERVOLTAGE, OPEN_PHASE, UNDERVOLTAGE, SENSOR_FAULT, STALL = 4, 9, 14, 15, 16, 17
@@ -30,46 +31,15 @@ STATE_FAULT, STATE_CLOSED_LOOP = 4, 3
 DETAIL_ENC_LOST, DETAIL_ENC_FROZEN = 4, 5                  # SENSOR_FAULT detail // 10^7
 
 
-class Loop:
+class Loop(InProcessLoop):
     def __init__(self, speed_rad_s=100.0, load_nm=2.0, **plant_overrides):
-        self.prof = load_profile("gong2020")
-        self.plant = Plant(self.prof, **plant_overrides)
-        self.plant.set_load_torque(load_nm)
-        self.plant.set_initial(0.0, speed_rad_s)
-        self.c = ffi.new("controller_t *")
-        lib.ctrl_init(self.c)
-        cfg = self.c.cfg
-        p = self.prof
-        for name in ("rs_ohm", "ld_h", "lq_h", "psi_f_wb", "j_kgm2", "b_nms", "ts_s"):
-            setattr(cfg, name, getattr(p, name))
-        cfg.pole_pairs = p.pole_pairs
-        cfg.v_dc_nom_v = p.v_dc_v
-        cfg.t_act_delay_s = p.t_delay_s
-        cfg.estimator = 5.0                                  # ENCODER
-        cfg.iq_max_a = 9.0
-        assert lib.ctrl_start(self.c) == 0
-        lib.ctrl_set_speed_ref(self.c, speed_rad_s)
+        prof = load_profile("gong2020")
+        plant = Plant(prof, **plant_overrides)
+        plant.set_load_torque(load_nm)
+        plant.set_initial(0.0, speed_rad_s)
+        super().__init__(prof, plant, estimator=5.0, iq_max_a=9.0,        # ENCODER
+                         speed_ref_rad_s=speed_rad_s)
         self.speed_rad_s = speed_rad_s
-        self.smp = ffi.new("ctrl_sample_t *")
-        self.k = 0
-        self.out = None
-
-    def step(self):
-        m = self.plant.sample()
-        s = self.smp
-        s.i_a_a, s.i_b_a, s.i_c_a = m.i_a_a, m.i_b_a, m.i_c_a
-        s.v_dc_v = m.v_dc_v
-        s.v_dc_valid = 1                                     # measured from the first period
-        s.theta_enc_rad = m.theta_enc_rad
-        s.theta_enc_valid = m.enc_valid
-        self.m = m
-        self.out = lib.ctrl_step(self.c, s)
-        self.plant.step(*self.out.duty_abc)
-        self.k += 1
-
-    def run_until(self, t_s):
-        while self.k * self.prof.ts_s < t_s - 1e-12:
-            self.step()
 
     def run_fault(self, kind, t_end_s=0.45, **fault):
         self.run_until(FAULT_AT_S)

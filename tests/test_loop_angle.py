@@ -27,7 +27,7 @@ from hil_bench.plant_rt.profile import load_profile
 from hil_bench.protocol.messages import Param
 
 fw = pytest.importorskip("hil_bench.firmware_stub._fw_c")
-ffi, lib = fw.ffi, fw.lib
+from tests.inproc_loop import InProcessLoop  # noqa: E402  (after the skip: it imports the cffi module)
 
 SMO_SIGN = 1.0
 STATE_OPEN_LOOP, STATE_CLOSED_LOOP = 2, 3
@@ -38,45 +38,20 @@ def _wrap_pi(x: float) -> float:
     return (x + math.pi) % (2.0 * math.pi) - math.pi
 
 
-class SmoLoop:
+class SmoLoop(InProcessLoop):
     """Gong's motor, the sign SMO, align -> I-f (6 A) -> hand-over at 20 rad/s -> 30 rad/s, an
     active 0.6 N m, dead time and the ADC on. speed_kp > 0: the speed loop's kp (its ki follows:
     kp w / 4); a negligible one makes the q-current reference of the hand-over step its seed."""
 
     def __init__(self, loop_angle: int, adc_seed: int = 3, load_nm: float = 0.6, speed_kp: float = 0.0):
-        self.prof = load_profile("gong2020")
-        self.plant = Plant(self.prof, inverter_nonlinear=True, adc_model=1, adc_seed=adc_seed)
-        self.plant.set_load_torque(load_nm)
-        self.c = ffi.new("controller_t *")
-        lib.ctrl_init(self.c)
-        cfg = self.c.cfg
-        p = self.prof
-        for name in ("rs_ohm", "ld_h", "lq_h", "psi_f_wb", "j_kgm2", "b_nms", "ts_s"):
-            setattr(cfg, name, getattr(p, name))
-        cfg.pole_pairs = p.pole_pairs
-        cfg.v_dc_nom_v = p.v_dc_v
-        cfg.t_act_delay_s = p.t_delay_s
-        cfg.estimator = SMO_SIGN
-        cfg.iq_max_a = 9.0
-        assert lib.ctrl_param_set(ffi.addressof(cfg), int(Param.LOOP_ANGLE), float(loop_angle)) == 0
-        assert lib.ctrl_param_set(ffi.addressof(cfg), int(Param.IF_I_A), 6.0) == 0
+        prof = load_profile("gong2020")
+        plant = Plant(prof, inverter_nonlinear=True, adc_model=1, adc_seed=adc_seed)
+        plant.set_load_torque(load_nm)
+        params = {Param.LOOP_ANGLE: loop_angle, Param.IF_I_A: 6.0}
         if speed_kp > 0.0:
-            assert lib.ctrl_param_set(ffi.addressof(cfg), int(Param.SPD_KP_A_RAD_S), speed_kp) == 0
-        assert lib.ctrl_start(self.c) == 0
-        lib.ctrl_set_speed_ref(self.c, 30.0)
-        self.smp = ffi.new("ctrl_sample_t *")
-        self.k = 0
-
-    def step(self):
-        m = self.plant.sample()
-        s = self.smp
-        s.i_a_a, s.i_b_a, s.i_c_a = m.i_a_a, m.i_b_a, m.i_c_a
-        s.v_dc_v = m.v_dc_v
-        s.v_dc_valid = 1
-        out = lib.ctrl_step(self.c, s)
-        self.plant.step(*out.duty_abc)
-        self.k += 1
-        return out
+            params[Param.SPD_KP_A_RAD_S] = speed_kp
+        super().__init__(prof, plant, estimator=SMO_SIGN, iq_max_a=9.0, speed_ref_rad_s=30.0,
+                         params=params)
 
 
 def test_the_loop_angle_is_a_type2_pll_of_the_observer_angle():
