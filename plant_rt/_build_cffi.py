@@ -18,7 +18,9 @@ from cffi import FFI
 C_DIR = Path(__file__).resolve().parent / "c"
 SOURCES = ("pmsm_machine.c", "inverter.c", "pwm.c", "mechanics.c", "sensor.c", "plant.c", "plant_fault.c",
            # the cycle engine and the recording ring / schema (engine.h, rec_ring.h, rec_schema.h)
-           "engine.c", "engine_faults.c", "engine_link.c", "engine_refs.c", "engine_sil.c", "live.c",
+           "engine.c", "engine_cycle.c", "engine_rx.c", "engine_lockstep.c", "engine_realtime.c",
+           "engine_replay.c", "engine_inputs.c", "engine_io.c", "engine_trace.c", "engine_record.c",
+           "engine_faults.c", "engine_link.c", "engine_refs.c", "engine_sil.c", "live.c",
            "rec_ring.c", "rec_schema.c", "rec_mcap.c")
 ROOT = C_DIR.parents[1]
 FW_SRC = ROOT / "firmware_stub" / "src"

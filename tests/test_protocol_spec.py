@@ -173,9 +173,9 @@ def test_one_lost_duty_gives_the_counters_the_spec_lists(tmp_path, emf):
 
 
 def test_the_encoder_flag_is_per_cycle_in_the_dbc_and_the_spec():
-    """A plant encoder fault clears THETA_ENC_VALID in the cycles it affects (engine.c sends the flag
+    """A plant encoder fault clears THETA_ENC_VALID in the cycles it affects (engine_cycle.c sends the flag
     only with a valid sample): nothing may say it is set 'exactly when' the HELLO flag was."""
-    engine_c = (Path(__file__).resolve().parents[1] / "plant_rt/c/engine.c").read_text()
+    engine_c = (Path(__file__).resolve().parents[1] / "plant_rt/c/engine_cycle.c").read_text()
     assert "if (cfg->send_encoder && c->smp.enc_valid) {" in engine_c
     comment = dbc.message_spec("SENSE_AUX").signal("flags").comment
     assert "the per-cycle flag decides" in comment and "exactly when" not in comment

@@ -133,7 +133,7 @@ typedef struct {
 #define ENGINE_MAX_TRACES 64
 #define ENGINE_TRACE_COUNTERS 21
 
-/** What became of one fault: evidence in the counters (engine.c trace_counters). */
+/** What became of one fault: evidence in the counters (engine_trace.c trace_counters). */
 typedef struct {
     int state;                /* 0: nothing yet; 1: collecting; 2: closed (its row written) */
     char name[24];
@@ -142,7 +142,7 @@ typedef struct {
     long window_cycles;       /* detection window after an action */
     double delay_s;           /* DELAY: the fault's delay_s (0: not a delay) */
     uint64_t rtt_seen;        /* DELAY: the delayed cycles that showed it, once that count is beyond
-                               * what the fault-free cycles show (0 until then; engine.c
+                               * what the fault-free cycles show (0 until then; engine_trace.c
                                * rtt_evidence) */
     uint64_t snap[ENGINE_TRACE_COUNTERS];
     /* the whole run (the bench checks every scenario fault against these: integrity.py) */
@@ -151,7 +151,7 @@ typedef struct {
     long acted_k, evidence_k; /* first action of the run, first evidence of the run (-1: none) */
     uint32_t windows, untraced_windows;   /* detection windows closed, those without evidence */
     uint64_t matched, acted;  /* link faults: frames that met its window and message, acted on */
-    /* DELAY: the round trip of the cycles it delayed (engine.c rtt_evidence) */
+    /* DELAY: the round trip of the cycles it delayed (engine_trace.c eng_rtt_evidence) */
     long delay_k;             /* the last cycle it delayed a frame of */
     double delay_d_s;         /* the largest delay drawn in that cycle */
     uint64_t rtt_n, rtt_c;    /* delayed cycles measured, those at least the fault-free minimum

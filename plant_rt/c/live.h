@@ -6,7 +6,7 @@
  *    MAP_SHARED mapping the bench creates before it forks the recorder. The live view in the
  *    recorder process (bench/live/server.py, a Foxglove WebSocket server) pushes what a viewer
  *    published; the engine takes every pending input at the start of a cycle, after the
- *    scenario's events of that cycle, and applies it in that cycle (engine.c take_inputs). When
+ *    scenario's events of that cycle, and applies it in that cycle (engine_inputs.c eng_take_inputs). When
  *    nothing is pending that costs the engine one acquire load per cycle: no system call, no
  *    Python, nothing that waits for the viewer. The producer never waits either: a full mailbox
  *    refuses the input (the live view tells the viewer why).

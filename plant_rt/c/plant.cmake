@@ -34,6 +34,15 @@ add_test(NAME plant_nonideal COMMAND test_plant_nonideal)
 # controller.
 add_library(hil_engine STATIC
   ${HIL_ROOT}/plant_rt/c/engine.c
+  ${HIL_ROOT}/plant_rt/c/engine_cycle.c
+  ${HIL_ROOT}/plant_rt/c/engine_rx.c
+  ${HIL_ROOT}/plant_rt/c/engine_lockstep.c
+  ${HIL_ROOT}/plant_rt/c/engine_realtime.c
+  ${HIL_ROOT}/plant_rt/c/engine_replay.c
+  ${HIL_ROOT}/plant_rt/c/engine_inputs.c
+  ${HIL_ROOT}/plant_rt/c/engine_io.c
+  ${HIL_ROOT}/plant_rt/c/engine_trace.c
+  ${HIL_ROOT}/plant_rt/c/engine_record.c
   ${HIL_ROOT}/plant_rt/c/engine_faults.c
   ${HIL_ROOT}/plant_rt/c/engine_link.c
   ${HIL_ROOT}/plant_rt/c/engine_refs.c
