@@ -344,7 +344,8 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
             import shlex
-            rep = run_report(args.out, only=only, jobs=args.jobs, beyond=not args.no_beyond,
+            rep = run_report(args.out, only=only, jobs=args.jobs,
+                             beyond=False if args.no_beyond else (args.beyond or not only),
                              reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler,
                              residual=not args.no_residual, bandwidth=not args.no_bandwidth,
                              command=".venv/bin/bench " + shlex.join(args.argv))
@@ -537,7 +538,10 @@ def build_parser() -> argparse.ArgumentParser:
                                       "write a report with plots")
     k.add_argument("--run", action="store_true",
                    help="run every claim's scenarios (in parallel) and write report.md/.html")
-    k.add_argument("--only", default="", help="comma-separated claim ids (default: all 19)")
+    k.add_argument("--only", default="",
+                   help="comma-separated claim ids (default: all 19): only their runs (and "
+                        "their residual and bandwidth studies), no study beyond the papers "
+                        "unless --beyond")
     k.add_argument("--link", default="stub",
                    help="with --run: run the claims' scenarios against this controller too "
                         "(pil-qemu, serial:..., can:...) and set each verdict beside the host "
@@ -549,9 +553,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "at most 4)")
     k.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="run on an existing Dask scheduler instead (docs/sweeps.md)")
-    k.add_argument("--no-beyond", action="store_true",
-                   help="skip the studies beyond the papers (error vs speed, initial position "
-                        "over 360 deg, parameter sensitivity, speed reversal)")
+    studies = k.add_mutually_exclusive_group()
+    studies.add_argument("--beyond", action="store_true",
+                         help="also run the studies beyond the papers with --only (without "
+                              "--only they run by default)")
+    studies.add_argument("--no-beyond", action="store_true",
+                         help="skip the studies beyond the papers (error vs speed, initial "
+                              "position over 360 deg, parameter sensitivity, speed reversal); "
+                              "with --only they are skipped unless --beyond")
     k.add_argument("--quick", action="store_true",
                    help="the studies beyond the papers and the bandwidth sweeps on a coarse grid "
                         "(fewer runs)")
