@@ -1,5 +1,5 @@
 """Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``, ``bench recover``,
-``bench conformance``, ``bench campaign`` (bench/faults/campaign.py), ``bench sweep``
+``bench export`` (bench/record/export.py), ``bench conformance``, ``bench campaign`` (bench/faults/campaign.py), ``bench sweep``
 (bench/sweep/), ``bench replay`` (bench/replay/cli.py)."""
 from __future__ import annotations
 
@@ -200,6 +200,31 @@ def _cmd_recover(args: argparse.Namespace) -> int:
         Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     print(report.text())
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from hil_bench.record.export import ExportError, export
+
+    err = Console(stderr=True, soft_wrap=True)
+    chosen = [c.strip() for part in args.channels for c in part.split(",") if c.strip()]
+    try:
+        done = export(args.recording, args.out, args.format, channels=chosen or None,
+                      force=args.force)
+    except (ExportError, ImportError) as exc:
+        err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
+        return 2
+    except OSError as exc:
+        err.print(f"[red]error:[/red] cannot write {escape(str(args.out))}: "
+                  f"{escape(exc.strerror or str(exc))}", highlight=False)
+        return 2
+    for topic, path, rows in done.files:
+        print(f"{topic:24s} {rows:8d} rows  {path}")
+    print(f"exported {len(done.files)} channel(s) of {done.source} as {done.fmt}")
+    if done.damage:
+        err.print(f"[yellow]damaged recording:[/yellow] {escape(done.damage)}; exported what "
+                  f"was readable (each file's metadata says so)", highlight=False)
+        return 1
     return 0
 
 
@@ -502,6 +527,21 @@ def build_parser() -> argparse.ArgumentParser:
                         "file is refused unless --force")
     v.add_argument("--force", action="store_true", help="replace an existing output file")
     v.set_defaults(func=_cmd_recover)
+
+    x = sub.add_parser("export", help="write a recording's channels as Parquet or CSV tables "
+                                      "(t_s first, units in the metadata)")
+    x.add_argument("recording", type=Path)
+    x.add_argument("--format", choices=("parquet", "csv"), default="parquet",
+                   help="parquet (default: units in each column's metadata) or csv (units in a "
+                        "sidecar <file>.json)")
+    x.add_argument("--channels", action="append", default=[], metavar="TOPIC[,TOPIC...]",
+                   help="the channels to export (default: all), e.g. /plant/state,/link/frames; "
+                        "/reference/* for every reference estimator; repeatable")
+    x.add_argument("--out", type=Path, required=True,
+                   help="a folder (one file per channel, named after the topic: "
+                        "plant_state.parquet, ...), or a .parquet / .csv file for one channel")
+    x.add_argument("--force", action="store_true", help="replace existing output files")
+    x.set_defaults(func=_cmd_export)
 
     f = sub.add_parser("conformance", help="check a controller against docs/protocol.md (scripted session)")
     f.add_argument("--link", default="stub", help="as for `bench run` (default: the C firmware stub)")
