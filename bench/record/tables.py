@@ -145,7 +145,7 @@ def channel_frame(topic: str, cols: Mapping[str, np.ndarray]) -> pandas.DataFram
                 == "controller_fault"
         code = np.where(trip, np.asarray(cols["value"], dtype=np.float64), np.nan)
         data["fault_code"] = categorical(code, _fault_names())
-    df = pd.DataFrame(data, index=_index(cols.get("t_s"), n))
+    df = pd.DataFrame(data, index=_index(cols.get("t_s"), n), copy=False)
     df.attrs["topic"] = topic
     if kind is not None:
         df.attrs["description"] = chans.DESCRIPTIONS[kind]
@@ -189,7 +189,8 @@ def link_frames(cols: Mapping[str, np.ndarray]) -> pandas.DataFrame:
     by_id = _signal_columns()
     t_s, seqs = cols["t_s"], cols.get("seq")
     f_t, f_seq, f_dir, f_id, f_data, f_msg = [], [], [], [], [], []
-    per_msg: dict[int, tuple[list[int], list[dict]]] = {}
+    #: frame id -> (rows, {signal: values}): the decoded values by signal, not a dict per frame
+    per_msg: dict[int, tuple[list[int], dict[str, list]]] = {}
     elided = 0
     for i in range(len(t_s)):
         for direction, text in (("tx", cols["tx"][i]), ("rx", cols["rx"][i])):
@@ -215,9 +216,12 @@ def link_frames(cols: Mapping[str, np.ndarray]) -> pandas.DataFrame:
                     continue
                 msg = entry[0]
                 f_msg.append(msg.name)
-                rows, values = per_msg.setdefault(fid, ([], []))
+                if fid not in per_msg:
+                    per_msg[fid] = ([], {sig.name: [] for sig in msg.signals})
+                rows, values = per_msg[fid]
                 rows.append(row)
-                values.append(msg.decode(data, decode_choices=False))
+                for name, value in msg.decode(data, decode_choices=False).items():
+                    values[name].append(value)
     n = len(f_t)
     names = [m.name for _, (m, _) in sorted(by_id.items())]
     data = {"seq": np.asarray(f_seq, dtype=np.int64),
@@ -230,7 +234,7 @@ def link_frames(cols: Mapping[str, np.ndarray]) -> pandas.DataFrame:
         rows, values = per_msg[fid]
         at = np.asarray(rows, dtype=np.int64)
         for column, sig, kind, extra in by_id[fid][1]:
-            got = np.asarray([v[sig.name] for v in values])
+            got = np.asarray(values.pop(sig.name))
             if kind == "cat":
                 raw = np.full(n, np.nan)
                 raw[at] = got
@@ -247,7 +251,7 @@ def link_frames(cols: Mapping[str, np.ndarray]) -> pandas.DataFrame:
                 full[at] = vals
                 data[column] = full
             units[column] = sig.unit or ""
-    df = pd.DataFrame(data, index=_index(np.asarray(f_t, dtype=np.float64), n))
+    df = pd.DataFrame(data, index=_index(np.asarray(f_t, dtype=np.float64), n), copy=False)
     df.attrs["topic"] = chans.LINK_FRAMES
     df.attrs["description"] = ("Every frame of the run decoded with protocol/hil.dbc: one row per "
                                "frame, tx = bench to controller, rx = controller to bench")
