@@ -91,6 +91,9 @@ def test_missing_and_unknown_enum_values():
     cat = categorical(np.array([3, -1, 9, 0]), {int(v): v.name for v in Estimator})
     assert cat[0] == "SMO_TANH" and pd.isna(cat[1]) and cat[2] == "9" and cat[3] == "NONE"
     assert list(cat.categories)[-1] == "9"
+    # a recording of an earlier version (JSON channels) has them as floats, missing as NaN
+    old = categorical(np.array([1.0, np.nan, -1.0]), {int(v): v.name for v in State})
+    assert old[0] == "ALIGN" and pd.isna(old[1]) and pd.isna(old[2])
 
 
 def test_a_controller_trip_names_its_fault_code():
