@@ -183,3 +183,8 @@ def test_an_empty_channel_has_its_fields_and_units():
     df = channel_frame(ch.FAULTS, {})
     assert len(df) == 0 and df.index.name == "t_s"
     assert {"seq", "action", "value", "fault_code"} <= set(df.columns)
+
+
+def test_an_empty_frames_channel_is_an_empty_table():
+    df = channel_frame(ch.LINK_FRAMES, {})
+    assert len(df) == 0 and list(df.columns) == ["seq", "direction", "message", "id", "data"]

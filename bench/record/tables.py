@@ -149,7 +149,8 @@ def channel_frame(topic: str, cols: Mapping[str, np.ndarray]) -> pandas.DataFram
     df.attrs["topic"] = topic
     if kind is not None:
         df.attrs["description"] = chans.DESCRIPTIONS[kind]
-    df.attrs["units"] = {"t_s": "s", **{c: chans.field_unit(c) for c in df.columns}}
+    df.attrs["units"] = {**({"t_s": "s"} if df.index.name == "t_s" else {}),
+                         **{c: chans.field_unit(c) for c in df.columns}}
     return df
 
 
