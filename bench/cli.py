@@ -1,5 +1,5 @@
 """Command line: ``bench run``, ``bench check``, ``bench scenarios``, ``bench claims``, ``bench recover``,
-``bench conformance``, ``bench campaign`` (bench/faults/campaign.py), ``bench sweep``
+``bench export`` (bench/record/export.py), ``bench conformance``, ``bench campaign`` (bench/faults/campaign.py), ``bench sweep``
 (bench/sweep/), ``bench replay`` (bench/replay/cli.py)."""
 from __future__ import annotations
 
@@ -203,6 +203,31 @@ def _cmd_recover(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    from hil_bench.record.export import ExportError, export
+
+    err = Console(stderr=True, soft_wrap=True)
+    chosen = [c.strip() for part in args.channels for c in part.split(",") if c.strip()]
+    try:
+        done = export(args.recording, args.out, args.format, channels=chosen or None,
+                      force=args.force)
+    except (ExportError, ImportError) as exc:
+        err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
+        return 2
+    except OSError as exc:
+        err.print(f"[red]error:[/red] cannot write {escape(str(args.out))}: "
+                  f"{escape(exc.strerror or str(exc))}", highlight=False)
+        return 2
+    for topic, path, rows in done.files:
+        print(f"{topic:24s} {rows:8d} rows  {path}")
+    print(f"exported {len(done.files)} channel(s) of {done.source} as {done.fmt}")
+    if done.damage:
+        err.print(f"[yellow]damaged recording:[/yellow] {escape(done.damage)}; exported what "
+                  f"was readable (each file's metadata says so)", highlight=False)
+        return 1
+    return 0
+
+
 def _cmd_layout(args: argparse.Namespace) -> int:
     import json
 
@@ -344,7 +369,8 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
             import shlex
-            rep = run_report(args.out, only=only, jobs=args.jobs, beyond=not args.no_beyond,
+            rep = run_report(args.out, only=only, jobs=args.jobs,
+                             beyond=False if args.no_beyond else (args.beyond or not only),
                              reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler,
                              residual=not args.no_residual, bandwidth=not args.no_bandwidth,
                              command=".venv/bin/bench " + shlex.join(args.argv))
@@ -502,6 +528,21 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--force", action="store_true", help="replace an existing output file")
     v.set_defaults(func=_cmd_recover)
 
+    x = sub.add_parser("export", help="write a recording's channels as Parquet or CSV tables "
+                                      "(t_s first, units in the metadata)")
+    x.add_argument("recording", type=Path)
+    x.add_argument("--format", choices=("parquet", "csv"), default="parquet",
+                   help="parquet (default: units in each column's metadata) or csv (units in a "
+                        "sidecar <file>.json)")
+    x.add_argument("--channels", action="append", default=[], metavar="TOPIC[,TOPIC...]",
+                   help="the channels to export (default: all), e.g. /plant/state,/link/frames; "
+                        "/reference/* for every reference estimator; repeatable")
+    x.add_argument("--out", type=Path, required=True,
+                   help="a folder (one file per channel, named after the topic: "
+                        "plant_state.parquet, ...), or a .parquet / .csv file for one channel")
+    x.add_argument("--force", action="store_true", help="replace existing output files")
+    x.set_defaults(func=_cmd_export)
+
     f = sub.add_parser("conformance", help="check a controller against docs/protocol.md (scripted session)")
     f.add_argument("--link", default="stub", help="as for `bench run` (default: the C firmware stub)")
     f.add_argument("--cycles", type=int, default=300, help="control cycles to run (default 300)")
@@ -537,7 +578,10 @@ def build_parser() -> argparse.ArgumentParser:
                                       "write a report with plots")
     k.add_argument("--run", action="store_true",
                    help="run every claim's scenarios (in parallel) and write report.md/.html")
-    k.add_argument("--only", default="", help="comma-separated claim ids (default: all 19)")
+    k.add_argument("--only", default="",
+                   help="comma-separated claim ids (default: all 19): only their runs (and "
+                        "their residual and bandwidth studies), no study beyond the papers "
+                        "unless --beyond")
     k.add_argument("--link", default="stub",
                    help="with --run: run the claims' scenarios against this controller too "
                         "(pil-qemu, serial:..., can:...) and set each verdict beside the host "
@@ -549,9 +593,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "at most 4)")
     k.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="run on an existing Dask scheduler instead (docs/sweeps.md)")
-    k.add_argument("--no-beyond", action="store_true",
-                   help="skip the studies beyond the papers (error vs speed, initial position "
-                        "over 360 deg, parameter sensitivity, speed reversal)")
+    studies = k.add_mutually_exclusive_group()
+    studies.add_argument("--beyond", action="store_true",
+                         help="also run the studies beyond the papers with --only (without "
+                              "--only they run by default)")
+    studies.add_argument("--no-beyond", action="store_true",
+                         help="skip the studies beyond the papers (error vs speed, initial "
+                              "position over 360 deg, parameter sensitivity, speed reversal); "
+                              "with --only they are skipped unless --beyond")
     k.add_argument("--quick", action="store_true",
                    help="the studies beyond the papers and the bandwidth sweeps on a coarse grid "
                         "(fewer runs)")

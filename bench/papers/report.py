@@ -1,6 +1,7 @@
 """``bench claims --run``: run every claim's scenarios, measure every quantity, write a report.
 
-    .venv/bin/bench claims --run [--only Y1,G2] [--out reports/claims] [--jobs N] [--no-beyond]
+    .venv/bin/bench claims --run [--only Y1,G2 [--beyond]] [--out reports/claims] [--jobs N]
+                                 [--no-beyond]
 
 Steps: plan the runs (hil_bench.claims.registry.CLAIMS, plus the studies beyond the papers,
 bench/papers/beyond.py), run them against the C stub in parallel (on hil_bench.cluster's executor:
@@ -499,7 +500,9 @@ def command_of(out_dir: Path, only: list[str] | None, jobs: int | None, beyond: 
         argv += ["--only", ",".join(only)]
     if jobs:
         argv += ["--jobs", str(jobs)]
-    if not beyond:
+    if only and beyond:
+        argv.append("--beyond")
+    elif not beyond:
         argv.append("--no-beyond")
     if beyond_quick:
         argv.append("--quick")
@@ -680,14 +683,18 @@ def write_html(rep: Report) -> Path:
 # -- the whole thing -----------------------------------------------------------------------------
 
 def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = None,
-               beyond: bool = True, reuse: bool = False, console: Console | None = None,
+               beyond: bool | None = None, reuse: bool = False, console: Console | None = None,
                beyond_quick: bool = False, scheduler: str | None = None,
                residual: bool = True, command: str | None = None,
                bandwidth: bool = True) -> Report:
     """``command``: the command line that started it (the report's "Command:"; default: the
     equivalent of the arguments given). ``bandwidth``: the estimator-bandwidth sweeps
-    (bench/papers/bandwidth.py; ``beyond_quick``: on the coarse grid)."""
+    (bench/papers/bandwidth.py; ``beyond_quick``: on the coarse grid). ``beyond``: the studies
+    beyond the papers (default: only when no claim is picked by ``only``; they are no claim's
+    runs)."""
     t0 = time.monotonic()
+    if beyond is None:
+        beyond = not only
     console = console or Console(stderr=True)
     out_dir = Path(out_dir)
     (out_dir / "plots").mkdir(parents=True, exist_ok=True)

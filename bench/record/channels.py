@@ -174,6 +174,25 @@ def kind_of_topic(topic: str) -> str | None:
     return TOPIC_KIND.get(topic)
 
 
+#: a field's unit from the suffix of its name (docs/architecture.md, "Conventions": units in
+#: names), longest first; the names are the one source, no second table of units to keep in step
+UNIT_SUFFIXES = (("_rad_s", "rad/s"), ("_rad", "rad"), ("_rpm", "rpm"), ("_nm", "N m"),
+                 ("_us", "us"), ("_s", "s"), ("_v", "V"), ("_a", "A"))
+
+
+def field_unit(name: str) -> str:
+    """The unit of a recorded field by its name: ``i_a_a`` -> ``"A"``, ``omega_m_rad_s`` ->
+    ``"rad/s"``, ``t_s`` -> ``"s"``; ``""`` for what has none (counts, sequence numbers, states,
+    texts, duties: a duty is a fraction of the PWM period, and the ``_a``/``_b``/``_c`` of
+    ``duty_a`` name the phase, not amperes)."""
+    if name.startswith("duty_"):
+        return ""
+    for suffix, unit in UNIT_SUFFIXES:
+        if name.endswith(suffix):
+            return unit
+    return ""
+
+
 # ---- encoding ------------------------------------------------------------------------------
 
 
@@ -250,5 +269,5 @@ def message_class(schema_name: str, descriptor_set: bytes | None = None):
 
 
 __all__ = ["LAYOUTS", "Layout", "encode_row", "file_descriptor_set", "message_class",
-           "kind_of_topic", "PLANT_STATE", "PLANT_SENSE", "CONTROLLER_TELEMETRY", "LINK_FRAMES",
-           "LINK_STATS", "EVENTS", "TIMING", "REFERENCE_PREFIX"]
+           "kind_of_topic", "field_unit", "PLANT_STATE", "PLANT_SENSE", "CONTROLLER_TELEMETRY",
+           "LINK_FRAMES", "LINK_STATS", "EVENTS", "TIMING", "REFERENCE_PREFIX"]

@@ -28,10 +28,10 @@ def test_1000rpm_meets_our_speed_and_angle_limits(hil_run):
     rec = hil_bench.load_recording(result.recording,
                                    channels=["/plant/state", "/controller/telemetry"])
     state, telem = rec["/plant/state"], rec["/controller/telemetry"]
-    settled = state[state.t_s >= 1.0]
+    settled = state.loc[1.0:]                           # indexed by the plant's time t_s [s]
     speed_error = (settled.speed_rpm - 1000.0) / 1000.0
     assert np.abs(speed_error).max() < 0.01, f"speed error up to {speed_error.abs().max():.2%}"
-    angle_error = telem[telem.t_s >= 1.0].pee_rad      # estimated minus true, wrapped [rad]
+    angle_error = telem.loc[1.0:].pee_rad              # estimated minus true, wrapped [rad]
     assert np.abs(angle_error).max() < 0.05, f"angle error up to {angle_error.abs().max():.4f} rad"
 
 
