@@ -505,7 +505,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="real time: pin the engine thread to this CPU")
     r.add_argument("--live", type=int, nargs="?", const=8765, default=None, metavar="PORT",
                    help="serve the recording's channels live over the Foxglove WebSocket "
-                        "protocol on 127.0.0.1:PORT (default 8765; 0: any free port) while the "
+                        "protocol on PORT (default 8765; 0: any free port) of 127.0.0.1 "
+                        "(--live-host: another address) while the "
                         "run goes on (docs/foxglove.md)")
     r.add_argument("--live-rate", type=float, default=50.0, metavar="HZ",
                    help="--live: messages per second per per-cycle channel sent to a viewer "

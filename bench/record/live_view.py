@@ -612,7 +612,9 @@ class LiveView:
                     # the mailbox is full of inputs the engine takes at once (it reads it while
                     # paused): a pause with no holder would hold the run for ever, so keep trying
                     self._pause_holder = client_id
-                    threading.Timer(0.05, self._unadvertised, (client_id, -1)).start()
+                    retry = threading.Timer(0.05, self._unadvertised, (client_id, -1))
+                    retry.daemon = True
+                    retry.start()
                     return
                 self.pauses_released += 1
             _say(f"live view: viewer client {client_id}, which paused the run, disconnected: "

@@ -39,7 +39,8 @@ def add_parser(sub) -> None:
                         "recorded) from absolute deadlines; default: as fast as possible")
     r.add_argument("--live", type=int, nargs="?", const=8765, default=None, metavar="PORT",
                    help="serve the new recording's channels live over the Foxglove WebSocket "
-                        "protocol on 127.0.0.1:PORT (default 8765; 0: any free port) while the "
+                        "protocol on PORT (default 8765; 0: any free port) of 127.0.0.1 "
+                        "(--live-host: another address) while the "
                         "replay goes on; a viewer's operator inputs are refused (docs/foxglove.md)")
     r.add_argument("--live-rate", type=float, default=50.0, metavar="HZ",
                    help="--live: messages per second per per-cycle channel sent to a viewer "
