@@ -82,10 +82,12 @@ class Publisher(Viewer):
 def _run_with(tmp_path: Path, make_client, *, inputs: bool = True, pace: float | None = 1.0,
               live: LiveOptions | None = None):
     """G2 (``[live] inputs`` as given) with one client, the run in a thread of its own: a run
-    that does not end within RUN_BOUND_S is stopped and the test fails."""
+    that does not end within RUN_BOUND_S is stopped and the test fails. The run starts once the
+    client has subscribed (--live-wait), and lasts 1.5 s of wall time at least (--pace 1): the
+    client sees it going however loaded the machine."""
     scn = derive_scenario("gong_g2_500rpm", "gong_g2_500rpm", [("live.inputs", inputs)])
-    runner = Runner(scn, "stub", tmp_path / "op.mcap", False, live=live or LiveOptions(port=0),
-                    pace=pace)
+    runner = Runner(scn, "stub", tmp_path / "op.mcap", False,
+                    live=live or LiveOptions(port=0, wait_s=RUN_BOUND_S), pace=pace)
     clients = []
 
     def on_live(port: int) -> None:
