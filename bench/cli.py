@@ -81,6 +81,53 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _run_and_check(args, presses)
 
 
+def live_options(args: argparse.Namespace, err):
+    """--live, --live-rate, --live-host, --live-wait (bench run, bench replay) as LiveOptions,
+    or None; --live-host and --live-wait imply --live. A host beyond loopback is warned about.
+    ValueError names a bad option."""
+    host = getattr(args, "live_host", None)
+    wait_s = getattr(args, "live_wait", None)
+    port = args.live
+    if port is None and (host is not None or wait_s is not None):
+        from hil_bench.record.live_view import DEFAULT_PORT
+
+        port = DEFAULT_PORT
+    if port is None:
+        return None
+    from hil_bench.record.live_view import DEFAULT_HOST, LiveOptions, host_warning
+
+    live = LiveOptions(port=port, rate_hz=args.live_rate,
+                       host=host if host is not None else DEFAULT_HOST,
+                       wait_s=wait_s)
+    warning = host_warning(live.host)
+    if warning:
+        err.print(f"[yellow]warning:[/yellow] {escape(warning)}")
+    return live
+
+
+def said_listening(err, live, port: int) -> None:
+    """Where the live view listens (and, with --live-wait, that the run waits for a viewer)."""
+    from hil_bench.record.live_view import listening_line, waiting_line
+
+    err.print(escape(listening_line(port, live.host)))
+    if live.wait_s is not None:
+        err.print(escape(waiting_line(port, live.host, live.wait_s)))
+
+
+def add_live_hand_options(p: argparse.ArgumentParser, what: str) -> None:
+    """--live-host and --live-wait (bench run, bench replay; docs/foxglove.md)."""
+    from hil_bench.record.live_view import DEFAULT_WAIT_S
+
+    p.add_argument("--live-host", default=None, metavar="ADDR",
+                   help="--live: the address to listen on (default 127.0.0.1, this machine "
+                        "only; 0.0.0.0: every interface, with a warning); implies --live")
+    p.add_argument("--live-wait", type=float, nargs="?", const=DEFAULT_WAIT_S, default=None,
+                   metavar="TIMEOUT_S",
+                   help=f"--live: start the {what} when the first viewer subscribes, waiting at "
+                        f"most TIMEOUT_S (default {DEFAULT_WAIT_S:g} s; none by then: an "
+                        f"error); implies --live")
+
+
 def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     from hil_bench.loop.links import LinkError
     from hil_bench.loop.runner import RunAborted, run_scenario
@@ -91,20 +138,14 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
 
     out = Console()
     err = Console(stderr=True)
-    live = None
-    if args.live is not None:
-        from hil_bench.record.live_view import LiveOptions
-
-        try:
-            live = LiveOptions(port=args.live, rate_hz=args.live_rate)
-        except ValueError as exc:
-            err.print(f"[red]error:[/red] {escape(str(exc))}")
-            return 2
+    try:
+        live = live_options(args, err)
+    except ValueError as exc:
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
+        return 2
 
     def said_live(port: int) -> None:
-        from hil_bench.record.live_view import listening_line
-
-        err.print(escape(listening_line(port)))
+        said_listening(err, live, port)
 
     try:
         scn = (derive_scenario(args.scenario, load_scenario(args.scenario).name, args.set,
@@ -490,11 +531,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="real time: pin the engine thread to this CPU")
     r.add_argument("--live", type=int, nargs="?", const=8765, default=None, metavar="PORT",
                    help="serve the recording's channels live over the Foxglove WebSocket "
-                        "protocol on 127.0.0.1:PORT (default 8765; 0: any free port) while the "
+                        "protocol on PORT (default 8765; 0: any free port) of 127.0.0.1 "
+                        "(--live-host: another address) while the "
                         "run goes on (docs/foxglove.md)")
     r.add_argument("--live-rate", type=float, default=50.0, metavar="HZ",
                    help="--live: messages per second per per-cycle channel sent to a viewer "
                         "(default 50; /events, /faults, /link/stats go out whole)")
+    add_live_hand_options(r, "run")
     r.add_argument("--pace", type=float, default=None, metavar="FACTOR",
                    help="lockstep: wall seconds per second of plant time (1.0: real time, to "
                         "watch with --live; 2: half speed); default: as fast as the link goes")

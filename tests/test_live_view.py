@@ -26,7 +26,7 @@ import websockets.sync.client as ws_sync   # a test dependency (pyproject [test]
 from mcap.reader import make_reader
 
 from hil_bench.loop.runner import Runner
-from hil_bench.record.live_view import LiveOptions, stats_line, viewer_dropped
+from hil_bench.record.live_view import EVENTS_HISTORY, LiveOptions, stats_line, viewer_dropped
 from hil_bench.scenario import load_scenario
 
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
@@ -168,7 +168,10 @@ def _advertised_as_recorded(viewer, path: Path):
 
     chans, rows = _recording(path)
     advertised = {c["topic"]: c for c in viewer.advertised.values()}
-    assert set(advertised) == set(chans)
+    # the recording's channels, and the viewer's own /events/history (late viewers' /events rows)
+    assert set(advertised) == set(chans) | {EVENTS_HISTORY}
+    assert advertised[EVENTS_HISTORY]["schema"] == advertised["/events"]["schema"]
+    advertised.pop(EVENTS_HISTORY)
     for topic, c in advertised.items():
         name, encoding, data, msg_encoding = chans[topic]
         assert (c["schemaName"], c["schemaEncoding"], c["encoding"]) == (name, encoding, msg_encoding)
@@ -230,7 +233,8 @@ def test_a_viewer_sees_the_recordings_channels_and_decodes_plant_state(tmp_path)
     assert speed > 10.0, fields   # the motor runs toward 500 rpm by the end
     # a client that reads lost nothing: the bench cut nothing, foxglove-sdk reported no overflow
     stats = result.live_stats
-    assert stats["clients"] == 1 and stats["messages_sent"] >= len(got), stats
+    assert stats["clients_connected"] == 1 and stats["clients_subscribed"] == 1, stats
+    assert stats["messages_sent"] >= len(got), stats
     assert viewer_dropped(stats) == 0 and stats["sdk_outbox_full_reports"] == 0, stats
     assert _live_metadata(result.recording) == stats   # the recording says the same
 
@@ -280,7 +284,7 @@ def _live_metadata(path: Path) -> dict:
     from hil_bench.record.recording import load_recording
 
     meta = load_recording(path, topics=["/events"]).metadata["live_view"]
-    return {k: (v if k == "sdk_log" else json.loads(v)) for k, v in meta.items()}
+    return {k: (v if k in ("sdk_log", "host") else json.loads(v)) for k, v in meta.items()}
 
 
 def test_a_taken_port_is_a_clear_error(tmp_path):
@@ -644,7 +648,7 @@ def test_a_viewer_watches_a_replay_into_the_plant_and_its_inputs_are_refused(tmp
     assert "load torque 1 N m: refused: a replay plays the capture's own inputs" in refused[0][2]
     assert not [e for e in events if e[1] == "operator"]
     assert all(p["rms_error_a"] == 0.0 for p in res.compare["phases"].values()), res.compare
-    assert res.live_stats is not None and res.live_stats["clients"] == 1
+    assert res.live_stats is not None and res.live_stats["clients_subscribed"] == 1
 
 
 def test_bench_replay_live_on_the_command_line(tmp_path):
@@ -658,7 +662,9 @@ def test_bench_replay_live_on_the_command_line(tmp_path):
                        timeout=300)
     assert r.returncode == 0, r.stderr
     assert "live view: Foxglove WebSocket on ws://127.0.0.1:" in r.stderr, r.stderr
-    assert "live view: 0 client(s)" in r.stderr and "viewer frames dropped: at least 0" in r.stderr
+    said = " ".join(r.stderr.split())   # rich may wrap a line
+    assert "live view: 0 client(s) connected, 0 subscribed" in said, said
+    assert "viewer frames dropped: at least 0" in said, said
     r = subprocess.run([sys.executable, "-m", "hil_bench", "replay", str(EXAMPLE), "--live",
                         "70000", "--out", str(tmp_path / "x.mcap")], capture_output=True,
                        text=True, timeout=120)

@@ -405,6 +405,14 @@ class Runner:
                              f"{scenario.duration_s:g} s is {n} periods of {self.ts_s * 1e6:g} us; "
                              f"need at least one")
         self.n_cycles = int(n)
+        if self.live is not None:   # a viewer's inputs: the scenario's limits; a pause in lockstep
+            import dataclasses
+
+            from hil_bench.record.live_view import operator_limits
+
+            self.live = dataclasses.replace(self.live, can_pause=self.mode == "lockstep",
+                                            **operator_limits(self.plant.params,
+                                                              scenario.duration_s))
         self.references = self._make_references()
         self._setup_frames: list[tuple[str, int, bytes]] = []
 
@@ -533,6 +541,7 @@ class Runner:
                 opened.close()
                 raise
             try:
+                self._wait_for_viewer(rec)
                 self._start_controller(opened)
                 engine_link = engine_link_for(opened.link)
                 engine = self._make_engine(rec, opened, engine_link)
@@ -564,6 +573,17 @@ class Runner:
                 result.error += (f" (no cycle ran; the recording of the attempt, with its "
                                  f"handshake frames, is {rec.final_path})")
         return result
+
+    def _wait_for_viewer(self, rec: ProcessRecorder) -> None:
+        """--live-wait: the run starts once a viewer has subscribed (its channels are advertised
+        by now), before the controller's handshake; none within the time is an error."""
+        live = self.live
+        if live is None or live.wait_s is None or rec.live_port is None:
+            return
+        if not rec.wait_for_viewer(live.wait_s):
+            from hil_bench.record.live_view import no_viewer_error
+
+            raise RunAborted(no_viewer_error(rec.live_port, live.host, live.wait_s))
 
     def _stub_cpu(self) -> int | None:
         args = self.stub_args

@@ -22,6 +22,10 @@ Two figures each way, pooled over the repeats (cycles over CPU seconds):
 
 The recorder runs at normal priority both ways (``HIL_RECORDER_BATCH=0``). The viewer's
 message count says it was connected. The last line printed is one JSON object.
+
+It needs foxglove-sdk (the live view) and websockets (the viewer: the ``[test]`` extra); a
+missing one, a bad option or a failed run is one line on stderr and exit status 2 (bad set-up)
+or 1 (a run failed).
 """
 from __future__ import annotations
 
@@ -70,13 +74,42 @@ def _measure_engine_thread() -> None:
     eng.Engine.run = run
 
 
+class PerfError(Exception):
+    """What stops the measurement, in one line (exit status ``code``)."""
+
+    def __init__(self, message: str, code: int = 1):
+        super().__init__(message)
+        self.code = code
+
+
+def check_setup() -> None:
+    """The two packages the measurement needs, before anything runs."""
+    import importlib.util
+
+    for module, what in (("foxglove", "foxglove-sdk (the live view: pip install foxglove-sdk, "
+                                      "or the [live] extra)"),
+                         ("websockets", "websockets (the viewer process: pip install "
+                                        "websockets, or the [test] extra)")):
+        try:
+            found = importlib.util.find_spec(module) is not None
+            if found:
+                __import__(module)
+        except ImportError:
+            found = False
+        if not found:
+            raise PerfError(f"perf.live: needs {what}", 2)
+
+
 def client(port: int, seconds: float) -> int:
     """A viewer: subscribe to every channel as it is advertised, read until the server closes
     (or ``seconds``), print the messages received."""
     import json as _json
 
-    from websockets.sync.client import connect
-
+    try:
+        from websockets.sync.client import connect
+    except ImportError as exc:
+        print(f"error: the viewer needs websockets ({exc})", flush=True)
+        return 2
     print("ready", flush=True)   # imported: the run may start (the server is not up yet)
     deadline = time.monotonic() + 60.0
     while True:
@@ -84,9 +117,11 @@ def client(port: int, seconds: float) -> int:
             ws = connect(f"ws://127.0.0.1:{port}",
                          subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"])
             break
-        except OSError:
+        except OSError as exc:
             if time.monotonic() > deadline:
-                raise
+                print(f"error: the viewer could not connect to ws://127.0.0.1:{port}: {exc}",
+                      flush=True)
+                return 1
             time.sleep(0.01)
     n = 0
     sid = 0
@@ -128,24 +163,41 @@ def one_run(scn, link: str, live_rate_hz: float | None) -> dict:
             port = s.getsockname()[1]
         viewer = subprocess.Popen(
             [sys.executable, "-m", "hil_bench.perf.live", "--client", str(port)],
-            stdout=subprocess.PIPE, text=True)
-        assert viewer.stdout.readline().strip() == "ready"
-    with tempfile.TemporaryDirectory() as tmp:
-        live = LiveOptions(port=port, rate_hz=live_rate_hz) if live_rate_hz else None
-        runner = Runner(scn, link, Path(tmp) / "run.mcap", False, live=live)
-        _measure_engine_thread()
-        _ENGINE_CPU_S.clear()
-        s0, c0 = _self_s(), _children_s()
-        result = runner.run()
-        s1, c1 = _self_s(), _children_s()
-        if len(_ENGINE_CPU_S) != 1:
-            raise SystemExit(f"perf.live: the engine ran {len(_ENGINE_CPU_S)} times in one run")
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        first = viewer.stdout.readline().strip()
+        if first != "ready":
+            _, err = viewer.communicate()
+            why = first or (err.strip().splitlines() or ["it exited at once"])[-1]
+            raise PerfError(f"perf.live: the viewer process did not start: {why}", 2)
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            live = LiveOptions(port=port, rate_hz=live_rate_hz) if live_rate_hz else None
+            runner = Runner(scn, link, Path(tmp) / "run.mcap", False, live=live)
+            _measure_engine_thread()
+            _ENGINE_CPU_S.clear()
+            s0, c0 = _self_s(), _children_s()
+            result = runner.run()
+            s1, c1 = _self_s(), _children_s()
+    except BaseException:
+        if viewer is not None:
+            viewer.kill()
+            viewer.wait()
+        raise
     if result.error:
-        raise SystemExit(f"perf.live: the run failed: {result.error}")
+        if viewer is not None:
+            viewer.kill()
+            viewer.wait()
+        raise PerfError(f"perf.live: the run failed: {result.error}")
+    if len(_ENGINE_CPU_S) != 1:
+        raise PerfError(f"perf.live: the engine ran {len(_ENGINE_CPU_S)} times in one run")
     messages = None
     if viewer is not None:
-        out, _ = viewer.communicate(timeout=60)
-        messages = int(out.split()[-1]) if out.split() else 0
+        out, err = viewer.communicate()   # it ends when the server closes (the run's end)
+        words = out.split()
+        if viewer.returncode != 0 or not words or not words[-1].isdigit():
+            raise PerfError(f"perf.live: the viewer process failed (exit "
+                            f"{viewer.returncode}): {(out + err).strip()[-300:] or 'no output'}")
+        messages = int(words[-1])
     return {"cycles": result.cycles_done, "engine_cpu_s": _ENGINE_CPU_S[0],
             "bench_cpu_s": s1 - s0,
             "all_cpu_s": (s1 - s0) + (c1 - c0), "viewer_messages": messages,
@@ -155,21 +207,46 @@ def one_run(scn, link: str, live_rate_hz: float | None) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hil_bench.perf.live", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--link", default="stub", help="stub (the C stub on a pty) or sil")
+    ap.add_argument("--repeats", type=int, default=5, help="runs each way (>= 1; default 5)")
+    ap.add_argument("--link", default="stub", choices=("stub", "sil"),
+                    help="stub (the C stub on a pty) or sil (the firmware in the engine thread)")
     ap.add_argument("--rate", type=float, default=50.0, help="the live view's rate per channel [Hz]")
     ap.add_argument("--client", type=int, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.client is not None:
         return client(args.client, 120.0)
+    if args.repeats < 1:
+        ap.error(f"--repeats {args.repeats}: at least 1 run each way")
+    if not (args.rate > 0 and args.rate < float("inf")):
+        ap.error(f"--rate {args.rate:g}: the viewer rate is a number of Hz > 0")
+    try:
+        return measure(args)
+    except PerfError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return exc.code
+    except KeyboardInterrupt:
+        print("perf.live: interrupted", file=sys.stderr)
+        return 130
 
+
+def measure(args: argparse.Namespace) -> int:
+    check_setup()
+    from hil_bench.loop.links import LinkError
+    from hil_bench.loop.runner import RunAborted
+    from hil_bench.record.recorder import RecorderError
     from hil_bench.scenario import load_scenario
 
+    try:
+        return _measure(args, load_scenario(G2))
+    except (LinkError, RunAborted, RecorderError) as exc:
+        raise PerfError(f"perf.live: {exc}") from None
+
+
+def _measure(args: argparse.Namespace, scn) -> int:
     # the recorder at normal priority both ways: at nice 19 on a shared machine under load it
     # can be starved past the close's 5 s stall limit (seen at load average 16 on 2 cores,
     # with and without a live view), which ends a run, not the comparison
     os.environ["HIL_RECORDER_BATCH"] = "0"
-    scn = load_scenario(G2)
     one_run(scn, args.link, None)   # warm-up: caches, the stub's pages
     runs = {"plain": [], "live": []}
     for i in range(args.repeats):

@@ -452,6 +452,9 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     error = None
     f = None
     writer = None
+    fast = None
+    start_ns = 0
+    seqs: list[int] = []
     try:
         f = open(tmp, "wb")
         writer = Writer(f, chunk_size=chunk_size, compression=CompressionType.ZSTD)
@@ -461,7 +464,6 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
         writer.start(profile=PROFILE, library="hil-bench recorder")
         f.flush()   # a recorder killed from here on leaves a file that starts as an MCAP file
         schema_ids: dict[str, int] = {}
-        seqs: list[int] = []
         # the run's wall-clock start: log times are start + the engine's run time (a test pins
         # it with HIL_RECORDER_T0_NS to compare two recorders byte for byte)
         start_ns = int(os.environ.get("HIL_RECORDER_T0_NS") or time.time_ns())
@@ -562,6 +564,20 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                 elif kind == "drain":
                     drain(int(lib.rec_ring_pending(ring)))
                     conn.send(("drained", messages))
+                elif kind == "wait_viewer":
+                    # --live-wait: answer once a viewer subscribed or the time is up; drain
+                    # meanwhile (the bench wrote its set-up rows); a bench gone ends the wait
+                    deadline = time.monotonic() + float(msg[1])
+                    seen = live_view is not None and live_view.first_subscriber.is_set()
+                    while live_view is not None and not seen and time.monotonic() < deadline:
+                        drain()
+                        if conn.poll(0):
+                            break
+                        seen = live_view.first_subscriber.wait(0.05)
+                    try:
+                        conn.send(("viewer", bool(seen)))
+                    except OSError:   # the bench is gone: finalise what we have
+                        break
                 elif kind == "close":
                     closed_by = END_OF_RUN
                     break
@@ -574,7 +590,15 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     finally:
         live_stats = None
         if live_view is not None:
+            # stop serving without waiting for the viewers: the recording is finalised first,
+            # whoever holds a connection to the port (LiveView.stop)
             live_view.stop()
+            if writer is not None and error is None:
+                try:   # what the engine never took: every input is on /events, applied or refused
+                    _write_events(writer, live_view, live_view.end_inputs(), channel_ids, seqs,
+                                  fast, start_ns)
+                except Exception as exc:  # noqa: BLE001
+                    error = f"recorder: cannot write the operator inputs' rows: {exc}"
             live_stats = live_view.stats()
             if writer is not None and error is None:
                 try:   # the viewer's end-of-run figures (docs/foxglove.md "Dropped frames")
@@ -616,6 +640,30 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
         except (BrokenPipeError, OSError):
             pass
         conn.close()
+        if live_view is not None:
+            live_view.wait_stopped()   # bounded: the clients' clean close, never the recording
+
+
+def _write_events(writer, live_view, rows, channel_ids: list[int], seqs: list[int], fast,
+                  start_ns: int) -> None:
+    """/events rows the recorder writes itself, after the ring's last record (the operator
+    inputs the engine never took: LiveView.end_inputs), at the time of the recording's last
+    message."""
+    ch = live_view._events_ch
+    if not rows or ch is None or ch >= len(channel_ids):
+        return
+    stats = getattr(writer, "_Writer__statistics", None)
+    t = int(stats.message_end_time) if stats is not None and stats.message_count else start_ns
+    t_s = (t - start_ns) / 1e9
+    for kind, text, value in rows:
+        if fast is not None and ch < len(fast.seqs):
+            seq = int(fast.seqs[ch])
+            fast.seqs[ch] += 1
+        else:
+            seq = seqs[ch]
+            seqs[ch] += 1
+        writer.add_message(channel_id=channel_ids[ch], log_time=t, publish_time=t, sequence=seq,
+                           data=chans.encode_row("EVENT", (t_s, kind, text, value)))
 
 
 # -- the bench side ---------------------------------------------------------------------------
@@ -813,6 +861,23 @@ class ProcessRecorder:
 
     def attachment(self, name: str, media_type: str, data: bytes) -> None:
         self._send(("attachment", name, media_type, data))
+
+    def wait_for_viewer(self, timeout_s: float) -> bool:
+        """--live-wait: True once a viewer has subscribed to anything, False if none did within
+        ``timeout_s``. The recorder keeps the time; this waits for its answer as long as it
+        lives (Ctrl-C interrupts it)."""
+        try:
+            self._conn.send(("wait_viewer", float(timeout_s)))
+            while not self._conn.poll(0.5):
+                if not self._proc.is_alive():
+                    raise EOFError
+            reply = self._conn.recv()
+        except (EOFError, OSError):
+            self.error = self.death_message()
+            raise RecorderError(self.error) from None
+        if reply[0] != "viewer":
+            raise RecorderError(self._child_error(reply))
+        return bool(reply[1])
 
     @property
     def dropped(self) -> int:

@@ -39,11 +39,15 @@ def add_parser(sub) -> None:
                         "recorded) from absolute deadlines; default: as fast as possible")
     r.add_argument("--live", type=int, nargs="?", const=8765, default=None, metavar="PORT",
                    help="serve the new recording's channels live over the Foxglove WebSocket "
-                        "protocol on 127.0.0.1:PORT (default 8765; 0: any free port) while the "
+                        "protocol on PORT (default 8765; 0: any free port) of 127.0.0.1 "
+                        "(--live-host: another address) while the "
                         "replay goes on; a viewer's operator inputs are refused (docs/foxglove.md)")
     r.add_argument("--live-rate", type=float, default=50.0, metavar="HZ",
                    help="--live: messages per second per per-cycle channel sent to a viewer "
                         "(default 50); pace the replay for watching with --rate 1")
+    r.add_argument("--live-host", default=None, metavar="ADDR",
+                   help="--live: the address to listen on (default 127.0.0.1, this machine "
+                        "only; 0.0.0.0: every interface, with a warning); implies --live")
     r.add_argument("--link", default="stub", help="controller mode: the link (as bench run --link)")
     r.add_argument("--set", action="append", default=[], metavar="PARAM=value",
                    help="controller mode: a CONFIG parameter other than the capture's, e.g. "
@@ -89,20 +93,14 @@ def build_options(args: argparse.Namespace):
     if args.window:
         a, _, b = args.window.partition(",")
         window = (float(a), float(b))
-    live = None
-    if getattr(args, "live", None) is not None:
-        from hil_bench.record.live_view import LiveOptions
+    from hil_bench.cli import live_options, said_listening
 
-        live = LiveOptions(port=args.live, rate_hz=args.live_rate)   # ValueError: bad values
+    err = Console(stderr=True)
+    live = live_options(args, err) if hasattr(args, "live") else None   # ValueError: bad values
     return ReplayOptions(mode=args.mode, out=args.out, force=args.force, estimators=est,
                          est_config=cfg, profile=args.profile, rate=args.rate, link=args.link,
-                         set_params=params, window_s=window, live=live, on_live=_said_live)
-
-
-def _said_live(port: int) -> None:
-    from hil_bench.record.live_view import listening_line
-
-    Console(stderr=True).print(escape(listening_line(port)))
+                         set_params=params, window_s=window, live=live,
+                         on_live=lambda port: said_listening(err, live, port))
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
