@@ -255,6 +255,9 @@ void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extr
     s.jitter_p99_us = engine_hist_percentile(&e->hist_jitter, 0.99);
     s.jitter_p999_us = engine_hist_percentile(&e->hist_jitter, 0.999);
     s.jitter_max_us = e->hist_jitter.max_us;
+    s.late_answers = e->n.late_answers;
+    s.lost_frames = e->n.lost_frames;
+    s.resend_answers = e->n.resend_answers;
     RECORD(e, e->cfg.ch_stats, t_s, REC_MAX_FIXED_SIZE, rec_encode_link_stats, &s);
 }
 
