@@ -35,10 +35,10 @@ LOCKSTEP_ANSWER_S = 0.05
 #: ... then after twice the interval before, at most this far apart (back-off: a slow answer costs
 #: a handful of frames, not a storm) [s]
 RESEND_MAX_INTERVAL_S = 1.0
-#: the host ends a run (or the handshake) only when the controller has answered nothing for this
-#: long: a controller descheduled by a busy host, a debugger breakpoint, a USB adapter's latency
-#: are all far shorter; a process that exited, a closed port or a dead emulator are found at once.
-#: The default of ``[link] patience_s`` [s]
+#: the host ends a run (or the handshake) only when the answer it waits for (DUTY(k), HELLO_ACK,
+#: CONFIG_ACK) has not come this long after it first asked: a controller descheduled by a busy host,
+#: a debugger breakpoint, a USB adapter's latency are all far shorter; a process that exited, a
+#: closed port or a dead emulator are found at once. The default of ``[link] patience_s`` [s]
 PATIENCE_S = 10.0
 #: no HELLO_ACK of the session: the host gives up (the patience) [s]
 HELLO_TIMEOUT_S = PATIENCE_S
@@ -83,8 +83,8 @@ TIMING: tuple[Timing, ...] = (
     Timing("... each next re-send after twice the interval before, at most",
            f"{RESEND_MAX_INTERVAL_S:g} s apart: "
            + ", ".join(f"{t:g}" for t in resend_times_s()[:7]) + ", ... s", "RESEND_MAX_INTERVAL_S"),
-    Timing("**patience**: the controller has answered nothing (no DUTY, TELEM, TELEM_EMF, HELLO_ACK, "
-           "CONFIG_ACK) this long: the host ends the run (6.5)",
+    Timing("**patience**: DUTY(k) (or HELLO_ACK, CONFIG_ACK) has not come this long after the host "
+           "first asked for it: the host ends the run (6.5)",
            f"{PATIENCE_S:g} s (`[link] patience_s`)", "PATIENCE_S"),
 )
 

@@ -414,9 +414,28 @@ def _realtime(top: Fields, mode: str) -> RealtimeSettings:
                             stub_isr, stub_phase_us, stub_priority, stub_cpu)
 
 
-def _link(top: Fields) -> LinkSettings:
+def parse_link_allow(a: Fields) -> dict[str, int]:
+    """``allow = {counter = n, ...}`` of a scenario's ``[link]`` or a campaign run: the link problems
+    (docs/protocol.md 6.9) a run may show, each up to n."""
     from hil_bench.record.integrity import ALLOWABLE_COUNTERS, LINK_COUNTERS, TIMING_COUNTERS
 
+    allow = {}
+    for counter in list(a.table):
+        if counter in TIMING_COUNTERS:
+            raise a.fail(counter, f"is not a link problem (late is not lost: a re-sent cycle whose "
+                                  f"answers all came is timing, docs/protocol.md 6.5), so there is "
+                                  f"nothing to allow; allow lost_frames for frames that never "
+                                  f"arrived")
+        if counter not in LINK_COUNTERS:
+            raise a.fail(counter, f"not a link counter; known: {', '.join(ALLOWABLE_COUNTERS)}")
+        if counter not in ALLOWABLE_COUNTERS:
+            raise a.fail(counter, "cannot be allowed: a run whose controller reported another estimator "
+                                  "has INVALID claims (docs/protocol.md 6.8)")
+        allow[counter] = a.integer(counter, 0, 0, 2**62)
+    return allow
+
+
+def _link(top: Fields) -> LinkSettings:
     k = top.table_of("link")
     retry_timeout_s = k.number("retry_timeout_s", LOCKSTEP_ANSWER_S)
     k.within("retry_timeout_s", retry_timeout_s, 0.001, 10.0, "s", "docs/protocol.md 6.5")
@@ -431,20 +450,7 @@ def _link(top: Fields) -> LinkSettings:
                                     "back-off for as long as the controller is there, and ends the "
                                     "run after patience_s without an answer (docs/protocol.md 6.5); "
                                     "set patience_s instead")
-    a = k.table_of("allow")
-    allow = {}
-    for counter in list(a.table):
-        if counter in TIMING_COUNTERS:
-            raise a.fail(counter, f"is not a link problem (late is not lost: a re-sent cycle whose "
-                                  f"answers all came is timing, docs/protocol.md 6.5), so there is "
-                                  f"nothing to allow; allow lost_frames for frames that never "
-                                  f"arrived")
-        if counter not in LINK_COUNTERS:
-            raise a.fail(counter, f"not a link counter; known: {', '.join(LINK_COUNTERS)}")
-        if counter not in ALLOWABLE_COUNTERS:
-            raise a.fail(counter, "cannot be allowed: a run whose controller reported another estimator "
-                                  "has INVALID claims (docs/protocol.md 6.8)")
-        allow[counter] = a.integer(counter, 0, 0, 2**63 - 1)
+    allow = parse_link_allow(k.table_of("allow"))
     k.reject_unknown()
     return LinkSettings(retry_timeout_s, patience_s, allow)
 

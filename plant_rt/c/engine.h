@@ -20,8 +20,8 @@
  *   top of engine_lockstep.c): no valid DUTY(k) within retry_timeout_s, the SENSE frames of
  *   cycle k are sent again with the same seq (the controller answers a repeated seq from its
  *   cache), with back-off up to resend_max_s; the run ends only when the controller is gone
- *   (link failed, restarted, FAULT_CTRL) or has answered nothing for patience_s, naming what
- *   arrived instead (nothing, bad CRC, wrong seq, wrong length, heartbeats).
+ *   (link failed, restarted, FAULT_CTRL) or DUTY(k) has not come patience_s after SENSE(k),
+ *   naming what arrived instead (nothing, bad CRC, wrong seq, wrong length, heartbeats).
  *
  * REALTIME: the plant advances on CLOCK_MONOTONIC, one period per ts_s from an absolute
  *   deadline (clock_nanosleep to deadline - spin_s, then a spin). SENSE(k) leaves at the start
@@ -247,9 +247,8 @@ typedef struct {
                                 * after it was sent; each later one after twice the interval
                                 * before, at most resend_max_s (docs/protocol.md 6.5) */
     double resend_max_s;       /* lockstep: the longest interval between two re-sends */
-    double patience_s;         /* lockstep: no answer from the controller this long (no DUTY,
-                                * TELEM or TELEM_EMF of any seq since the cycle's first SENSE or
-                                * the last answer, whichever is later): the run ends */
+    double patience_s;         /* lockstep: DUTY(k) has not come this long after SENSE(k) was
+                                * first sent (and nothing is waiting to be read): the run ends */
     int max_consecutive_bad_duties;
     int max_consecutive_misses;
     double guard_s;            /* real time, on arrival: DUTY must arrive by t_{k+1} - guard */

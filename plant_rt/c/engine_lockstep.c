@@ -16,10 +16,10 @@
  *
  *   THE RUN ENDS only when the controller is gone: its link failed (process exited, port closed,
  *   emulator died: at once), it restarted (its heartbeat started over: a restarted controller
- *   answers no SENSE before a new HELLO; at once), it sent FAULT_CTRL, or it has answered
- *   nothing (no DUTY, TELEM or TELEM_EMF of any seq) for patience_s since the cycle's first
- *   SENSE or its last answer, whichever is later. Heartbeats do not extend the patience: a
- *   controller that sends them while SENSE frames reach it is not running its loop.
+ *   answers no SENSE before a new HELLO; at once), it sent FAULT_CTRL, or DUTY(k) has not come
+ *   patience_s after SENSE(k) was first sent (and nothing is waiting to be read: a host that was
+ *   itself descheduled reads what came meanwhile first). One bound, whatever else arrives:
+ *   heartbeats, telemetry or noise without the DUTY do not extend it.
  *
  * Real time (engine_realtime.c) keeps its deadlines: there lateness is what is measured.
  */
@@ -47,8 +47,8 @@ static void append(char *buf, size_t cap, int *n, const char *fmt, ...)
 }
 
 /** Lockstep, the run ends without DUTY(k): what arrived during the cycle and what the bench's own
- *  faults did to it (docs/protocol.md 6.5: "at cycle 1234 (t = 0.1234 s): no answer from the
- *  controller for 10 s (patience_s) after 14 re-sends of SENSE(1234): 2 frames with a bad CRC,
+ *  faults did to it (docs/protocol.md 6.5: "at cycle 1234 (t = 0.1234 s): no DUTY(1234) 10 s
+ *  (patience_s) after its SENSE and 13 re-sends: 2 frames with a bad CRC,
  *  ..."; "nothing at all (the controller is silent)" only when nothing arrived and the bench
  *  injected nothing). `ended_by`: what ended the wait before the patience did (a restart), or
  *  NULL. */
@@ -115,9 +115,9 @@ static void describe_no_duty(engine_t *e, const cycle_t *c, const char *ended_by
                         c->retries, n ? what : "nothing else arrived");
         return;
     }
-    eng_set_message(e, "at cycle %ld (t = %.4f s): no answer from the controller for %.3g s "
-                    "(patience_s) after %d re-sends of SENSE(%u): %s", c->k, c->t_s,
-                    e->cfg.patience_s, c->retries, (unsigned)c->seq,
+    eng_set_message(e, "at cycle %ld (t = %.4f s): no DUTY(%u) %.3g s (patience_s) after its SENSE "
+                    "and %d re-sends: %s", c->k, c->t_s, (unsigned)c->seq,
+                    e->cfg.patience_s, c->retries,
                     n ? what : "nothing at all (the controller is silent)");
 }
 
@@ -205,12 +205,6 @@ int eng_lockstep_answer(engine_t *e, cycle_t *c, uint16_t seq, int which)
 
 /* ---- the wait ------------------------------------------------------------------------------- */
 
-/** An answer frame: what proves the controller runs its loop (heartbeats do not). */
-static int is_answer(uint16_t id)
-{
-    return id == HIL_DUTY_FRAME_ID || id == HIL_TELEM_FRAME_ID || id == HIL_TELEM_EMF_FRAME_ID;
-}
-
 /**
  * Lockstep exchange of cycle c: send what is queued, wait for the first valid DUTY(seq),
  * re-sending the SENSE group with back-off while the controller is there (the rule at the top
@@ -219,11 +213,10 @@ static int is_answer(uint16_t id)
 int eng_exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns)
 {
     const engine_config_t *cfg = &e->cfg;
-    const int64_t patience_ns = (int64_t)(cfg->patience_s * 1e9);
     const int64_t max_ns = (int64_t)(cfg->resend_max_s * 1e9);
     const uint64_t corrupt0 = corrupt_chunks(e);
     int64_t interval_ns = (int64_t)(cfg->retry_timeout_s * 1e9);
-    int64_t resend_at, heard_ns;
+    int64_t resend_at, give_up_at;
     int done = 0;
     if (eng_flush(e, c0 + NS_PER_S) != 0) {
         eng_fail_link(e, c);
@@ -231,16 +224,13 @@ int eng_exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns)
     }
     *sent_ns = eng_now_ns();
     c->sent = 1;
-    heard_ns = *sent_ns;
     resend_at = *sent_ns + interval_ns;
+    give_up_at = *sent_ns + (int64_t)(cfg->patience_s * 1e9);
     for (;;) {
         eng_frame_t f;
-        int64_t now, wake;
+        int64_t now;
         int r;
         while (!done && eng_pop(e, &f)) {
-            if (is_answer(f.id) && f.t_ns > heard_ns) {
-                heard_ns = f.t_ns;
-            }
             r = eng_handle_frame(e, c, &f, 1);
             if (r < 0) {
                 return -1;
@@ -254,13 +244,9 @@ int eng_exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns)
             describe_no_duty(e, c, "the controller restarted");
             return -1;
         }
-        now = eng_now_ns();
-        if (now - heard_ns >= patience_ns) {
-            describe_no_duty(e, c, NULL);
-            return -1;
-        }
-        wake = resend_at < heard_ns + patience_ns ? resend_at : heard_ns + patience_ns;
-        r = eng_poll(e, wake);
+        /* read what is there (a host that was itself descheduled finds the answers that came
+         * meanwhile before it judges anything), else wait for the next re-send or the end */
+        r = eng_poll(e, resend_at < give_up_at ? resend_at : give_up_at);
         if (r < 0) {
             eng_fail_link(e, c);
             return -1;
@@ -274,6 +260,10 @@ int eng_exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns)
             return -1;
         }
         now = eng_now_ns();
+        if (now >= give_up_at) {
+            describe_no_duty(e, c, NULL);
+            return -1;
+        }
         if (now >= resend_at) {
             c->retries++;
             e->n.retries++;

@@ -405,8 +405,8 @@ static void test_silent_controller_is_named(void)
     CHECK(r.cycles == 300, "cycles %ld", r.cycles);
     CHECK(r.n.retries == 3u, "the SENSE of cycle 300 re-sent at 0.05, 0.15, 0.35 s within the "
           "0.5 s patience: %llu", (unsigned long long)r.n.retries);
-    CHECK(strstr(r.message, "no answer from the controller for 0.5 s (patience_s) after 3 re-sends "
-                            "of SENSE(300): nothing at all (the controller is silent)") != NULL,
+    CHECK(strstr(r.message, "no DUTY(300) 0.5 s (patience_s) after its SENSE and 3 re-sends: "
+                            "nothing at all (the controller is silent)") != NULL,
           "%s", r.message);
 }
 
@@ -450,7 +450,7 @@ static void test_what_arrived_instead_is_named(void)
     /* line noise answers the SENSE of cycle 300 and its 3 re-sends, and no DUTY comes */
     loop_result_t r = closed_loop(ENGINE_LOCKSTEP, 2000, 300, 290);
     CHECK(r.end == ENGINE_END_NO_DUTY, "end %d", r.end);
-    CHECK(strstr(r.message, "after 3 re-sends of SENSE(300): 4 chunks that are not valid COBS")
+    CHECK(strstr(r.message, "after its SENSE and 3 re-sends: 4 chunks that are not valid COBS")
               != NULL, "%s", r.message);
 }
 
