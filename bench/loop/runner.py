@@ -492,6 +492,7 @@ class Runner:
             if self.live is not None:
                 self.live_inbox = new_live_inbox()
             rec = ProcessRecorder(self.out_path, force=self.force, cpus=self._recorder_cpus(),
+                                  background=self.mode == "realtime",
                                   live=self.live, live_inbox=self.live_inbox,
                                   **({"ring_capacity": self.ring_bytes} if self.ring_bytes else {}))
             self.live_port = rec.live_port

@@ -259,7 +259,8 @@ typedef struct {
     double spin_s;             /* spin this long before each deadline */
     int busy_wait;             /* poll the link without sleeping while DUTY(k) is due */
     /* recording */
-    double recorder_stall_s;   /* lockstep: wait at most this long for ring space */
+    double recorder_stall_s;   /* lockstep: a recorder that drained nothing this long while the
+                                * engine waited for ring space is stalled (rows then dropped) */
     int stats_every_cycles;
     int record_frames;         /* /link/frames rows */
     uint16_t ch_state, ch_sense, ch_telem, ch_frames, ch_events, ch_timing, ch_stats;
