@@ -63,8 +63,10 @@ from hil_bench.protocol.timing import (
 
 AFTER_REPEAT = 8            # cycles after the repeated SENSE compared with the reference session
 ALIGN_SHARE = 0.25          # the alignment lasts at most this share of the cycles (the repeat comes later)
-#: a frame that must not be answered is given as long as the host waits for an answer at all
-SILENCE_S = LOCKSTEP_GIVE_UP_S
+#: a frame that must not be answered is given this long to be answered all the same: four times
+#: the host's first re-send interval (a drive answers a SENSE within it; the host's patience, 10 s,
+#: is for a drive that is late, not for proving that none will come)
+SILENCE_S = 4 * LOCKSTEP_ANSWER_S
 HEARTBEAT_WAIT_S = 1.5      # for three heartbeats (a drive may still be starting when the link opens)
 DUTY_RAW_FULL = 32768
 #: the fewest cycles whose session reaches the repeated SENSE (from cycles // 2 up to cycles - 20)

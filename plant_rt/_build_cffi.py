@@ -278,7 +278,7 @@ typedef struct {
     int mode; int duty_update; long n_cycles; double ts_s; double t_delay_s;
     int pole_pairs; double rpm_per_rad_s; int dual_sampling; int send_encoder; int telem_emf;
     int estimator_expected; uint16_t cmd_seq_start;
-    int link_kind; int link_fd; eng_link_peer_t link_peer; int can_brs; double retry_timeout_s; int max_retries;
+    int link_kind; int link_fd; eng_link_peer_t link_peer; int can_brs; double retry_timeout_s; double resend_max_s; double patience_s;
     int max_consecutive_bad_duties; int max_consecutive_misses; double guard_s;
     int rt_priority; int rt_cpu; int rt_mlock; double spin_s; int busy_wait;
     double recorder_stall_s; int stats_every_cycles; int record_frames;
@@ -292,7 +292,7 @@ typedef struct {
     const engine_replay_frame_t *replay_frames; long replay_n_frames; double pace_s;
     uint16_t ch_replay;
     int capture_serial; uint16_t ch_serial_raw;
-    uint16_t ch_faults; long post_trip_cycles; double late_grace_s;
+    uint16_t ch_faults; long post_trip_cycles;
     long record_every; long pre_trigger_cycles, post_trigger_cycles;
     ...;
 } engine_config_t;
@@ -327,6 +327,7 @@ typedef struct {
     uint64_t faults_acted, faults_traced;
     uint64_t state_rows;
     uint64_t operator_inputs, operator_refused, ring_waits;
+    uint64_t late_answers, lost_frames, resend_answers;
 } engine_counters_t;
 typedef struct {
     uint64_t frames_tx, frames_rx, bytes_tx, bytes_rx;
@@ -349,6 +350,7 @@ typedef struct engine {
     engine_trace_t traces[64];
     long trip_cycle;
     int paused; int64_t paused_ns;
+    int64_t late_max_ns;
     ...;
 } engine_t;
 void engine_default_config(engine_config_t *cfg);

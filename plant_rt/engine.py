@@ -46,7 +46,8 @@ COUNTERS = ("seq_mismatch", "bad_duties", "telem_missing", "unknown_ids", "heart
             "length_errors", "duplicates", "stale_frames", "retries", "late_duty", "missed_duty",
             "estimator_mismatch", "rows_dropped", "rt_overruns", "ctrl_rx_errors", "ctrl_resets",
             "ctrl_faults", "duties_after_trip", "faults_injected", "faults_untraced",
-            "faults_acted", "faults_traced", "state_rows")
+            "faults_acted", "faults_traced", "state_rows", "late_answers", "lost_frames",
+            "resend_answers")
 
 
 def _signal(cfg_sig, msg: str, name: str) -> None:

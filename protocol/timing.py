@@ -28,17 +28,38 @@ HEARTBEAT_GAP_MIN_S = 0.5 * HEARTBEAT_PERIOD_S
 HEARTBEAT_GAP_MAX_S = 2.0 * HEARTBEAT_PERIOD_S
 #: the host repeats HELLO this often until the HELLO_ACK of its session arrives [s]
 HELLO_RETRY_S = 0.1
-#: ... and gives up this long after the first HELLO ("no controller answering") [s]
-HELLO_TIMEOUT_S = 2.0
-#: the host waits this long for each CONFIG_ACK [s]
-CONFIG_TIMEOUT_S = 1.0
-#: lockstep answer deadline: DUTY(k) is due this long after the host sent SENSE(k); then the host
-#: re-sends the cycle's SENSE frames (a retry). The default of ``[link] retry_timeout_s`` [s]
+#: lockstep: the host re-sends a cycle's SENSE group (and the handshake a CONFIG) when its answer
+#: has not come this long after it was sent: how a lossy link recovers a lost frame. The default
+#: of ``[link] retry_timeout_s`` [s]
 LOCKSTEP_ANSWER_S = 0.05
-#: re-sends of one cycle before the host gives up (the default of ``[link] max_retries``)
-LOCKSTEP_MAX_RETRIES = 3
-#: a cycle without a valid DUTY this long after its SENSE ends the run [s]
-LOCKSTEP_GIVE_UP_S = (LOCKSTEP_MAX_RETRIES + 1) * LOCKSTEP_ANSWER_S
+#: ... then after twice the interval before, at most this far apart (back-off: a slow answer costs
+#: a handful of frames, not a storm) [s]
+RESEND_MAX_INTERVAL_S = 1.0
+#: the host ends a run (or the handshake) only when the answer it waits for (DUTY(k), HELLO_ACK,
+#: CONFIG_ACK) has not come this long after it first asked: a controller descheduled by a busy host,
+#: a debugger breakpoint, a USB adapter's latency are all far shorter; a process that exited, a
+#: closed port or a dead emulator are found at once. The default of ``[link] patience_s`` [s]
+PATIENCE_S = 10.0
+#: no HELLO_ACK of the session: the host gives up (the patience) [s]
+HELLO_TIMEOUT_S = PATIENCE_S
+#: no CONFIG_ACK (re-sent like a SENSE group): the host gives up (the patience) [s]
+CONFIG_TIMEOUT_S = PATIENCE_S
+#: the longest the host waits for an answer before it ends a lockstep run (the patience; kept for
+#: the conformance kit) [s]
+LOCKSTEP_GIVE_UP_S = PATIENCE_S
+
+
+def resend_times_s(retry_timeout_s: float = LOCKSTEP_ANSWER_S, until_s: float = PATIENCE_S,
+                   max_interval_s: float = RESEND_MAX_INTERVAL_S) -> list[float]:
+    """When the host re-sends an unanswered cycle, in seconds after the first send (the engine's
+    schedule, plant_rt/c/engine_lockstep.c): retry_timeout_s, then each interval twice the one
+    before, at most max_interval_s, while the patience lasts."""
+    out, t, interval = [], 0.0, retry_timeout_s
+    while t + interval < until_s:
+        t += interval
+        out.append(t)
+        interval = min(2 * interval, max_interval_s)
+    return out
 
 
 @dataclass(frozen=True)
@@ -57,14 +78,14 @@ TIMING: tuple[Timing, ...] = (
            "HEARTBEAT_GAP_MIN_S, HEARTBEAT_GAP_MAX_S"),
     Timing("HELLO repeated until the HELLO_ACK of its session arrives", f"every {HELLO_RETRY_S * 1e3:g} ms",
            "HELLO_RETRY_S"),
-    Timing("no HELLO_ACK of the session: the host gives up", f"{HELLO_TIMEOUT_S:g} s", "HELLO_TIMEOUT_S"),
-    Timing("wait for each CONFIG_ACK", f"{CONFIG_TIMEOUT_S:g} s", "CONFIG_TIMEOUT_S"),
-    Timing("**lockstep answer deadline**: DUTY(k) due after the host sent SENSE(k); then a retry (6.5)",
-           f"{LOCKSTEP_ANSWER_S * 1e3:g} ms (`[link] retry_timeout_s`)", "LOCKSTEP_ANSWER_S"),
-    Timing("retries of one cycle before the host ends the run", f"{LOCKSTEP_MAX_RETRIES} (`[link] max_retries`)",
-           "LOCKSTEP_MAX_RETRIES"),
-    Timing("a cycle without a valid DUTY this long after SENSE(k) ends the run (defaults)",
-           f"{LOCKSTEP_GIVE_UP_S * 1e3:g} ms", "LOCKSTEP_GIVE_UP_S"),
+    Timing("lockstep: the first re-send of a SENSE group (or CONFIG) whose answer has not come (6.5)",
+           f"{LOCKSTEP_ANSWER_S * 1e3:g} ms after it was sent (`[link] retry_timeout_s`)", "LOCKSTEP_ANSWER_S"),
+    Timing("... each next re-send after twice the interval before, at most",
+           f"{RESEND_MAX_INTERVAL_S:g} s apart: "
+           + ", ".join(f"{t:g}" for t in resend_times_s()[:7]) + ", ... s", "RESEND_MAX_INTERVAL_S"),
+    Timing("**patience**: DUTY(k) (or HELLO_ACK, CONFIG_ACK) has not come this long after the host "
+           "first asked for it: the host ends the run (6.5)",
+           f"{PATIENCE_S:g} s (`[link] patience_s`)", "PATIENCE_S"),
 )
 
 

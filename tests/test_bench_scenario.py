@@ -122,7 +122,13 @@ def _line(text: str, needle: str) -> int:
      "scenario.profile: "),
     (lambda t: t + "\n[link]\nallow = {crc_errors = 5, crc = 3}\n", "allow =",
      "link.allow.crc: not a link counter; known: crc_errors"),
-    (lambda t: t + "\n[link]\nmax_retries = 1.5\n", "max_retries", "link.max_retries: must be a whole number"),
+    (lambda t: t + "\n[link]\nmax_retries = 3\n", "max_retries",
+     "link.max_retries: is gone: the host re-sends an unanswered lockstep cycle with back-off"),
+    (lambda t: t + "\n[link]\nallow = {retries = 1}\n", "allow =",
+     "link.allow.retries: is not a link problem (late is not lost"),
+    (lambda t: t + "\n[link]\npatience_s = 0.01\n", "patience_s", "link.patience_s: 0.01 s is outside"),
+    (lambda t: t + "\n[link]\nretry_timeout_s = 2\npatience_s = 1\n", "patience_s",
+     "link.patience_s: 1 s is not longer than retry_timeout_s = 2 s"),
     (lambda t: t + "\n[link]\nretry_timeout_s = 0\n", "retry_timeout_s", "link.retry_timeout_s: 0 s is outside"),
         (lambda t: t + "\n[realtime]\nstub_isr = \"interrupt\"\n", "stub_isr",
          "realtime.stub_isr: must be 'sense' or 'timer'"),
@@ -178,19 +184,19 @@ def test_binary_garbage_names_the_file(tmp_path):
 def test_new_keys_and_their_defaults(tmp_path):
     scn = load_scenario(write(tmp_path, G2))
     assert (scn.mode, scn.send_encoder_angle, scn.encoder_angle_sent) == ("lockstep", False, False)
-    assert (scn.link.retry_timeout_s, scn.link.max_retries, scn.link.allow) == (0.05, 3, {})
+    assert (scn.link.retry_timeout_s, scn.link.patience_s, scn.link.allow) == (0.05, 10.0, {})
     assert (scn.realtime.duty_update, scn.realtime.max_consecutive_misses, scn.realtime.cpu) == (
         "on_arrival", 10, None)
     assert scn.hello_flags(dual_sampling=False) == 0x02          # TELEM_EMF only: no encoder angle
     text = G2.replace('claims = ["G2"]', 'claims = ["G2"]\nmode = "realtime"').replace(
         'speed_ref_rpm = 500', 'speed_ref_rpm = 500\nsend_encoder_angle = true')
     text += ("\n[realtime]\nduty_update = \"next_period\"\nmax_consecutive_misses = 4\ncpu = 1\n"
-             "[link]\nretry_timeout_s = 0.02\nmax_retries = 5\nallow = {crc_errors = 5, retries = 10}\n")
+             "[link]\nretry_timeout_s = 0.02\npatience_s = 5\nallow = {crc_errors = 5, lost_frames = 10}\n")
     scn = load_scenario(write(tmp_path, text))
     assert scn.mode == "realtime" and scn.encoder_angle_sent
     assert scn.realtime == scn.realtime.__class__("next_period", 4, 1)
-    assert (scn.link.retry_timeout_s, scn.link.max_retries, scn.link.allow) == (0.02, 5, {"crc_errors": 5,
-                                                                                          "retries": 10})
+    assert (scn.link.retry_timeout_s, scn.link.patience_s, scn.link.allow) == (0.02, 5.0, {"crc_errors": 5,
+                                                                                            "lost_frames": 10})
     assert scn.hello_flags(dual_sampling=True) == 0x07
     enc = load_scenario(write(tmp_path, G2.replace('estimator = "SMO_TANH"', 'estimator = "ENCODER"')))
     assert enc.encoder_angle_sent and enc.hello_flags(False) & 0x04

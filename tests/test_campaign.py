@@ -33,7 +33,7 @@ duties_after_trip = 0
 [[runs]]
 label = "one DUTY lost"
 faults = [{kind = "drop", direction = "from_controller", message = "DUTY", count = 1, t_s = 0.3}]
-allow = {retries = 1, duplicates = 2}
+allow = {lost_frames = 1}
 
 [[runs]]
 label = "leg stuck"
@@ -95,7 +95,7 @@ def test_the_command_exits_1_when_a_run_does_not_pass(tmp_path, capsys):
     (('kind = "leg_stuck", phase = "a", level = "high", t_s = 0.3}]\n\n',
       'kind = "leg_stuck", phase = "a", level = "up", t_s = 0.3}]\n\n'),
      r"run 01_leg_stuck .*faults\[0\]\.level: must be 'high'"),
-    (("allow = {retries = 1, duplicates = 2}", "allow = {retry = 1}"), "not a link counter"),
+    (("allow = {lost_frames = 1}", "allow = {retry = 1}"), "not a link counter"),
     (("[[runs]]\nlabel = \"one DUTY lost\"", "[[grid]]\nphase = [\"a\"]\n[[runs]]\nlabel = \"x\""),
      r"grid\[0\]\.kind: missing"),
 ])

@@ -121,9 +121,6 @@ def _g2_copy(tmp_path: Path, name: str, estimator: str) -> Path:
     text = (SCENARIOS / "gong_g2_500rpm.toml").read_text()
     text = text.replace('name = "gong_g2_500rpm"', f'name = "{name}"')
     text = text.replace('estimator = "SMO_TANH"', f'estimator = "{estimator}"')
-    # a patient link: under --strict a retry is a link problem, and a loaded machine's stub
-    # answering 50 ms late is not what these tests are about
-    text += "\n[link]\nretry_timeout_s = 1.0\n"
     p = tmp_path / f"{name}.toml"
     p.write_text(text)
     return p

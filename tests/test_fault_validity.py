@@ -146,7 +146,7 @@ def test_the_engine_counts_the_faults_that_acted_and_left_a_trace(tmp_path):
     out = tmp_path / "two.mcap"
     scn = short('[[faults]]\nkind = "drop"\ndirection = "from_controller"\nmessage = "DUTY"\n'
                 'count = 1\nt_s = 0.1\n[[faults]]\nkind = "reorder"\ndirection = "from_controller"\n'
-                'message = "TELEM"\ncount = 1\nt_s = 0.2\n[link]\nallow = {retries = 1, duplicates = 2}')
+                'message = "TELEM"\ncount = 1\nt_s = 0.2\n[link]\nallow = {lost_frames = 1}')
     run_scenario(scn, out_path=out, progress=False)
     rec = load_recording(out)
     counters = run_result_counters(rec)

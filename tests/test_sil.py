@@ -94,11 +94,23 @@ def _run(scn, link: str, out: Path):
 
 
 def _frames_of(rec, prefix: str) -> list[tuple[int, str]]:
-    """(cycle seq, frame) of every frame with this id the engine received, in order."""
+    """(cycle seq, frame) of every frame with this id the engine received, in order, less the
+    answers to re-sends: on a loaded host the stub may answer a cycle late, the host re-sends it
+    and the stub's cache answers again, byte for byte (docs/protocol.md 6.5: timing, not another
+    run). Such an answer repeats the seq (the frame's first two octets) of one already taken."""
     frames = rec.topic(ch.LINK_FRAMES)
-    out = []
+    out: list[tuple[int, str]] = []
+    last = None
     for seq, rx in zip(frames["seq"], frames["rx"]):
-        out += [(int(seq), f) for f in str(rx).split() if f.startswith(prefix)]
+        for f in str(rx).split():
+            if not f.startswith(prefix):
+                continue
+            data = bytes.fromhex(f.split("#", 1)[1])
+            own = int.from_bytes(data[:2], "little")
+            if last is not None and (last - own) % 65536 < 32768:
+                continue   # not after the last one taken: the cache answering a re-send
+            out.append((int(seq), f))
+            last = own
     return out
 
 

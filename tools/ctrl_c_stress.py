@@ -30,8 +30,7 @@ def _scenario_text() -> str:
     m = re.search(r'SHORT = (""".*?""")', src, re.S)
     if m is None:
         raise SystemExit("tests/test_loop.py: SHORT not found")
-    # a patient link (1 s a retry): a loaded machine must not end the run before the first Ctrl-C
-    return eval(m.group(1)).format(duration=600.0) + "[link]\nretry_timeout_s = 1.0\n"
+    return eval(m.group(1)).format(duration=600.0)
 
 
 def one_run(i: int, gaps_s: list[float], work: Path) -> tuple[bool, str]:

@@ -27,7 +27,7 @@ A campaign file (TOML; docs/faults.md "Campaigns")::
     [[runs]]                         # one run with the faults listed
     label = "open phase b"
     faults = [{kind = "open_phase", phase = "b", t_s = 1.2}]
-    allow = {retries = 2}            # link counters this run may show (its [link] allow)
+    allow = {lost_frames = 2}        # link problems this run may show (its [link] allow)
 
     [[grid]]                         # one run per combination of the list-valued keys
     kind = "sensor_offset"
@@ -50,7 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from hil_bench.scenario import ScenarioError, check_against_profile, parse_scenario, resolve_path
-from hil_bench.scenario.scenario import NAME_PATTERN
+from hil_bench.scenario.scenario import NAME_PATTERN, parse_link_allow
 from hil_bench.scenario.fields import Fields
 
 LIMIT_KEYS = {"detected": bool, "detection_time_s": float, "peak_current_a": float,
@@ -110,17 +110,6 @@ def _limits(f: Fields, defaults: dict[str, Any]) -> dict[str, Any]:
             out[key] = f.number(key, min_value=0.0)
     return out
 
-
-def _allow(f: Fields) -> dict[str, int]:
-    from hil_bench.record.integrity import ALLOWABLE_COUNTERS
-
-    out = {}
-    for key in list(f.table):
-        if key not in ALLOWABLE_COUNTERS:
-            raise f.fail(key, f"not a link counter a run may show; known: "
-                              f"{', '.join(ALLOWABLE_COUNTERS)}")
-        out[key] = f.integer(key, 0, 0, 2**62)
-    return out
 
 
 def _case_name(label: str, i: int) -> str:
@@ -213,7 +202,7 @@ def _campaign(path: Path, where: str, raw: dict, text: str) -> Campaign:
             raise f.fail("faults", "must be a non-empty list of fault tables "
                                    "({kind = ..., t_s = ..., ...})")
         run_limits = _limits(f.table_of("limits"), limits)
-        allow = _allow(f.table_of("allow"))
+        allow = parse_link_allow(f.table_of("allow"))
         f.reject_unknown()
         cases.append(Case(_case_name(label or faults[0].get("kind", ""), len(cases)), label,
                           tuple(faults), run_limits, allow))
@@ -221,7 +210,7 @@ def _campaign(path: Path, where: str, raw: dict, text: str) -> Campaign:
     for i, item in enumerate(raw.get("grid", [])):
         f = Fields(where, item, f"grid[{i}]", text)
         run_limits = _limits(f.table_of("limits"), limits)
-        allow = _allow(f.table_of("allow"))
+        allow = parse_link_allow(f.table_of("allow"))
         axes = {k: (v if isinstance(v, list) else [v]) for k, v in item.items()
                 if k not in ("limits", "allow")}
         for k in axes:

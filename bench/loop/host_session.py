@@ -29,7 +29,8 @@ from hil_bench.protocol.messages import (
     State,
 )
 
-from hil_bench.protocol.timing import CONFIG_TIMEOUT_S, HEARTBEAT_PERIOD_S, HELLO_RETRY_S, HELLO_TIMEOUT_S
+from hil_bench.protocol.timing import (HEARTBEAT_PERIOD_S, HELLO_RETRY_S, PATIENCE_S,
+                                       resend_times_s)
 
 from .links.base import Link, LinkError
 
@@ -105,8 +106,16 @@ class HostSession:
     """Drives HELLO -> CONFIG* -> CMD over a link."""
 
     def __init__(self, link: Link, on_frame: FrameLog | None = None,
-                 alive: Callable[[], bool] | None = None, death_message: Callable[[], str] | None = None):
+                 alive: Callable[[], bool] | None = None, death_message: Callable[[], str] | None = None,
+                 patience_s: float = PATIENCE_S, retry_timeout_s: float | None = None):
+        """``patience_s``: the handshake gives up on a controller that answered nothing this long
+        (``[link] patience_s``; one that died is found at once through ``alive``);
+        ``retry_timeout_s``: a CONFIG without its CONFIG_ACK is re-sent this long after it was
+        sent, then with the lockstep back-off (docs/protocol.md 6.2, 6.5)."""
         self.link = link
+        self.patience_s = float(patience_s)
+        self.resend_s = resend_times_s(*(() if retry_timeout_s is None else (retry_timeout_s,)),
+                                       until_s=self.patience_s)
         self.on_frame = on_frame or (lambda d, i, p: None)
         self.alive = alive or (lambda: True)
         self.death_message = death_message or (lambda: "controller stopped answering")
@@ -157,6 +166,23 @@ class HostSession:
             if match is not None:
                 return match
 
+    def _resends(self, timeout_s: float) -> list[float]:
+        return [t for t in self.resend_s if t < timeout_s]
+
+    def _wait_resending(self, predicate, frame: tuple[int, bytes], timeout_s: float):
+        """_wait for ``timeout_s``, re-sending ``frame`` at the lockstep back-off times while nothing
+        matches, and giving up at once when the controller died."""
+        start = time.monotonic()
+        for at in self._resends(timeout_s) + [timeout_s]:
+            match = self._wait(predicate, max(0.0, start + at - time.monotonic()))
+            if match is not None:
+                return match
+            if not self.alive():
+                return None
+            if at < timeout_s:
+                self.send([frame])
+        return None
+
     def _on_other(self, fid: int, payload: bytes) -> None:
         self.on_frame("rx", fid, payload)
         if fid == _FAULT_CTRL.frame_id:
@@ -164,8 +190,10 @@ class HostSession:
 
     # -- handshake ---------------------------------------------------------------------------------
     def handshake(self, *, period_s: float, estimator: int, flags: int,
-                  mode: Mode = Mode.LOCKSTEP, timeout_s: float = HELLO_TIMEOUT_S) -> dict:
-        """Send HELLO every 100 ms until the matching HELLO_ACK; raise LinkError on failure."""
+                  mode: Mode = Mode.LOCKSTEP, timeout_s: float | None = None) -> dict:
+        """Send HELLO every 100 ms until the matching HELLO_ACK (for the session's patience, or
+        ``timeout_s``); raise LinkError on failure (at once when the controller died)."""
+        timeout_s = self.patience_s if timeout_s is None else float(timeout_s)
         hello = _HELLO.pack(proto_version=PROTO_VERSION, mode=int(mode), period_us=period_s * 1e6,
                             estimator=int(estimator), flags=flags, session=self.session_id)
         deadline = time.monotonic() + timeout_s
@@ -187,6 +215,8 @@ class HostSession:
                 return self._accept(ack, int(mode), int(estimator))
             if not self.alive():
                 raise LinkError(self.death_message())
+        if not self.alive():
+            raise LinkError(self.death_message())
         if wrong:
             seen = ", ".join(f"0x{k:04X} ({n}x)"
                              for k, n in sorted(wrong.items(), key=lambda kv: -kv[1]))
@@ -217,13 +247,18 @@ class HostSession:
         return ack
 
     # -- configuration -----------------------------------------------------------------------------
-    def configure(self, params: dict[Param, float], timeout_s: float = CONFIG_TIMEOUT_S) -> None:
-        """Send every parameter and wait for each CONFIG_ACK; raise naming a rejected one."""
+    def configure(self, params: dict[Param, float], timeout_s: float | None = None) -> None:
+        """Send every parameter and wait for each CONFIG_ACK, re-sending a CONFIG whose ACK has
+        not come (the same octets: a controller answers every CONFIG, docs/protocol.md 6.2) on the
+        lockstep back-off, for the session's patience (or ``timeout_s``); raise naming a rejected
+        one, or the controller's death at once."""
+        timeout_s = self.patience_s if timeout_s is None else float(timeout_s)
         for param, value in params.items():
             self._config_seq = (self._config_seq + 1) & 0xFFFF
             seq = self._config_seq
-            self.send([(_CONFIG.frame_id, _CONFIG.pack(param_id=int(param), config_seq=seq,
-                                                       value=float(value)))])
+            frame = (_CONFIG.frame_id, _CONFIG.pack(param_id=int(param), config_seq=seq,
+                                                    value=float(value)))
+            self.send([frame])
             context = f" for {param.name}"
 
             def is_ack(fid: int, p: bytes, seq: int = seq, context: str = context) -> bool:
@@ -233,11 +268,13 @@ class HostSession:
                 _check_length("CONFIG_ACK", p, _CONFIG_ACK.length, context)
                 return int(_CONFIG_ACK.unpack(p)["config_seq"]) == seq
 
-            match = self._wait(is_ack, timeout_s)
+            match = self._wait_resending(is_ack, frame, timeout_s)
             if match is None:
                 if not self.alive():
                     raise LinkError(self.death_message())
-                raise LinkError(f"no CONFIG_ACK for {param.name} within {timeout_s:g} s")
+                raise LinkError(f"no CONFIG_ACK for {param.name} within {timeout_s:g} s "
+                                f"(patience_s; the CONFIG was sent {1 + len(self._resends(timeout_s))} "
+                                f"times): the controller answered nothing")
             ack = _CONFIG_ACK.unpack(match[1])
             status = int(ack["status"])
             name = _status_name(ConfigStatus, status, "CONFIG_ACK", context)

@@ -32,6 +32,7 @@ from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
 from hil_bench.plant_rt.profile import load_profile
 from hil_bench.protocol.messages import Command, Estimator, HelloFlag, Mode, Param
+from hil_bench.protocol.timing import RESEND_MAX_INTERVAL_S
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import ProcessRecorder, RecorderError, check_target
 from hil_bench.scenario import INV_COMP_CURRENTS, INV_COMP_SHAPES, RPM_PER_RAD_S, Scenario
@@ -266,20 +267,6 @@ def event_cycles(scenario: Scenario, ts_s: float) -> list[tuple[int, object]]:
     return out
 
 
-#: lockstep retry timeout on ``pil-qemu`` at least this: a retry on a local socket to an emulator
-#: never recovers a lost frame (none is lost), it only doubles the frames of a cycle the emulator
-#: was slow to answer because it shares the host's CPUs (measured under a load average of 8 on 2
-#: cores: 146 cycles of 15 000 took more than the default 50 ms)
-PIL_QEMU_RETRY_TIMEOUT_S = 2.0
-#: a batch of lockstep runs (``bench claims --run`` and its studies, ``bench sweep``) against the
-#: bench's own controller on a machine it shares: the stub (or the engine thread) descheduled for
-#: 200 ms is not a late controller. Measured: at a load average of 12 on 2 cores, 5 of the first 40
-#: runs of a claims run ended "no valid DUTY after 3 retries (0.2 s): ... the controller answers,
-#: late". Lockstep results do not depend on how long the host waits; a dead controller is only
-#: found later. Each attempt waits this long (``[link] retry_timeout_s`` when that is longer).
-BATCH_RETRY_TIMEOUT_S = 1.0
-
-
 def _is_qemu_link(link_spec: str) -> bool:
     return link_spec == "pil-qemu" or link_spec.startswith("pil-qemu:")
 
@@ -319,16 +306,16 @@ class Runner:
                  realtime: bool | None = None, record: bool = True, cpu: int | None = None,
                  ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None,
                  full_rate_s: tuple[tuple[float, float], ...] = (), live=None,
-                 pace: float | None = None, batch: bool = False):
+                 pace: float | None = None):
         """``recorder_cpus``: overrides where the recorder runs (hil_bench.perf.loop compares).
         ``full_rate_s``: time windows [s] recorded in full when the scenario's recording is
         decimated (the windows its metrics read: hil_bench.sweep). ``live``: a
         :class:`hil_bench.record.live_view.LiveOptions` (``bench run --live``: the recorder
         serves the channels to Foxglove). ``pace``: lockstep, wall seconds per second of plant
-        time (1.0: as fast as real time, to watch; None: as fast as the link goes). ``batch``:
-        one of many runs on a shared machine: in lockstep against the bench's own controller (the
-        stub, SIL), without ``[[faults]]``, each attempt waits at least BATCH_RETRY_TIMEOUT_S
-        (recorded in the run's metadata as ``retry_timeout_s``)."""
+        time (1.0: as fast as real time, to watch; None: as fast as the link goes). Every run
+        waits for its controller by the same rule, the scenario's ``[link]`` (docs/protocol.md
+        6.5: late is not lost; the run ends only when the controller is gone or silent for
+        ``patience_s``), whatever the controller and whoever runs it."""
         if live is not None:
             import dataclasses
 
@@ -383,14 +370,6 @@ class Runner:
                              f"QEMU executes the firmware as fast as the host lets it, not at the "
                              f"target's clock, so real-time figures would describe the emulator "
                              f"(docs/ports.md)")
-        self.retry_timeout_s = scenario.link.retry_timeout_s
-        if _is_qemu_link(link_spec):
-            self.retry_timeout_s = max(self.retry_timeout_s, PIL_QEMU_RETRY_TIMEOUT_S)
-        elif (batch and self.mode == "lockstep" and not scenario.faults
-              and (_is_stub_link(link_spec) or _is_sil_link(link_spec))):
-            # (a scenario with faults keeps its wait: a delay or stall fault is wall time, and
-            # whether it causes retries is what such a run measures)
-            self.retry_timeout_s = max(self.retry_timeout_s, BATCH_RETRY_TIMEOUT_S)
         self._check_faults_fit_the_link(scenario, link_spec)
         if scenario.faults and (_is_stub_link(link_spec) or _is_sil_link(link_spec)):
             # the stub reports its receive errors while cycles flow (HEARTBEAT_CTRL, protocol
@@ -521,6 +500,7 @@ class Runner:
             if self.live is not None:
                 self.live_inbox = new_live_inbox()
             rec = ProcessRecorder(self.out_path, force=self.force, cpus=self._recorder_cpus(),
+                                  background=self.mode == "realtime",
                                   live=self.live, live_inbox=self.live_inbox,
                                   **({"ring_capacity": self.ring_bytes} if self.ring_bytes else {}))
             self.live_port = rec.live_port
@@ -678,7 +658,8 @@ class Runner:
                                           "stub": self._stub_cpu()})
                               if self.mode == "realtime" else ""),
             "link": opened.link.description,
-            "retry_timeout_s": repr(self.retry_timeout_s),
+            "retry_timeout_s": repr(self.scn.link.retry_timeout_s),
+            "patience_s": repr(self.scn.link.patience_s),
             "controller": (stub.controller if stub is not None else
                            "firmware_stub/src in process (software in the loop)"
                            if _is_sil_link(self.link_spec) else self.link_spec),
@@ -719,7 +700,8 @@ class Runner:
         self.session = HostSession(
             opened.link, on_frame=self._log_setup_frame,
             alive=(stub.alive if stub is not None else None),
-            death_message=(stub.death_message if stub is not None else None))
+            death_message=(stub.death_message if stub is not None else None),
+            patience_s=self.scn.link.patience_s, retry_timeout_s=self.scn.link.retry_timeout_s)
         mode = Mode.REALTIME if self.mode == "realtime" else Mode.LOCKSTEP
         try:
             ack = self.session.handshake(period_s=self.ts_s, estimator=int(self.scn.estimator),
@@ -752,8 +734,9 @@ class Runner:
             telem_emf=int(scn.telemetry_emf),
             estimator_expected=int(scn.estimator),
             cmd_seq_start=self.session.next_cmd_seq(),   # the engine numbers the run's CMDs on
-            retry_timeout_s=self.retry_timeout_s,
-            max_retries=scn.link.max_retries,
+            retry_timeout_s=scn.link.retry_timeout_s,
+            resend_max_s=RESEND_MAX_INTERVAL_S,
+            patience_s=scn.link.patience_s,
             max_consecutive_bad_duties=MAX_CONSECUTIVE_BAD_DUTIES,
             max_consecutive_misses=rt.max_consecutive_misses,
             duty_update=rt.duty_update,
@@ -1023,12 +1006,12 @@ def run_scenario(scenario: Scenario, link_spec: str = "stub", out_path: Path | N
                  allow_slow_link: bool = False, force: bool = False,
                  realtime: bool | None = None, cpu: int | None = None,
                  record: bool = True, live=None, pace: float | None = None,
-                 on_live=None, batch: bool = False) -> RunResult:
+                 on_live=None) -> RunResult:
     """Run a scenario against the controller on ``link_spec`` and record it (lockstep, or real
-    time when the scenario or ``realtime=True`` asks). ``live``, ``pace``, ``batch``: see
+    time when the scenario or ``realtime=True`` asks). ``live``, ``pace``: see
     :class:`Runner`; ``on_live(port)`` is called once the live view listens."""
     runner = Runner(scenario, link_spec, out_path, progress, stub_args, allow_slow_link, force,
-                    realtime, record, cpu, live=live, pace=pace, batch=batch)
+                    realtime, record, cpu, live=live, pace=pace)
     runner.on_live = on_live
     return runner.run()
 

@@ -232,6 +232,18 @@ def timing_of(rec: Recording) -> dict[str, float]:
     last = {k: float(v[-1]) for k, v in stats.items() if len(v)}
     out = {k: last[k] for k in ("cycle_wall_p50_us", "cycle_wall_p99_us", "cycle_wall_max_us")
            if k in last}
+    if rec.run.get("mode") != "realtime":
+        # late is not lost (docs/protocol.md 6.5): cycles answered after a re-send, as timing
+        for k in ("retries", "late_answers", "lost_frames"):
+            if k in last:
+                out[k] = last[k]
+        timing = rec.topics.get(ch.TIMING, {})
+        if len(timing.get("retries", ())) and len(timing.get("rtt_us", ())):
+            import numpy as np
+
+            resent = np.asarray(timing["retries"], dtype=float) > 0
+            if resent.any():
+                out["late_max_us"] = float(np.nanmax(np.asarray(timing["rtt_us"], dtype=float)[resent]))
     if rec.run.get("mode") == "realtime":
         for k in ("jitter_p50_us", "jitter_p99_us", "jitter_p999_us", "jitter_max_us",
                   "missed_duty", "late_duty", "rt_overruns", "cycles"):
@@ -253,8 +265,15 @@ def print_timing(rec: Recording, console: Console) -> None:
                       f"(rate {t.get('missed_duty', 0) / cycles:.2e}), {t.get('late_duty', 0):.0f} "
                       f"late, {t.get('rt_overruns', 0):.0f} overruns")
     elif "cycle_wall_p50_us" in t:
+        late = ""
+        if t.get("retries", 0) > 0:
+            slowest = (f", the slowest answered {t['late_max_us'] * 1e-3:.3g} ms after its SENSE"
+                       if "late_max_us" in t else "")
+            late = (f"; {t.get('late_answers', 0):.0f} cycle(s) answered late but whole after "
+                    f"{t['retries']:.0f} re-send(s) (timing, not a link problem{slowest})")
         console.print(f"cycle time (lockstep, wall clock): p50 {t['cycle_wall_p50_us']:.1f} us, "
-                      f"p99 {t['cycle_wall_p99_us']:.1f} us, max {t['cycle_wall_max_us']:.1f} us")
+                      f"p99 {t['cycle_wall_p99_us']:.1f} us, max {t['cycle_wall_max_us']:.1f} us"
+                      + late)
 
 
 def print_integrity(integrity: Integrity | None, console: Console) -> None:

@@ -105,7 +105,7 @@ def _run_one(run: Run, out_path: str, link: str = "stub") -> tuple[bool, str, fl
         # another controller in lockstep: a link slower than the control rate only slows the
         # run down, the results are the same (bench run --allow-slow-link)
         res = run_scenario(scn, link_spec=link, out_path=Path(out_path), progress=False,
-                           allow_slow_link=link != "stub", batch=True)
+                           allow_slow_link=link != "stub")
         return res.ok, res.error or "", res.wall_s, res.cycles_done
     except Exception as exc:  # noqa: BLE001 - reported in the row, never a crash of the report
         return False, f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}", 0.0, 0

@@ -39,14 +39,29 @@ from hil_bench.protocol.messages import Estimator
 
 from . import channels as ch
 
-#: Link counters of /link/stats that are problems when non-zero (docs/protocol.md 6.5, 6.9). The first
-#: eight are counted today; the others by the host's cycle engine (absent counters read as 0).
+#: Link counters of /link/stats that are problems when non-zero (docs/protocol.md 6.5, 6.9), absent
+#: counters reading as 0. In lockstep only lost and corrupt frames are link problems: a cycle the host
+#: re-sent whose answers all came was late, which is timing (``TIMING_COUNTERS``).
 LINK_COUNTERS: tuple[str, ...] = (
     "crc_errors", "cobs_errors", "length_errors", "overruns", "bytes_discarded", "seq_mismatch",
     "telem_missing", "unknown_ids",
-    "duplicates", "retries", "rows_dropped", "late_duty", "missed_duty", "estimator_mismatch", "bad_duties",
-    "rt_overruns", "rx_malformed",
+    "duplicates", "lost_frames", "rows_dropped", "late_duty", "missed_duty", "estimator_mismatch",
+    "bad_duties", "rt_overruns", "rx_malformed",
 )
+#: what each link problem is (the integrity section says which): a frame that failed its CRC or
+#: framing is corrupt, one that never arrived is lost; the others are the controller's protocol,
+#: real-time deadlines, or the bench's own recording
+PROBLEM_CAUSE: dict[str, str] = {
+    "crc_errors": "corrupt", "cobs_errors": "corrupt", "length_errors": "corrupt", "overruns": "corrupt",
+    "bytes_discarded": "corrupt", "rx_malformed": "corrupt", "lost_frames": "lost",
+    "seq_mismatch": "protocol", "telem_missing": "protocol", "unknown_ids": "protocol",
+    "duplicates": "protocol", "bad_duties": "protocol", "estimator_mismatch": "protocol",
+    "late_duty": "real time", "missed_duty": "real time", "rt_overruns": "real time",
+    "rows_dropped": "recording",
+}
+#: lockstep timing (docs/protocol.md 6.5): re-sends, cycles answered late but whole, the answers to
+#: re-sends. Recorded and reported, never a problem.
+TIMING_COUNTERS: tuple[str, ...] = ("retries", "late_answers", "resend_answers")
 #: what a scenario may allow: everything but an estimator mismatch, which invalidates the claims anyway
 ALLOWABLE_COUNTERS: tuple[str, ...] = tuple(c for c in LINK_COUNTERS if c != "estimator_mismatch")
 
@@ -69,6 +84,7 @@ class Problem:
 class Integrity:
     problems: list[Problem] = field(default_factory=list)
     counters: dict[str, int] = field(default_factory=dict)
+    timing: dict[str, int] = field(default_factory=dict)   # TIMING_COUNTERS: statistics, not problems
     cycles_done: int | None = None
     cycles_planned: int | None = None
     estimator_mismatch: int = 0
@@ -149,9 +165,9 @@ def _last_counters(rec) -> dict[str, int]:
     """Each counter: the largest of the /link/stats rows (cumulative: the largest is the last) and of
     the run_result record's ``counters`` and ``rows_dropped`` (the final values, written through the
     recorder's pipe: a stats row can be dropped by the ring it reports on, the record cannot)."""
-    out = {c: 0 for c in LINK_COUNTERS}
+    out = {c: 0 for c in LINK_COUNTERS + TIMING_COUNTERS}
     stats = _topic(rec, ch.LINK_STATS)
-    for c in LINK_COUNTERS:
+    for c in out:
         col = (stats or {}).get(c)
         if col is not None and len(col):
             values = np.asarray(col, dtype=float)
@@ -162,11 +178,19 @@ def _last_counters(rec) -> dict[str, int]:
     if "rows_dropped" in result:
         final = {**final, "rows_dropped": max(_int(result["rows_dropped"]) or 0,
                                               _int(final.get("rows_dropped", 0)) or 0)}
-    for c in LINK_COUNTERS:
+    for c in list(out):
         v = _int(final.get(c, 0))
         if v is not None and v > out[c]:
             out[c] = v
     return out
+
+
+def _counts_lost_frames(rec) -> bool:
+    """Was the recording made by an engine that tells lost frames from late answers (its /link/stats
+    rows or run_result counters have ``lost_frames``)?"""
+    stats = _topic(rec, ch.LINK_STATS)
+    return (stats is not None and "lost_frames" in stats and len(stats["lost_frames"]) > 0) \
+        or "lost_frames" in run_result_counters(rec)
 
 
 #: why the claims of a run that sent the true angle to a sensorless controller are INVALID
@@ -360,12 +384,21 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
                                             f"{ch.PLANT_STATE}", float(expected - rows)))
 
     # -- link -------------------------------------------------------------------------------------------
-    out.counters = _last_counters(rec)
-    for name in LINK_COUNTERS:
-        value = out.counters[name]
+    counted = _last_counters(rec)
+    out.counters = {c: counted[c] for c in LINK_COUNTERS}
+    out.timing = {c: counted[c] for c in TIMING_COUNTERS}
+    if not _counts_lost_frames(rec) and out.timing["retries"]:
+        # a recording of a bench before "late is not lost" (no lost_frames counter): its retries are
+        # all that tells of a lost frame, so they stay a problem as they were then
+        out.counters["retries"] = out.timing["retries"]
+    for name, value in out.counters.items():
         if value and name != "estimator_mismatch":
             limit = int(allow.get(name, 0))
-            text = f"{name} = {value}" + (f" (scenario allows {limit})" if limit else "")
+            cause = PROBLEM_CAUSE.get(name, "link")
+            text = (f"{name} = {value} ({cause})" + (f" (scenario allows {limit})" if limit else "")
+                    if name != "retries" else
+                    f"retries = {value} (a recording made before lost and late answers were told apart: "
+                    f"a re-send may be a lost frame)")
             add(Problem("link", name, text, float(value), limit))
 
     # -- faults: every fault of the scenario acted and left a trace (docs/faults.md) ------------------

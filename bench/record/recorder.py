@@ -46,7 +46,20 @@ CHUNK_SIZE_BYTES = 256 * 1024
 PROFILE = "hil-bench"
 RING_CAPACITY_BYTES = 64 * 1024 * 1024   #: ~9 s of a 10 kHz G2 run at ~700 octets per cycle
 READ_BATCH_BYTES = 4 * 1024 * 1024
-STALL_TIMEOUT_S = 5.0     #: a recorder that drains nothing for this long while closing is stalled
+STALL_TIMEOUT_S = 5.0     #: a recorder that drains nothing and uses no CPU this long while closing is stalled
+#: a recorder that uses CPU is working, however slowly a busy host lets it: waited for this long at most
+WORKING_LIMIT_S = 600.0
+
+
+def process_cpu_s(pid: int) -> float | None:
+    """User + system CPU time [s] of a process (/proc/PID/stat), None if it cannot be read."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            stat = f.read().decode(errors="replace")
+        fields = stat[stat.rfind(")") + 2:].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
 FINISH_TIMEOUT_S = 60.0   #: ... and with the ring empty, to write the file's summary
 EXIT_WAIT_S = 5.0         #: a recorder whose pipe closed is reaped within this (SIGKILL under load)
 _REC_HEADER = struct.Struct("<IHHq")
@@ -395,7 +408,8 @@ def _write_outside_chunks(f, record) -> None:
 
 
 def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: int,
-           force: bool, cpus: tuple[int, ...] = (), live=None, live_inbox=None) -> None:
+           force: bool, cpus: tuple[int, ...] = (), live=None, live_inbox=None,
+           background: bool = False) -> None:
     import signal as _signal
 
     from mcap.writer import CompressionType, Writer
@@ -413,9 +427,11 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
             os.sched_setaffinity(0, cpus)   # real time: the engine's CPU, below the engine
         except OSError:
             pass
-    if os.environ.get("HIL_RECORDER_BATCH", "1") != "0" and (live is None or live.background):
-        # throughput, not latency: every other task of the machine comes first (not with a
-        # live view: a viewer wants the rows while they are new, on a loaded machine too)
+    if background and os.environ.get("HIL_RECORDER_BATCH", "1") != "0" and (live is None or live.background):
+        # real time: throughput, not latency, every other task of the machine first, the
+        # engine's deadlines above all (not with a live view: a viewer wants the rows while they
+        # are new). Not in lockstep: there the engine waits for ring space, and a recorder a
+        # busy machine starves at nice 19 would stall the run
         try:
             os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
             os.nice(19)
@@ -701,8 +717,11 @@ class ProcessRecorder:
 
     def __init__(self, path: Path, *, force: bool = False, ring_capacity: int = RING_CAPACITY_BYTES,
                  chunk_size: int = CHUNK_SIZE_BYTES, cpus: tuple[int, ...] = (), live=None,
-                 live_inbox=None):
-        """``cpus``: the CPUs the recorder process may run on (empty: any). ``live``: a
+                 live_inbox=None, background: bool = False):
+        """``cpus``: the CPUs the recorder process may run on (empty: any); ``background``: it
+        yields to every other task of the machine (SCHED_BATCH, nice 19: real time, where the
+        engine's deadlines come first; not in lockstep, where the engine waits for ring space).
+        ``live``: a
         :class:`.live_view.LiveOptions` to serve the channels to Foxglove while recording
         (:attr:`live_port` is then the port it listens on); ``live_inbox``: the engine's
         operator-input mailbox (a formatted MAP_SHARED mapping, live.h) it pushes inputs to."""
@@ -720,7 +739,8 @@ class ProcessRecorder:
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path),
                                                       self.ring_mem, self.ring_size, chunk_size,
-                                                      force, tuple(cpus), live, live_inbox),
+                                                      force, tuple(cpus), live, live_inbox,
+                                                      background),
                                  name="hil-recorder", daemon=False)
         self._proc.start()
         child.close()
@@ -790,18 +810,30 @@ class ProcessRecorder:
         return (f"recorder process (pid {self._proc.pid}) for {self.path} died ({self._exit_text()}); "
                 f"{self._leftover()}")
 
+    def _cpu_s(self) -> float | None:
+        """CPU time [s] the recorder process has used (None: unknown)."""
+        return process_cpu_s(self._proc.pid)
+
     def _request(self, msg, what: str, timeout_s: float = 10.0):
         """Send a control message (None: only wait) and wait for its answer. A recorder that
-        died (closed pipe: EOFError, BrokenPipeError) or does not answer is a RecorderError that
-        names it, never a traceback."""
+        died (closed pipe: EOFError, BrokenPipeError), or that is alive but neither answers nor
+        uses any CPU for ``timeout_s`` (stuck), is a RecorderError that names it, never a
+        traceback. One that uses CPU is working (a busy host starves it, it is not lost) and is
+        waited for, up to WORKING_LIMIT_S."""
         try:
             if msg is not None:
                 self._conn.send(msg)
-            if not self._conn.poll(timeout_s):
-                if self._proc.is_alive():
+            start, cpu = time.monotonic(), self._cpu_s()
+            while not self._conn.poll(timeout_s):
+                if not self._proc.is_alive():
+                    raise EOFError
+                now = self._cpu_s()
+                if now is None or cpu is None or now <= cpu or time.monotonic() - start > WORKING_LIMIT_S:
                     raise RecorderError(f"recorder process (pid {self._proc.pid}) for {self.path} "
-                                        f"does not answer ({what}, {timeout_s:g} s)")
-                raise EOFError
+                                        f"does not answer ({what}: nothing for {timeout_s:g} s and "
+                                        f"no CPU used, or working for more than "
+                                        f"{WORKING_LIMIT_S:g} s)")
+                cpu = now
             return self._conn.recv()
         except (EOFError, OSError):   # BrokenPipeError, ConnectionResetError: OSErrors
             self.error = self.death_message()
@@ -893,9 +925,11 @@ class ProcessRecorder:
         pipe_closed = False
         try:
             self._conn.send(("close",))
-            # the recorder drains what is left; it is stalled only if it makes no progress
+            # the recorder drains what is left; it is stalled only if it makes no progress: no
+            # record drained and no CPU used (a recorder a busy host starves still uses some)
             pending = lib.rec_ring_pending(self.ring)
             last_progress = time.monotonic()
+            cpu = self._cpu_s()
             while reply is None and time.monotonic() - last_progress < (
                     STALL_TIMEOUT_S if pending > 0 else FINISH_TIMEOUT_S):
                 if self._conn.poll(0.2):
@@ -905,9 +939,11 @@ class ProcessRecorder:
                 elif not self._proc.is_alive():
                     break
                 now_pending = lib.rec_ring_pending(self.ring)
-                if now_pending < pending:
+                now_cpu = self._cpu_s()
+                if now_pending < pending or (now_cpu is not None and cpu is not None and now_cpu > cpu):
                     pending = now_pending
                     last_progress = time.monotonic()
+                cpu = now_cpu
         except (EOFError, OSError):   # the recorder closed its pipe: it is gone, or going
             pipe_closed = True
         finally:
@@ -920,8 +956,8 @@ class ProcessRecorder:
                 self._proc.kill()
                 self._proc.join(5.0)
                 self.error = (f"recorder process (pid {self._proc.pid}) stalled: nothing "
-                              f"written for {STALL_TIMEOUT_S:g} s while finishing {self.path}; it "
-                              f"was killed; {self._leftover()}")
+                              f"written and no CPU used for {STALL_TIMEOUT_S:g} s while finishing "
+                              f"{self.path}; it was killed; {self._leftover()}")
             else:
                 self.error = (f"recorder process (pid {self._proc.pid}) for {self.path} died "
                               f"({self._exit_text()}); {self._leftover()}")

@@ -45,14 +45,16 @@ import numpy as np
 
 from hil_bench.plant_rt.engine import REPLAY_CYCLE_DTYPE, REPLAY_FRAME_DTYPE
 from hil_bench.protocol.messages import BY_ID, DUTY_RAW_OFF, MESSAGES, Command, Param, SenseAuxFlag
+from hil_bench.protocol.timing import PATIENCE_S
 
 ANOMALY_KINDS = ("gaps", "cycles_missing", "drops", "duplicates", "out_of_order", "unknown_ids",
                  "wrong_length", "not_protocol", "damaged")
 MAX_DETAILS = 50          #: anomalies described one by one (all are counted)
 #: a step forward in time between two frames, once the cycles run, that no session makes: lockstep
-#: gives up on a cycle after retry_timeout_s x (max_retries + 1) (0.2 s by default), a real-time
-#: drive sends every Ts. More than this is a corrupt time stamp or a logger that stopped: damaged.
-IMPLAUSIBLE_JUMP_S = 10.0
+#: ends a run when the controller answered nothing for patience_s (10 s by default,
+#: hil_bench.protocol.timing.PATIENCE_S), a real-time drive sends every Ts. Six times that is a
+#: corrupt time stamp or a logger that stopped: damaged.
+IMPLAUSIBLE_JUMP_S = 6 * PATIENCE_S
 
 _SENSE = MESSAGES["SENSE"]
 _AUX = MESSAGES["SENSE_AUX"]

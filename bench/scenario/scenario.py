@@ -28,8 +28,10 @@ parameters INV_COMP_* and writes truth, estimate and residual into the recording
 
 Keys for the protocol-1.0 link behaviour (docs/protocol.md 6.4, 6.5, 6.8, 6.9), read by the host's cycle
 engine: ``[scenario] mode = "lockstep" | "realtime"``; ``[realtime] duty_update = "on_arrival" |
-"next_period"``, ``max_consecutive_misses`` (10), ``cpu``; ``[link] retry_timeout_s`` (the lockstep
-answer deadline, 0.05: ``hil_bench.protocol.timing``), ``max_retries`` (3), ``allow = {counter = n, ...}``; ``[controller] send_encoder_angle`` (false).
+"next_period"``, ``max_consecutive_misses`` (10), ``cpu``; ``[link] retry_timeout_s`` (the first re-send
+of an unanswered lockstep cycle, 0.05: ``hil_bench.protocol.timing``), ``patience_s`` (10: the controller
+has answered nothing this long, the run ends), ``allow = {counter = n, ...}``; ``[controller]
+send_encoder_angle`` (false).
 """
 from __future__ import annotations
 
@@ -42,7 +44,7 @@ from typing import Any
 
 from hil_bench.protocol import params as param_info
 from hil_bench.protocol.messages import MESSAGES, Estimator, HelloFlag, Param
-from hil_bench.protocol.timing import LOCKSTEP_ANSWER_S, LOCKSTEP_MAX_RETRIES
+from hil_bench.protocol.timing import LOCKSTEP_ANSWER_S, PATIENCE_S
 
 from .faults import PLANT_KINDS, check_faults_can_act, parse_faults, parse_recording
 from .fields import Fields, ScenarioError, line_of
@@ -132,10 +134,10 @@ class RealtimeSettings:
 
 @dataclass(frozen=True)
 class LinkSettings:
-    """``[link]``: lockstep retries (docs/protocol.md 6.5) and integrity allowances (6.9)."""
+    """``[link]``: the lockstep wait (docs/protocol.md 6.5) and integrity allowances (6.9)."""
 
-    retry_timeout_s: float = LOCKSTEP_ANSWER_S   # re-send the cycle's SENSE frames after this long
-    max_retries: int = LOCKSTEP_MAX_RETRIES      # then the run ends naming what arrived
+    retry_timeout_s: float = LOCKSTEP_ANSWER_S   # first re-send of an unanswered cycle after this long
+    patience_s: float = PATIENCE_S               # nothing answered this long: the run ends
     allow: dict[str, int] = field(default_factory=dict)   # link counter -> allowed count
 
 
@@ -412,24 +414,45 @@ def _realtime(top: Fields, mode: str) -> RealtimeSettings:
                             stub_isr, stub_phase_us, stub_priority, stub_cpu)
 
 
-def _link(top: Fields) -> LinkSettings:
-    from hil_bench.record.integrity import ALLOWABLE_COUNTERS, LINK_COUNTERS
+def parse_link_allow(a: Fields) -> dict[str, int]:
+    """``allow = {counter = n, ...}`` of a scenario's ``[link]`` or a campaign run: the link problems
+    (docs/protocol.md 6.9) a run may show, each up to n."""
+    from hil_bench.record.integrity import ALLOWABLE_COUNTERS, LINK_COUNTERS, TIMING_COUNTERS
 
-    k = top.table_of("link")
-    retry_timeout_s = k.number("retry_timeout_s", LOCKSTEP_ANSWER_S)
-    k.within("retry_timeout_s", retry_timeout_s, 0.001, 10.0, "s", "docs/protocol.md 6.5")
-    max_retries = k.integer("max_retries", LOCKSTEP_MAX_RETRIES, 0, 100)
-    a = k.table_of("allow")
     allow = {}
     for counter in list(a.table):
+        if counter in TIMING_COUNTERS:
+            raise a.fail(counter, f"is not a link problem (late is not lost: a re-sent cycle whose "
+                                  f"answers all came is timing, docs/protocol.md 6.5), so there is "
+                                  f"nothing to allow; allow lost_frames for frames that never "
+                                  f"arrived")
         if counter not in LINK_COUNTERS:
-            raise a.fail(counter, f"not a link counter; known: {', '.join(LINK_COUNTERS)}")
+            raise a.fail(counter, f"not a link counter; known: {', '.join(ALLOWABLE_COUNTERS)}")
         if counter not in ALLOWABLE_COUNTERS:
             raise a.fail(counter, "cannot be allowed: a run whose controller reported another estimator "
                                   "has INVALID claims (docs/protocol.md 6.8)")
-        allow[counter] = a.integer(counter, 0, 0, 2**63 - 1)
+        allow[counter] = a.integer(counter, 0, 0, 2**62)
+    return allow
+
+
+def _link(top: Fields) -> LinkSettings:
+    k = top.table_of("link")
+    retry_timeout_s = k.number("retry_timeout_s", LOCKSTEP_ANSWER_S)
+    k.within("retry_timeout_s", retry_timeout_s, 0.001, 10.0, "s", "docs/protocol.md 6.5")
+    patience_s = k.number("patience_s", PATIENCE_S)
+    k.within("patience_s", patience_s, 0.1, 3600.0, "s", "docs/protocol.md 6.5")
+    if patience_s <= retry_timeout_s:
+        raise k.fail("patience_s", f"{patience_s:g} s is not longer than retry_timeout_s = "
+                                   f"{retry_timeout_s:g} s: the host would give up before its first "
+                                   f"re-send (docs/protocol.md 6.5)")
+    if "max_retries" in k.table:
+        raise k.fail("max_retries", "is gone: the host re-sends an unanswered lockstep cycle with "
+                                    "back-off for as long as the controller is there, and ends the "
+                                    "run after patience_s without an answer (docs/protocol.md 6.5); "
+                                    "set patience_s instead")
+    allow = parse_link_allow(k.table_of("allow"))
     k.reject_unknown()
-    return LinkSettings(retry_timeout_s, max_retries, allow)
+    return LinkSettings(retry_timeout_s, patience_s, allow)
 
 
 def parse_scenario(text: str, path: Path) -> Scenario:

@@ -49,7 +49,7 @@ def run_point(text: str, name: str, link: str, record: str, keep_dir: str,
         out = Path(tmp) / f"{name}.mcap"
         try:
             result = Runner(scn, link, out, progress=False, force=True,
-                            full_rate_s=tuple(windows_needed(scn)), batch=True).run()
+                            full_rate_s=tuple(windows_needed(scn))).run()
         except (RunAborted, LinkError, OSError, ValueError) as exc:
             return {"status": "error", "error": f"could not run: {exc}", "end": "SETUP"}
         row.update(end=result.end, error=result.error or "", cycles_done=result.cycles_done,

@@ -3,6 +3,7 @@
 #define _GNU_SOURCE
 #include "engine_internal.h"
 
+#include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
@@ -28,7 +29,8 @@ void engine_default_config(engine_config_t *cfg)
     cfg->rpm_per_rad_s = 60.0 / TWO_PI;
     cfg->estimator_expected = -1;
     cfg->retry_timeout_s = 0.05;
-    cfg->max_retries = 3;
+    cfg->resend_max_s = 1.0;
+    cfg->patience_s = 10.0;
     cfg->max_consecutive_bad_duties = 10;
     cfg->max_consecutive_misses = 10;
     cfg->guard_s = 10e-6;
@@ -40,7 +42,6 @@ void engine_default_config(engine_config_t *cfg)
     cfg->link_fd = -1;
     cfg->ch_faults = ENGINE_NO_CHANNEL;
     cfg->record_every = 1;
-    cfg->late_grace_s = 1.0;
 }
 
 int engine_init(engine_t *e, const engine_config_t *cfg, plant_t *plant, void *ring_mem,
@@ -306,6 +307,7 @@ int engine_run(engine_t *e)
     if (e->end == ENGINE_END_DONE) {
         eng_set_message(e, "ran %ld/%ld cycles", (long)e->cycles_done, e->cfg.n_cycles);
     }
+    eng_resent_settle(e, LONG_MAX); /* the answers of the last re-sent cycles are in */
     eng_traces_end(e);
     return e->end;
 }

@@ -16,10 +16,12 @@
  * Two timing modes (docs/architecture.md "Timing of one period"):
  *
  * LOCKSTEP: the plant advances one period per valid DUTY. The duties of DUTY(k) act from
- *   t_k + t_delay (the plant's emulated computation delay). No valid DUTY(k) within
- *   retry_timeout_s: the SENSE frames of cycle k are sent again with the same seq (the
- *   controller answers a repeated seq from its cache), at most max_retries times; then the run
- *   ends naming what arrived instead (nothing, bad CRC, wrong seq, wrong length).
+ *   t_k + t_delay (the plant's emulated computation delay). Late is not lost (the rule is at the
+ *   top of engine_lockstep.c): no valid DUTY(k) within retry_timeout_s, the SENSE frames of
+ *   cycle k are sent again with the same seq (the controller answers a repeated seq from its
+ *   cache), with back-off up to resend_max_s; the run ends only when the controller is gone
+ *   (link failed, restarted, FAULT_CTRL) or DUTY(k) has not come patience_s after SENSE(k),
+ *   naming what arrived instead (nothing, bad CRC, wrong seq, wrong length, heartbeats).
  *
  * REALTIME: the plant advances on CLOCK_MONOTONIC, one period per ts_s from an absolute
  *   deadline (clock_nanosleep to deadline - spin_s, then a spin). SENSE(k) leaves at the start
@@ -81,6 +83,10 @@
 #ifndef ENGINE_LATE_WINDOW
 #define ENGINE_LATE_WINDOW 1024
 #endif
+/* lockstep: cycles whose SENSE group was re-sent, kept until their answers are counted (the
+ * answers to the re-sends, from the controller's cache, come after the cycle completed; on an
+ * in-order link before the next cycle's DUTY): docs/protocol.md 6.5 */
+#define ENGINE_RESENT_WINDOW 64
 #define ENGINE_FRAMES_TEXT 2048
 /* histogram of wall times: 0.1 us bins below 1 ms, 10 us bins up to 100 ms, then overflow */
 #define ENGINE_HIST_FINE 10000
@@ -131,7 +137,7 @@ typedef struct {
 } engine_event_t;
 
 #define ENGINE_MAX_TRACES 64
-#define ENGINE_TRACE_COUNTERS 21
+#define ENGINE_TRACE_COUNTERS 23
 
 /** What became of one fault: evidence in the counters (engine_trace.c trace_counters). */
 typedef struct {
@@ -237,8 +243,12 @@ typedef struct {
                                 * write != NULL; link_fd unused, serial framing); a controller
                                 * reset reaches it in band (CMD RESTART), as on every link */
     int can_brs;
-    double retry_timeout_s;    /* lockstep: wait this long for DUTY before re-sending SENSE */
-    int max_retries;           /* lockstep: re-sends of one cycle's SENSE */
+    double retry_timeout_s;    /* lockstep: the first re-send of a cycle's SENSE group this long
+                                * after it was sent; each later one after twice the interval
+                                * before, at most resend_max_s (docs/protocol.md 6.5) */
+    double resend_max_s;       /* lockstep: the longest interval between two re-sends */
+    double patience_s;         /* lockstep: DUTY(k) has not come this long after SENSE(k) was
+                                * first sent (and nothing is waiting to be read): the run ends */
     int max_consecutive_bad_duties;
     int max_consecutive_misses;
     double guard_s;            /* real time, on arrival: DUTY must arrive by t_{k+1} - guard */
@@ -249,7 +259,8 @@ typedef struct {
     double spin_s;             /* spin this long before each deadline */
     int busy_wait;             /* poll the link without sleeping while DUTY(k) is due */
     /* recording */
-    double recorder_stall_s;   /* lockstep: wait at most this long for ring space */
+    double recorder_stall_s;   /* lockstep: a recorder that drained nothing this long while the
+                                * engine waited for ring space is stalled (rows then dropped) */
     int stats_every_cycles;
     int record_frames;         /* /link/frames rows */
     uint16_t ch_state, ch_sense, ch_telem, ch_frames, ch_events, ch_timing, ch_stats;
@@ -281,9 +292,6 @@ typedef struct {
      * (0: at once), the cycles between record the controller's reaction */
     uint16_t ch_faults;
     long post_trip_cycles;
-    /* lockstep: after the last retry found no DUTY, listen this long more for a late answer, only
-     * to say in the run's message that the controller answered late rather than not at all */
-    double late_grace_s;
     /* decimated recording: the per-cycle rows of every record_every-th cycle only, except within
      * pre_trigger_cycles before and post_trigger_cycles after each fault (and after a trip),
      * where every cycle is recorded (1: every cycle) */
@@ -306,7 +314,23 @@ typedef struct {
     uint64_t operator_refused;  /* live view: operator inputs refused (an /events row each) */
     uint64_t ring_waits;        /* lockstep: times a row waited for room in the recording ring
                                  * (the recorder had fallen a whole ring behind) */
+    /* lockstep, by what arrived (docs/protocol.md 6.5): of the cycles whose SENSE group was
+     * re-sent (retries), those every SENSE group of which was answered (late_answers: a timing
+     * statistic, never a link problem), and the frames that never arrived (lost_frames: answers
+     * missing, less the corrupt chunks received while the cycle was open, which are counted as
+     * corrupt); resend_answers: DUTY frames of a re-sent cycle after the one that completed it
+     * (the controller's cache answering the re-sends) */
+    uint64_t late_answers, lost_frames, resend_answers;
 } engine_counters_t;
+
+/** Lockstep: a cycle whose SENSE group was re-sent, its answers still being counted. */
+typedef struct {
+    long k;
+    uint16_t seq;
+    uint32_t sends;           /* SENSE groups sent for it: 1 + its re-sends */
+    uint32_t answers[3];      /* DUTY, TELEM, TELEM_EMF frames received for it so far */
+    uint64_t corrupt;         /* corrupt serial chunks received while it was open */
+} engine_resent_t;
 
 typedef struct {
     uint32_t bins[ENGINE_HIST_BINS];
@@ -381,6 +405,11 @@ typedef struct engine {
      * 2 = its late DUTY came; 0 = no such period (cleared as each period begins) */
     uint8_t late_state[ENGINE_LATE_WINDOW];
     int recorder_stalled;       /* lockstep: the recorder made no room within recorder_stall_s */
+    /* lockstep: cycles whose SENSE group was re-sent and whose answers are still being counted
+     * (a ring of ENGINE_RESENT_WINDOW, oldest first), and the slowest late answer so far */
+    engine_resent_t resent[ENGINE_RESENT_WINDOW];
+    unsigned resent_head, resent_count;
+    int64_t late_max_ns;
     unsigned length_error_said; /* ids (low 2 bits) whose wrong length was said */
     int last_state;
     char tx_text[ENGINE_FRAMES_TEXT];

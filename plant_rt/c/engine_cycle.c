@@ -457,7 +457,6 @@ void eng_begin_cycle(engine_t *e, cycle_t *c, long k)
     c->len0 = d->length_errors;
     c->over0 = d->overruns;
     c->hb0 = e->n.heartbeats_rx;
-    c->late_s = (double)NAN;
     e->cyc_drop = e->cyc_stall_drop = e->cyc_delay = e->cyc_restart = 0u;
     e->resets_at_cycle = e->n.ctrl_resets;
     eng_text_reset(e->tx_text, &e->tx_len);

@@ -74,8 +74,8 @@ typedef struct {
     uint64_t crc0, cobs0, len0, over0, seq_bad, len_bad, stale;
     uint16_t bad_seq;      /* the last wrong seq seen */
     uint64_t hb0;          /* heartbeats_rx when the cycle began */
-    double late_s;         /* lockstep: a DUTY(k) after the retries, this long after the first
-                            * send (NaN: none within late_grace_s) */
+    int sent;              /* lockstep: its SENSE group went out */
+    uint32_t answers[3];   /* lockstep: DUTY, TELEM, TELEM_EMF frames of this seq received */
     /* the frames of the SENSE group, for re-sending */
     uint8_t aux[8], dual[8], sense[8];
     int have_dual;
@@ -150,6 +150,12 @@ int eng_hold_while_paused(engine_t *e, cycle_t *c);
 
 /* engine_lockstep.c: the lockstep wait and the lockstep loop */
 int eng_exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns);
+/** A DUTY (which 0), TELEM (1) or TELEM_EMF (2) of `seq` beyond the first: an answer to a re-send
+ *  of that cycle (1, counted), one more than the cycle's SENSE groups (0, a duplicate), or not a
+ *  cycle still being counted (-1). */
+int eng_lockstep_answer(engine_t *e, cycle_t *c, uint16_t seq, int which);
+/** Settle the re-sent cycles before cycle before_k: late, or frames lost (LONG_MAX: all). */
+void eng_resent_settle(engine_t *e, long before_k);
 int eng_run_lockstep(engine_t *e);
 
 /* engine_replay.c */

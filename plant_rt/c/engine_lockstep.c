@@ -1,4 +1,28 @@
-/* The lockstep loop: the plant advances one period per valid DUTY. */
+/*
+ * The lockstep loop: the plant advances one period per valid DUTY. The wait for that DUTY is
+ * this file's rule (docs/protocol.md 6.5), the same for every controller and every kind of run:
+ *
+ *   LATE IS NOT LOST. A lockstep run's rows are a function of what arrived, never of when: the
+ *   host waits for DUTY(k) as long as the controller is there. It re-sends the cycle's SENSE
+ *   group (the same octets) when no DUTY(k) has come retry_timeout_s after the send, then after
+ *   twice the interval before, at most resend_max_s apart (so a slow answer costs a handful of
+ *   frames, not a storm): a re-send is how a lossy serial link recovers a lost frame. What a
+ *   cycle was is decided by what arrived, once its answers are counted (eng_resent_settle): a
+ *   cycle every SENSE group of which was answered was LATE (a timing statistic: late_answers,
+ *   the /timing row's retries and round trip; never a link problem); a SENSE group that got no
+ *   answer is a LOST frame (lost_frames), unless a corrupt chunk arrived while the cycle was
+ *   open (a frame that failed its CRC or framing is CORRUPT, counted by the deframer). Only
+ *   lost and corrupt frames are link problems (docs/protocol.md 6.9).
+ *
+ *   THE RUN ENDS only when the controller is gone: its link failed (process exited, port closed,
+ *   emulator died: at once), it restarted (its heartbeat started over: a restarted controller
+ *   answers no SENSE before a new HELLO; at once), it sent FAULT_CTRL, or DUTY(k) has not come
+ *   patience_s after SENSE(k) was first sent (and nothing is waiting to be read: a host that was
+ *   itself descheduled reads what came meanwhile first). One bound, whatever else arrives:
+ *   heartbeats, telemetry or noise without the DUTY do not extend it.
+ *
+ * Real time (engine_realtime.c) keeps its deadlines: there lateness is what is measured.
+ */
 #include "engine_internal.h"
 
 #include <stdarg.h>
@@ -22,11 +46,13 @@ static void append(char *buf, size_t cap, int *n, const char *fmt, ...)
     }
 }
 
-/** Lockstep: why no valid DUTY came, from what arrived during the cycle and what the bench's own
- *  faults did to it (docs/protocol.md 6.5: "cycle 1234: no valid DUTY after 3 retries (0.2 s): 2
- *  frames with a bad CRC, ..."; "nothing at all (the controller is silent)" only when nothing
- *  arrived, the bench injected nothing and no answer came late either). */
-static void describe_no_duty(engine_t *e, const cycle_t *c)
+/** Lockstep, the run ends without DUTY(k): what arrived during the cycle and what the bench's own
+ *  faults did to it (docs/protocol.md 6.5: "at cycle 1234 (t = 0.1234 s): no DUTY(1234) 10 s
+ *  (patience_s) after its SENSE and 13 re-sends: 2 frames with a bad CRC,
+ *  ..."; "nothing at all (the controller is silent)" only when nothing arrived and the bench
+ *  injected nothing). `ended_by`: what ended the wait before the patience did (a restart), or
+ *  NULL. */
+static void describe_no_duty(engine_t *e, const cycle_t *c, const char *ended_by)
 {
     const hil_deframer_t *d = &e->link.deframer;
     char what[640];
@@ -82,66 +108,127 @@ static void describe_no_duty(engine_t *e, const cycle_t *c)
                "frame(s) of this cycle by up to %.3g s", e->cyc_delay_fault,
                (unsigned long)e->cyc_delay, e->traces[e->cyc_delay_fault].delay_d_s);
     }
-    if (isfinite(c->late_s)) {
-        append(what, sizeof what, &n, "its DUTY came %.3g s after the cycle's first SENSE, after "
-               "the host had stopped waiting: the controller answers, late", c->late_s);
-    }
     e->end = ENGINE_END_NO_DUTY;
-    eng_set_message(e, "at cycle %ld (t = %.4f s): no valid DUTY after %d retries (%.3g s): %s",
-                c->k, c->t_s, c->retries,
-                (double)(c->retries + 1) * e->cfg.retry_timeout_s,
-                n ? what : "nothing at all (the controller is silent)");
+    if (ended_by != NULL) {
+        eng_set_message(e, "at cycle %ld (t = %.4f s): %s while the host waited for DUTY(%u) "
+                        "(%d re-sends): %s", c->k, c->t_s, ended_by, (unsigned)c->seq,
+                        c->retries, n ? what : "nothing else arrived");
+        return;
+    }
+    eng_set_message(e, "at cycle %ld (t = %.4f s): no DUTY(%u) %.3g s (patience_s) after its SENSE "
+                    "and %d re-sends: %s", c->k, c->t_s, (unsigned)c->seq,
+                    e->cfg.patience_s, c->retries,
+                    n ? what : "nothing at all (the controller is silent)");
 }
 
-/* ---- lockstep ---------------------------------------------------------------------------------- */
+/* ---- the answers of re-sent cycles ----------------------------------------------------------- */
 
-/** Lockstep, the retries are over without a valid DUTY(k): listen late_grace_s more, only to tell
- *  a late controller from a silent one in the run's message (c->late_s). 0, or -1 when a frame
- *  ends the run (FAULT_CTRL). The run ends either way: the retry rule does not wait this long. */
-static int late_answer(engine_t *e, cycle_t *c, int64_t sent_ns)
+static uint64_t corrupt_chunks(const engine_t *e)
 {
-    const int64_t deadline = eng_now_ns() + (int64_t)(e->cfg.late_grace_s * 1e9);
-    if (!(e->cfg.late_grace_s > 0.0)) {
-        return 0;
-    }
-    for (;;) {
-        eng_frame_t f;
-        int r;
-        while (eng_pop(e, &f)) {
-            r = eng_handle_frame(e, c, &f, 1);
-            if (r < 0) {
-                return -1;
-            }
-            if (r == 1) {
-                c->late_s = (double)(f.t_ns - sent_ns) * 1e-9;
-                c->have_duty = 0;
-                return 0;
-            }
-        }
-        if (eng_stop_asked(e) || eng_now_ns() >= deadline || eng_poll(e, deadline) < 0) {
-            return 0;
-        }
+    const hil_deframer_t *d = &e->link.deframer;
+    return (uint64_t)d->crc_errors + d->cobs_errors + d->length_errors + d->overruns;
+}
+
+/** What a re-sent cycle was, now that its answers are counted: late, or frames lost. */
+static void settle(engine_t *e, const engine_resent_t *r)
+{
+    const uint64_t missing = r->sends > r->answers[0] ? (uint64_t)(r->sends - r->answers[0]) : 0u;
+    if (missing == 0u) {
+        e->n.late_answers++;
+    } else if (missing > r->corrupt) {
+        e->n.lost_frames += missing - r->corrupt;
     }
 }
+
+void eng_resent_settle(engine_t *e, long before_k)
+{
+    while (e->resent_count > 0u) {
+        const engine_resent_t *r = &e->resent[e->resent_head];
+        if (r->k >= before_k) {
+            break;
+        }
+        settle(e, r);
+        e->resent_head = (e->resent_head + 1u) % ENGINE_RESENT_WINDOW;
+        e->resent_count--;
+    }
+}
+
+/** Cycle c completed after re-sends: keep counting its answers (the cache's answers to the
+ *  re-sends come after the one that completed it). */
+static void resent_open(engine_t *e, const cycle_t *c, uint64_t corrupt0)
+{
+    engine_resent_t *r;
+    if (e->resent_count == ENGINE_RESENT_WINDOW) {
+        eng_resent_settle(e, e->resent[e->resent_head].k + 1);
+    }
+    r = &e->resent[(e->resent_head + e->resent_count) % ENGINE_RESENT_WINDOW];
+    e->resent_count++;
+    r->k = c->k;
+    r->seq = c->seq;
+    r->sends = (uint32_t)c->retries + 1u;
+    memcpy(r->answers, c->answers, sizeof r->answers);
+    r->corrupt = corrupt_chunks(e) - corrupt0;
+}
+
+int eng_lockstep_answer(engine_t *e, cycle_t *c, uint16_t seq, int which)
+{
+    uint32_t *n = NULL, sends = 0u;
+    unsigned i;
+    if (seq == c->seq) {
+        if (!c->sent) {
+            return -1;   /* its SENSE has not gone out yet (paused before it) */
+        }
+        n = &c->answers[which];
+        sends = (uint32_t)c->retries + 1u;
+    } else {
+        for (i = 0u; i < e->resent_count; ++i) {
+            engine_resent_t *r = &e->resent[(e->resent_head + i) % ENGINE_RESENT_WINDOW];
+            if (r->seq == seq) {
+                n = &r->answers[which];
+                sends = r->sends;
+            }
+        }
+    }
+    if (n == NULL) {
+        return -1;
+    }
+    if (*n < sends) {
+        (*n)++;
+        if (which == 0) {
+            e->n.resend_answers++;
+        }
+        return 1;
+    }
+    e->n.duplicates++;
+    return 0;
+}
+
+/* ---- the wait ------------------------------------------------------------------------------- */
 
 /**
- * Lockstep exchange of cycle c: send what is queued, wait for the first valid DUTY(seq), re-send
- * the SENSE group on silence (at most max_retries times). 0, or -1 with e->end set.
+ * Lockstep exchange of cycle c: send what is queued, wait for the first valid DUTY(seq),
+ * re-sending the SENSE group with back-off while the controller is there (the rule at the top
+ * of this file). 0, or -1 with e->end set.
  */
 int eng_exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns)
 {
     const engine_config_t *cfg = &e->cfg;
-    const int64_t retry_ns = (int64_t)(cfg->retry_timeout_s * 1e9);
-    int64_t deadline;
+    const int64_t max_ns = (int64_t)(cfg->resend_max_s * 1e9);
+    const uint64_t corrupt0 = corrupt_chunks(e);
+    int64_t interval_ns = (int64_t)(cfg->retry_timeout_s * 1e9);
+    int64_t resend_at, give_up_at;
     int done = 0;
     if (eng_flush(e, c0 + NS_PER_S) != 0) {
         eng_fail_link(e, c);
         return -1;
     }
     *sent_ns = eng_now_ns();
-    deadline = *sent_ns + retry_ns;
-    while (!done) {
+    c->sent = 1;
+    resend_at = *sent_ns + interval_ns;
+    give_up_at = *sent_ns + (int64_t)(cfg->patience_s * 1e9);
+    for (;;) {
         eng_frame_t f;
+        int64_t now;
         int r;
         while (!done && eng_pop(e, &f)) {
             r = eng_handle_frame(e, c, &f, 1);
@@ -153,7 +240,13 @@ int eng_exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns)
         if (done) {
             break;
         }
-        r = eng_poll(e, deadline);
+        if (e->n.ctrl_resets > e->resets_at_cycle) {
+            describe_no_duty(e, c, "the controller restarted");
+            return -1;
+        }
+        /* read what is there (a host that was itself descheduled finds the answers that came
+         * meanwhile before it judges anything), else wait for the next re-send or the end */
+        r = eng_poll(e, resend_at < give_up_at ? resend_at : give_up_at);
         if (r < 0) {
             eng_fail_link(e, c);
             return -1;
@@ -166,21 +259,29 @@ int eng_exchange_lockstep(engine_t *e, cycle_t *c, int64_t c0, int64_t *sent_ns)
             eng_set_message(e, "stopped at cycle %ld while waiting for DUTY", c->k);
             return -1;
         }
-        if (c->retries >= cfg->max_retries) {
-            if (late_answer(e, c, *sent_ns) != 0) {
+        now = eng_now_ns();
+        if (now >= give_up_at) {
+            describe_no_duty(e, c, NULL);
+            return -1;
+        }
+        if (now >= resend_at) {
+            c->retries++;
+            e->n.retries++;
+            eng_queue_resend(e, c);
+            if (eng_flush(e, now + NS_PER_S) != 0) {
+                eng_fail_link(e, c);
                 return -1;
             }
-            describe_no_duty(e, c);
-            return -1;
+            interval_ns = 2 * interval_ns < max_ns ? 2 * interval_ns : max_ns;
+            resend_at = eng_now_ns() + interval_ns;
         }
-        c->retries++;
-        e->n.retries++;
-        eng_queue_resend(e, c);
-        if (eng_flush(e, eng_now_ns() + NS_PER_S) != 0) {
-            eng_fail_link(e, c);
-            return -1;
+    }
+    if (c->retries > 0) {
+        const int64_t took_ns = c->duty_t_ns - *sent_ns;
+        if (took_ns > e->late_max_ns) {
+            e->late_max_ns = took_ns;
         }
-        deadline = eng_now_ns() + retry_ns;
+        resent_open(e, c, corrupt0);
     }
     return 0;
 }
@@ -223,6 +324,7 @@ int eng_run_lockstep(engine_t *e)
         }
         c0 = lockstep_pace(e, k, &start_err_ns);
         eng_begin_cycle(e, &c, k);
+        eng_resent_settle(e, k - 1);   /* cycle k - 1 completed: k - 2's answers are in */
         eng_apply_events(e, &next_event, &c);
         eng_take_inputs(e, &c);
         if (e->paused) {

@@ -108,11 +108,16 @@ void eng_text_frame(char *buf, size_t *len, uint16_t id, const uint8_t *data, ui
 
 /* ---- recording -------------------------------------------------------------------------------- */
 
-/** Room for a record: in lockstep wait (bounded) for the recorder; in real time never wait. */
+/** Room for a record: in lockstep wait for the recorder while it makes progress; in real time
+ *  never wait. A lockstep run waits as long as the recorder drains something at least every
+ *  recorder_stall_s (a busy host starves it, it does not lose it: the rows stay the run's); one
+ *  that drained nothing for that long is stalled: its rows are counted as dropped and it is not
+ *  waited for again until it makes room by itself. */
 uint8_t *eng_ring_begin(engine_t *e, size_t max)
 {
     uint8_t *p;
     int64_t give_up = 0;
+    uint64_t tail = 0u;
     if (!e->have_ring) {
         return NULL;
     }
@@ -122,7 +127,7 @@ uint8_t *eng_ring_begin(engine_t *e, size_t max)
         return p;
     }
     if (e->cfg.mode == ENGINE_REALTIME || e->recorder_stalled) {
-        /* real time never waits; nor does lockstep for a recorder that made no room once */
+        /* real time never waits; nor does lockstep for a recorder that stalled once */
         rec_ring_count_drop(&e->ring, max);
         e->n.rows_dropped++;
         return NULL;
@@ -130,8 +135,10 @@ uint8_t *eng_ring_begin(engine_t *e, size_t max)
     e->n.ring_waits++;
     while (p == NULL) {
         struct timespec ts = {0, 100000L};
-        int64_t now = eng_now_ns();
-        if (give_up == 0) {
+        const int64_t now = eng_now_ns();
+        const uint64_t seen = __atomic_load_n(&e->ring.hdr->tail, __ATOMIC_ACQUIRE);
+        if (give_up == 0 || seen != tail) {
+            tail = seen;   /* the recorder drained something: it is working */
             give_up = now + (int64_t)(e->cfg.recorder_stall_s * 1e9);
         } else if (now > give_up) {
             e->recorder_stalled = 1;
@@ -255,6 +262,9 @@ void engine_write_stats(engine_t *e, double t_s, const eng_link_counters_t *extr
     s.jitter_p99_us = engine_hist_percentile(&e->hist_jitter, 0.99);
     s.jitter_p999_us = engine_hist_percentile(&e->hist_jitter, 0.999);
     s.jitter_max_us = e->hist_jitter.max_us;
+    s.late_answers = e->n.late_answers;
+    s.lost_frames = e->n.lost_frames;
+    s.resend_answers = e->n.resend_answers;
     RECORD(e, e->cfg.ch_stats, t_s, REC_MAX_FIXED_SIZE, rec_encode_link_stats, &s);
 }
 

@@ -120,6 +120,7 @@ int eng_run_replay_controller(engine_t *e)
             return e->end;
         }
         c.replay = row;
+        eng_resent_settle(e, k - 1);
         eng_faults_begin_cycle(e, k);
         for (i = 0u; i < row->n_frames; ++i) {
             const engine_replay_frame_t *f = &cfg->replay_frames[row->first_frame + i];

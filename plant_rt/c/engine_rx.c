@@ -103,7 +103,15 @@ int eng_handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle_op
             c->duty_raw[1] = d.d_b;
             c->duty_raw[2] = d.d_c;
             c->duty_t_ns = f->t_ns;
+            c->answers[0] = 1u;
             return 1;
+        }
+        if (e->cfg.mode == ENGINE_LOCKSTEP) {
+            /* an answer to a re-send of this cycle or of a re-sent one still being counted
+             * (late is not lost: engine_lockstep.c), else as below */
+            if (eng_lockstep_answer(e, c, d.seq, 0) >= 0) {
+                return 0;
+            }
         }
         if ((d.seq == c->seq && c->have_duty) || (d.seq == prev_seq && e->prev_had_duty)) {
             e->n.duplicates++; /* a second answer to a completed cycle (e.g. a cached re-send) */
@@ -130,11 +138,12 @@ int eng_handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle_op
         }
         if (t.seq == c->seq && !c->have_telem) {
             c->have_telem = 1;
+            c->answers[1] = 1u;
             c->th_hat = (double)t.theta_hat * e->cfg.scale_theta_hat;
             c->w_hat = (double)t.omega_hat * e->cfg.scale_omega_hat;
             c->st = (int)t.state;
             c->est = (int)t.estimator;
-        } else {
+        } else if (e->cfg.mode != ENGINE_LOCKSTEP || eng_lockstep_answer(e, c, t.seq, 1) < 0) {
             telem_other_seq(e, c, t.seq);
         }
         return 0;
@@ -147,10 +156,11 @@ int eng_handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle_op
         }
         if (m.seq == c->seq && !c->have_emf) {
             c->have_emf = 1;
+            c->answers[2] = 1u;
             c->e_a = (double)m.e_alpha * e->cfg.scale_e;
             c->e_b = (double)m.e_beta * e->cfg.scale_e;
             c->iq_ref = (double)m.i_q_ref * e->cfg.scale_iq_ref;
-        } else {
+        } else if (e->cfg.mode != ENGINE_LOCKSTEP || eng_lockstep_answer(e, c, m.seq, 2) < 0) {
             telem_other_seq(e, c, m.seq);
         }
         return 0;

@@ -11,7 +11,8 @@ static const char *const TRACE_NAMES[ENGINE_TRACE_COUNTERS] = {
     "crc_errors", "cobs_errors", "length_errors", "overruns", "bytes_discarded", "seq_mismatch",
     "bad_duties", "telem_missing", "unknown_ids", "duplicates", "stale_frames", "retries",
     "late_duty", "missed_duty", "error_frames", "can_unknown_ids", "rx_malformed",
-    "ctrl_rx_errors", "ctrl_resets", "ctrl_faults", "rtt_over_delay"};
+    "ctrl_rx_errors", "ctrl_resets", "ctrl_faults", "rtt_over_delay", "lost_frames",
+    "late_answers"};
 
 static void trace_counters(const engine_t *e, const engine_trace_t *t,
                            uint64_t v[ENGINE_TRACE_COUNTERS])
@@ -38,6 +39,8 @@ static void trace_counters(const engine_t *e, const engine_trace_t *t,
     v[18] = e->n.ctrl_resets;
     v[19] = e->n.ctrl_faults;
     v[20] = t->rtt_seen;
+    v[21] = e->n.lost_frames;
+    v[22] = e->n.late_answers;
 }
 
 static void trace_close(engine_t *e, int index, const char *ended);

@@ -89,7 +89,11 @@
  *  HEARTBEAT_CTRL reported; ctrl_resets: times its heartbeat counter started over (it
  *  restarted); ctrl_faults: FAULT_CTRL frames received; duties_after_trip: duties applied
  *  after the controller's FAULT_CTRL that were not all legs OFF; faults_injected /
- *  faults_untraced: link-fault actions taken, and link faults that left no trace (/faults). */
+ *  faults_untraced: link-fault actions taken, and link faults that left no trace (/faults).
+ *  Lockstep (docs/protocol.md 6.5): retries = SENSE groups re-sent; late_answers = re-sent cycles
+ *  every SENSE group of which was answered (timing, not a problem); lost_frames = frames that
+ *  never arrived, recovered by a re-send; resend_answers = DUTY frames of a re-sent cycle after the one that completed it (the
+ *  controller's cache answering the re-sends). */
 #define REC_LINK_STATS(X, P)                                                                   \
     X(P, F64, t_s) X(P, CNT, cycles) X(P, CNT, frames_tx) X(P, CNT, frames_rx)                 \
     X(P, CNT, bytes_tx) X(P, CNT, bytes_rx) X(P, CNT, frames_ok) X(P, CNT, crc_errors)         \
@@ -105,7 +109,8 @@
     X(P, CNT, duties_after_trip) X(P, CNT, faults_injected) X(P, CNT, faults_untraced)         \
     X(P, F64, cycle_wall_p50_us) X(P, F64, cycle_wall_p99_us) X(P, F64, cycle_wall_max_us)     \
     X(P, F64, jitter_p50_us) X(P, F64, jitter_p99_us) X(P, F64, jitter_p999_us)                \
-    X(P, F64, jitter_max_us)
+    X(P, F64, jitter_max_us)                                                                   \
+    X(P, CNT, late_answers) X(P, CNT, lost_frames) X(P, CNT, resend_answers)
 
 /** /replay/controller, hil.ReplayController: a live controller's answer to a recorded cycle
  *  beside the recorded answer: DUTY (-1 = leg off, NaN = no DUTY), TELEM (angle, speed: NaN,

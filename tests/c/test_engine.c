@@ -113,6 +113,9 @@ typedef struct {
     hil_session_t session;
     long silent_from;    /* stop answering from this cycle (-1: never) */
     long noisy_from;     /* from this cycle, line noise before every answer (-1: never) */
+    long late_at;        /* the answer to this cycle's SENSE 300 ms late (-1: never) */
+    long lose_sense_at;  /* this cycle's first SENSE never reaches the session (-1: never) */
+    int late_done, lost_done;
     hil_octet_t tx[4096];
     size_t tx_len;
     int setup;           /* 1 while the test configures it: answers go nowhere */
@@ -219,6 +222,15 @@ static void *ctrl_main(void *arg)
                 if (f.id == HIL_SENSE_FRAME_ID && c->silent_from >= 0 && cycle >= c->silent_from) {
                     continue;
                 }
+                if (f.id == HIL_SENSE_FRAME_ID && cycle == c->lose_sense_at && !c->lost_done) {
+                    c->lost_done = 1;   /* lost on the way: the host's re-send recovers it */
+                    continue;
+                }
+                if (f.id == HIL_SENSE_FRAME_ID && cycle == c->late_at && !c->late_done) {
+                    const struct timespec late = {0, 300000000L};
+                    c->late_done = 1;   /* a controller stalled 300 ms: the host must wait */
+                    nanosleep(&late, NULL);
+                }
                 hil_session_on_frame(&c->session, &f);
             }
         }
@@ -305,7 +317,8 @@ static void loop_config(engine_config_t *cfg, int mode, long n_cycles, const pla
     cfg->ch_stats = 6;
 }
 
-static loop_result_t closed_loop(int mode, long n_cycles, long silent_from, long noisy_from)
+static loop_result_t closed_loop_ex(int mode, long n_cycles, long silent_from, long noisy_from,
+                                    long late_at, long lose_sense_at, double patience_s)
 {
     static plant_t plant;
     static engine_t eng;
@@ -326,11 +339,16 @@ static loop_result_t closed_loop(int mode, long n_cycles, long silent_from, long
     ctrl->fd = sv[1];
     ctrl->silent_from = silent_from;
     ctrl->noisy_from = noisy_from;
+    ctrl->late_at = late_at;
+    ctrl->lose_sense_at = lose_sense_at;
     ctrl_configure(ctrl, (uint16_t)mode);
     CHECK(ctrl->session.ctrl.state != CTRL_STATE_IDLE, "the controller runs");
     pthread_create(&th, NULL, ctrl_main, ctrl);
     loop_config(&cfg, mode, n_cycles, &pp);
     cfg.link_fd = sv[0];
+    if (patience_s > 0.0) {
+        cfg.patience_s = patience_s;
+    }
     CHECK(rec_ring_format(ring, map) == 0, "ring");
     CHECK(engine_init(&eng, &cfg, &plant, ring, map) == 0, "engine_init: %s", eng.message);
     res.end = engine_run(&eng);
@@ -360,6 +378,13 @@ static loop_result_t closed_loop(int mode, long n_cycles, long silent_from, long
     return res;
 }
 
+static loop_result_t closed_loop(int mode, long n_cycles, long silent_from, long noisy_from)
+{
+    /* a silent controller is found after its patience: half a second here (the default, 10 s, is
+     * what a run against a live controller gets; this is a test of the silence itself) */
+    return closed_loop_ex(mode, n_cycles, silent_from, noisy_from, -1, -1, 0.5);
+}
+
 static void test_lockstep_closed_loop(void)
 {
     loop_result_t r = closed_loop(ENGINE_LOCKSTEP, 5000, -1, -1);
@@ -378,10 +403,46 @@ static void test_silent_controller_is_named(void)
     loop_result_t r = closed_loop(ENGINE_LOCKSTEP, 2000, 300, -1);
     CHECK(r.end == ENGINE_END_NO_DUTY, "end %d", r.end);
     CHECK(r.cycles == 300, "cycles %ld", r.cycles);
-    CHECK(r.n.retries == 3u, "the SENSE of cycle 300 re-sent 3 times: %llu",
-          (unsigned long long)r.n.retries);
-    CHECK(strstr(r.message, "no valid DUTY after 3 retries (0.2 s): nothing at all") != NULL, "%s",
+    CHECK(r.n.retries == 3u, "the SENSE of cycle 300 re-sent at 0.05, 0.15, 0.35 s within the "
+          "0.5 s patience: %llu", (unsigned long long)r.n.retries);
+    CHECK(strstr(r.message, "no DUTY(300) 0.5 s (patience_s) after its SENSE and 3 re-sends: "
+                            "nothing at all (the controller is silent)") != NULL,
+          "%s", r.message);
+}
+
+static void test_late_is_not_lost(void)
+{
+    /* docs/protocol.md 6.5: a controller that answers cycle 300 300 ms late, intact, is waited
+     * for (the default patience): the run completes with the same trajectory as a prompt one;
+     * the cycle counts as late (every SENSE group sent for it answered: the original and the
+     * re-sends at 50 and 150 ms, from the cache), never lost, never a duplicate */
+    loop_result_t a = closed_loop_ex(ENGINE_LOCKSTEP, 1000, -1, -1, -1, -1, 0.0);
+    loop_result_t r = closed_loop_ex(ENGINE_LOCKSTEP, 1000, -1, -1, 300, -1, 0.0);
+    CHECK(r.end == ENGINE_END_DONE && r.cycles == 1000, "end %d after %ld: %s", r.end, r.cycles,
           r.message);
+    CHECK(r.n.retries == 2u && r.n.late_answers == 1u && r.n.resend_answers == 2u,
+          "2 re-sends, 1 late cycle, 2 answers to re-sends: %llu, %llu, %llu",
+          (unsigned long long)r.n.retries, (unsigned long long)r.n.late_answers,
+          (unsigned long long)r.n.resend_answers);
+    CHECK(r.n.lost_frames == 0u && r.n.duplicates == 0u && r.n.seq_mismatch == 0u &&
+              r.n.stale_frames == 0u, "nothing lost, nothing duplicated");
+    CHECK(memcmp(&a.speed_rpm, &r.speed_rpm, sizeof a.speed_rpm) == 0,
+          "late is not different: %.17g vs %.17g rpm", a.speed_rpm, r.speed_rpm);
+}
+
+static void test_a_lost_sense_is_lost(void)
+{
+    /* the first SENSE of cycle 300 never reaches the controller: the re-send recovers the cycle
+     * and its answer is the only one (it completes the cycle; no second DUTY follows): one lost
+     * frame, a link problem (6.9) */
+    loop_result_t r = closed_loop_ex(ENGINE_LOCKSTEP, 1000, -1, -1, -1, 300, 0.0);
+    CHECK(r.end == ENGINE_END_DONE && r.cycles == 1000, "end %d: %s", r.end, r.message);
+    CHECK(r.n.retries == 1u && r.n.lost_frames == 1u && r.n.late_answers == 0u &&
+              r.n.resend_answers == 0u && r.n.duplicates == 0u,
+          "retries %llu, lost %llu, late %llu, resend answers %llu, duplicates %llu",
+          (unsigned long long)r.n.retries, (unsigned long long)r.n.lost_frames,
+          (unsigned long long)r.n.late_answers, (unsigned long long)r.n.resend_answers,
+          (unsigned long long)r.n.duplicates);
 }
 
 static void test_what_arrived_instead_is_named(void)
@@ -389,7 +450,7 @@ static void test_what_arrived_instead_is_named(void)
     /* line noise answers the SENSE of cycle 300 and its 3 re-sends, and no DUTY comes */
     loop_result_t r = closed_loop(ENGINE_LOCKSTEP, 2000, 300, 290);
     CHECK(r.end == ENGINE_END_NO_DUTY, "end %d", r.end);
-    CHECK(strstr(r.message, "no valid DUTY after 3 retries (0.2 s): 4 chunks that are not valid COBS")
+    CHECK(strstr(r.message, "after its SENSE and 3 re-sends: 4 chunks that are not valid COBS")
               != NULL, "%s", r.message);
 }
 
@@ -531,6 +592,8 @@ int main(void)
     test_lockstep_closed_loop();
     test_silent_controller_is_named();
     test_what_arrived_instead_is_named();
+    test_late_is_not_lost();
+    test_a_lost_sense_is_lost();
     test_line_noise_is_counted_and_survived();
     test_realtime_closed_loop();
     test_sil_closed_loop_is_the_threaded_one();

@@ -41,6 +41,8 @@
  *   wrong-dlc    one TELEM with 6 octets instead of 8, once
  *   slow         every answer 1.5 control periods late (a controller that overruns its ISR:
  *                in real time its DUTY frames arrive after their period)
+ *   late         the answer to every 500th new SENSE 300 ms late, intact (a controller stalled
+ *                now and then; the host's re-sends of that SENSE are answered from the cache)
  *   bus-off      the controller goes bus-off: reported the way the link can (socketcand
  *                "< error 040 ... >", a SocketCAN error frame, SLCAN status flags) and silent after
  * --heartbeat-always: HEARTBEAT_CTRL every 100 ms also while cycles flow (docs/protocol.md 6.7
@@ -88,8 +90,14 @@ typedef enum {
     INJECT_UNKNOWN_ID,
     INJECT_WRONG_DLC,
     INJECT_BUS_OFF,
-    INJECT_SLOW
+    INJECT_SLOW,
+    INJECT_LATE
 } inject_t;
+
+/* --inject late: the answer to every LATE_EVERY-th new SENSE comes LATE_S late (a controller
+ * stalled now and then: a lockstep host must wait for it, not end the run) */
+#define LATE_EVERY 500ul
+#define LATE_S 0.3
 
 typedef struct {
     int timer;             /* 1: ISR on the stub's own timer, 0: on SENSE arrival */
@@ -109,6 +117,7 @@ typedef struct {
     int active;    /* the injection applies to the frame being handled */
     int echo;
     int off_bus;   /* after an injected bus-off: no frame leaves the controller */
+    unsigned long late_cycle;  /* --inject late: the cycle last held back (+1; 0: none yet) */
     unsigned long echoed;
 } app_t;
 
@@ -231,6 +240,16 @@ static void on_frame(void *user, const hil_frame_t *frame)
         ts.tv_nsec = (long)((delay_s - (double)ts.tv_sec) * 1e9);
         nanosleep(&ts, NULL);
     }
+    if (a->active && a->inject == INJECT_LATE && frame->id == HIL_SENSE_FRAME_ID &&
+        (a->session.stats.cycles - a->inject_cycle) % LATE_EVERY == 0u &&
+        a->late_cycle != a->session.stats.cycles + 1u) {
+        /* once per cycle: the host's re-sends of this SENSE are answered from the cache */
+        struct timespec ts;
+        ts.tv_sec = (time_t)LATE_S;
+        ts.tv_nsec = (long)((LATE_S - (double)ts.tv_sec) * 1e9);
+        a->late_cycle = a->session.stats.cycles + 1u;
+        nanosleep(&ts, NULL);
+    }
     if (a->active && a->inject == INJECT_GARBAGE) {
         if (a->link->ops->noise != NULL) {
             a->link->ops->noise(a->link);
@@ -296,7 +315,7 @@ static void usage(void)
             "usage: hil_stub (--port PATH [--baud N] | --slcan PATH|fd:N [--baud N] | "
             "--socketcand [HOST:]PORT|fd:N [--bus NAME] | --socketcan IFACE)\n"
             "                [--idle-timeout-s S] [--quiet] [--echo]\n"
-            "                [--inject silent|crash|garbage|bad-duty|unknown-id|wrong-dlc|bus-off|slow@CYCLE]\n"
+            "                [--inject silent|crash|garbage|bad-duty|unknown-id|wrong-dlc|bus-off|slow|late@CYCLE]\n"
             "                [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N] [--busy-poll]\n"
             "                [--heartbeat-always]\n");
 }
@@ -309,7 +328,8 @@ static int parse_inject(const char *arg, inject_t *kind, unsigned long *cycle)
     } kinds[] = {{"silent", INJECT_SILENT},       {"crash", INJECT_CRASH},
                  {"garbage", INJECT_GARBAGE},     {"bad-duty", INJECT_BAD_DUTY},
                  {"unknown-id", INJECT_UNKNOWN_ID}, {"wrong-dlc", INJECT_WRONG_DLC},
-                 {"bus-off", INJECT_BUS_OFF},     {"slow", INJECT_SLOW}};
+                 {"bus-off", INJECT_BUS_OFF},     {"slow", INJECT_SLOW},
+                 {"late", INJECT_LATE}};
     const char *at = strchr(arg, '@');
     char *end = NULL;
     size_t n, i;
