@@ -10,6 +10,8 @@ from pathlib import Path
 from rich.console import Console
 from rich.markup import escape
 
+from hil_bench.cluster.options import positive_int
+
 
 class _PressOnce:
     """Ctrl-C for ``bench run``: a press raises KeyboardInterrupt once (the runner stops the run
@@ -558,7 +560,7 @@ def build_parser() -> argparse.ArgumentParser:
                                         "detection and reaction against the file's limits")
     g.add_argument("campaign", help="campaign TOML (e.g. bench/campaigns/g2_protection.toml)")
     g.add_argument("--out", help="report folder (default reports/campaigns/<name>)")
-    g.add_argument("--jobs", type=int, default=None,
+    g.add_argument("--jobs", type=positive_int, default=None,
                    help="local Dask cluster: worker processes (default: one per core)")
     g.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="run on an existing Dask scheduler instead (docs/sweeps.md)")
@@ -588,7 +590,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "stub's in <out>/rungs.md (one run at a time on a single device)")
     k.add_argument("--out", type=Path, default=Path("reports/claims"),
                    help="report folder (default reports/claims)")
-    k.add_argument("--jobs", type=int, default=None,
+    k.add_argument("--jobs", type=positive_int, default=None,
                    help="local Dask cluster: worker processes (default: the number of cores, "
                         "at most 4)")
     k.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",

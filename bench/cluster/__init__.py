@@ -47,9 +47,10 @@ _ADDRESS = re.compile(r"(?:(?P<proto>[a-z]+)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-
 PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx")
 
 
-class ClusterError(RuntimeError):
+class ClusterError(ValueError):
     """The executor cannot start: a bad scheduler address or worker count, a scheduler that
-    does not answer; the message is one line."""
+    does not answer; the message is one line (a ValueError: the commands that spread runs
+    print those as their error line)."""
 
 
 def check_scheduler_address(address: str) -> str:

@@ -101,11 +101,14 @@ def run_point(text: str, name: str, link: str, record: str, keep_dir: str,
                                                 for sfx, _ in SIDE_SUFFIXES])
             except OSError as exc:
                 # the row is not what the sweep promised (its recording): an error, run again
+                # (the run's own end, if any, on the next line: the first says why it is an error)
                 row["status"] = "error"
                 row["error"] = (f"could not keep the recording in {dest.parent}: {exc.strerror}"
-                                + (f"; {row['error']}" if row["error"] else ""))
+                                + (f"\nthe run: {row['error']}" if row["error"] else ""))
             else:
                 row["recording"] = str(dest)
+                # the run's own messages name where it recorded (a temporary folder, gone now)
+                row["error"] = row["error"].replace(str(rec_path), str(dest))
     return row
 
 
@@ -191,7 +194,7 @@ def run_sweep(sw: Sweep, out_dir: Path, executor, console=None, *, retry_errors:
     journal = None
     try:
         journal = Journal(out_dir / JOURNAL)
-        if resumed.rows:
+        if resumed.dirty:
             compact(sw, ordered(), out_dir, journal)     # the journal's rows into the table
         next_write, write_every = time.monotonic() + WRITE_EVERY_S, WRITE_EVERY_S
         with closing(executor.map(run_point, args, time_limit_s=sw.time_limit_s,

@@ -248,6 +248,8 @@ class Resumed:
     files found (each a line for the user)."""
     rows: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    #: the table on disk is not these rows (a journal to fold in, duplicates, a grown grid)
+    dirty: bool = False
 
 
 def set_aside(out_dir: Path) -> list[str]:
@@ -352,6 +354,7 @@ def resume(sw: Sweep, out_dir: Path, *, fresh: bool = False) -> Resumed:
         r.update({"sweep": sw.name, "sweep_id": sw.sweep_id, "index": p.index})
         r.update({f"in.{k}": v for k, v in p.inputs.items()})
     res.rows = sorted(merged.values(), key=lambda r: r["index"])
+    res.dirty = bool(jrows or dups or (meta is not None and meta.get("sweep_id") != sw.sweep_id))
     return res
 
 
