@@ -115,6 +115,8 @@ SPEED = '[[axes]]\nkey = "controller.speed_ref_rpm"\n'
     (SPEED + "range = [100, 2000, 3]\n[sampling]\nmethod = \"lhs\"\nn = 2.5\n",
      "n = 2.5: must be a whole number"),
     ('[sampling]\nmetod = "lhs"\n', "unknown field 'metod'"),
+    (SPEED + "range = [100, 2000, 3]\n[sampling]\nmethod = \"lhs\"\nn = 4\nseed = -1\n",
+     "seed = -1: must be >= 0"),
     ('[plots]\nx = "nope"\n', "x = 'nope': not an axis"),
 ])
 def test_a_bad_sweep_file_is_named(tmp_path, bad, match):
@@ -134,11 +136,14 @@ def test_a_bad_sweep_file_is_named(tmp_path, bad, match):
     ("link = 3", "link = 3: must be a string"),
     ("time_limt_s = 60", "unknown field 'time_limt_s'"),
     ("max_runs = 4", r"12 runs \(2 x 3 x 2 grid\) is more than the limit of 4 runs"),
+    ('name = "../x"', "name = '../x': letters, digits, _ . - only"),
+    ("name = 1", "name = 1: must be a non-empty string"),
 ])
 def test_a_bad_sweep_table_field_is_named(tmp_path, field, match):
     p = write_sweep(tmp_path)
-    p.write_text(p.read_text().replace('link = "sil"' if field.startswith("link")
-                                       else "time_limit_s = 60", field))
+    key = field.split(" ")[0]
+    old = {"link": 'link = "sil"', "name": 'name = "t_sweep"'}.get(key, "time_limit_s = 60")
+    p.write_text(p.read_text().replace(old, field, 1))
     with pytest.raises(SweepError, match=match) as exc:
         load_sweep(p)
     assert str(p) in str(exc.value) and "\n" not in str(exc.value)

@@ -245,6 +245,22 @@ def test_duplicated_rows_are_reported_and_the_last_of_each_kept(tmp_path):
     assert did["ran"] == 0 and len(pq.read_table(out / RESULTS)) == 6   # written back unique
 
 
+def test_unreadable_journal_lines_are_skipped_and_said_their_runs_run_again(tmp_path):
+    sw = load_sweep(sweep_file(tmp_path))
+    out = tmp_path / "out"
+    run(sw, out, executor=FakeExecutor(fail={0, 1, 2, 3, 4, 5}))
+    good = pq.read_table(out / RESULTS).to_pylist()
+    # rows 0 and 1 done since, in the journal; then garbage, and a line cut short
+    lines = [json.dumps({**r, "status": "ok", "error": ""}) for r in good[:2]]
+    (out / JOURNAL).write_text(lines[0] + "\n{not json\n" + lines[1] + "\n" + lines[1][:40])
+    res = resume(sw, out)
+    assert [r["status"] for r in res.rows] == ["ok", "ok"] + ["error"] * 4
+    assert any("2 unreadable line(s) skipped" in n for n in res.notes), res.notes
+    ex = FakeExecutor()
+    rows, did = run(sw, out, executor=ex)
+    assert did["ran"] == 4 and all(r["status"] == "ok" for r in rows)
+
+
 # -- a full disk (28.6) -------------------------------------------------------------------------
 
 

@@ -234,8 +234,8 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
-def _number(where: str, name: str, v: Any, *, positive: bool = False,
-            integer: bool = False) -> float | int:
+def _number(where: str, name: str, v: Any, *, positive: bool = False, integer: bool = False,
+            nonnegative: bool = False) -> float | int:
     """A finite number (TOML's nan and inf refused); ``integer``: a whole number, ``1e9`` too."""
     if not _is_number(v) or not math.isfinite(v):
         raise SweepError(f"{where}: {name} = {v!r}: must be a finite number")
@@ -245,6 +245,8 @@ def _number(where: str, name: str, v: Any, *, positive: bool = False,
         v = int(v)
     if positive and v <= 0:
         raise SweepError(f"{where}: {name} = {v!r}: must be > 0")
+    if nonnegative and v < 0:
+        raise SweepError(f"{where}: {name} = {v!r}: must be >= 0")
     return v
 
 
@@ -273,9 +275,9 @@ def _values(where: str, values: Any) -> list[Any]:
     for v in values:
         if isinstance(v, float) and not math.isfinite(v):
             raise SweepError(f"{where}: values: {v!r} is not a finite number")
-        if not isinstance(v, (bool, int, float, str)):
-            raise SweepError(f"{where}: values: {v!r}: each value must be a number, a string or "
-                             f"true/false")
+        if not isinstance(v, (bool, int, float, str, list, dict)):
+            raise SweepError(f"{where}: values: {v!r}: each value must be a number, a string, "
+                             f"true/false, an array or a table")
     return list(values)
 
 
@@ -372,6 +374,9 @@ def load_sweep(path: str | Path, quick: bool = False) -> Sweep:
     for k in ("name", "base", "description"):
         if k in s and not (isinstance(s[k], str) and (s[k] or k == "description")):
             raise SweepError(f"{where}: {k} = {s[k]!r}: must be a non-empty string")
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", s["name"]):
+        raise SweepError(f"{where}: name = {s['name']!r}: letters, digits, _ . - only (it names "
+                         f"the sweep's folder and every run's recording)")
     record = s.get("record", "none")
     if record not in RECORD_POLICIES:
         raise SweepError(f"{where}: record = {record!r}: one of "
@@ -410,7 +415,7 @@ def load_sweep(path: str | Path, quick: bool = False) -> Sweep:
                overrides=dict(overrides), axes=axes, method=method,
                n=int(_number(_where(p, "sampling"), "n", sampling.get("n", 0), integer=True)),
                seed=int(_number(_where(p, "sampling"), "seed", sampling.get("seed", 1),
-                                integer=True)),
+                                integer=True, nonnegative=True)),
                metrics=list(collect.get("metrics", ["pee_rms_rad", "pee_max_rad"])),
                claims=[str(c).upper() for c in collect.get("claims", [])],
                plots={k: str(v) for k, v in plots.items()}, quick=quick,
