@@ -8,6 +8,7 @@ seed, the git revision and the hash of the run's full scenario (with its profile
 """
 from __future__ import annotations
 
+import errno
 import math
 import tempfile
 import time
@@ -228,9 +229,10 @@ def run_sweep(sw: Sweep, out_dir: Path, executor, console=None, *, retry_errors:
             compact(sw, ordered(), out_dir, journal)
     except TableWriteError as exc:
         kept = sum(1 for r in rows_by_hash.values() if r["status"] != "error")
+        fix = "free space" if exc.errno in (errno.ENOSPC, errno.EDQUOT) else "fix that"
         raise SweepStopped(
             f"{exc}; the sweep stopped after {n_new} of {len(todo)} runs: the {kept} rows "
-            f"finished are kept in {out_dir / RESULTS} and {out_dir / JOURNAL}; free space and "
+            f"finished are kept in {out_dir / RESULTS} and {out_dir / JOURNAL}; {fix} and "
             f"run it again with --out {out_dir} to complete it") from None
     finally:
         if journal is not None:
