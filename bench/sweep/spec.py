@@ -76,8 +76,9 @@ METHODS = ("grid", "lhs", "sobol")
 #: the most runs a sweep may have unless its file says ``max_runs``: every run's scenario is
 #: derived and checked before the first one starts, and 20 000 runs take about 30 s of CPU and
 #: a 74 MB process to derive (measured: docs/sweeps.md, "How many runs"); at 0.3 s of CPU per
-#: 2 s SIL run (the bundled quick sweep's median) the runs are 1.7 CPU hours. A count far beyond is a typo (``n = 1e9``, a range's num)
-#: far more often than a plan, and it would only be found after minutes of deriving
+#: 2 s SIL run (the bundled quick sweep's median) the runs are 1.7 CPU hours. A count far
+#: beyond is a typo (``n = 1e9``, a range's num) far more often than a plan, and it would only
+#: be found after minutes of deriving
 MAX_RUNS = 20_000
 SWEEP_FIELDS = ("name", "description", "base", "link", "time_limit_s", "record", "decimate",
                 "max_runs")
