@@ -10,6 +10,8 @@ from pathlib import Path
 from rich.console import Console
 from rich.markup import escape
 
+from hil_bench.cluster.options import positive_int
+
 
 class _PressOnce:
     """Ctrl-C for ``bench run``: a press raises KeyboardInterrupt once (the runner stops the run
@@ -350,37 +352,9 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from hil_bench.cluster import Executor
-    from hil_bench.sweep import SweepError, load_sweep
-    from hil_bench.sweep.plots import plot_sweep
-    from hil_bench.sweep.run import RESULTS, describe, run_sweep
+    from hil_bench.sweep.cli import main as sweep_main
 
-    err = Console(stderr=True)
-    try:
-        sw = load_sweep(args.sweep, quick=args.quick)
-    except SweepError as exc:
-        err.print(f"[red]error:[/red] {exc}")
-        return 2
-    if args.time_limit_s is not None:
-        sw.time_limit_s = args.time_limit_s
-    out_dir = Path(args.out) if args.out else Path("reports") / "sweeps" / sw.name
-    try:
-        executor = Executor(args.scheduler, args.workers, progress=not args.no_progress,
-                            console=err, label=sw.name)
-    except (OSError, TimeoutError) as exc:
-        err.print(f"[red]error:[/red] cannot reach the Dask scheduler {args.scheduler}: {exc}")
-        return 2
-    with executor:
-        err.print(f"{sw.name}: {len(sw.points)} runs over {sw.link} ({sw.method}"
-                  f"{', --quick' if sw.quick else ''}) on the {executor.where}")
-        rows, did = run_sweep(sw, out_dir, executor, err)
-    timing = {"wall_s": did["wall_s"], "where": executor.where}
-    paths = [] if args.no_plots else plot_sweep(sw, rows, out_dir, timing)
-    out = Console()
-    out.print(f"{did['ran']} runs in {did['wall_s']:.1f} s, {did['skipped']} already in the table; "
-              f"table {out_dir / RESULTS} ({len(rows)} rows: {describe(rows)})"
-              + (f"; plots {out_dir / 'plots'}, {out_dir / 'report.html'}" if paths else ""))
-    return 1 if any(r.get("status") == "error" for r in rows) else 0
+    return sweep_main(args)
 
 
 def _cmd_claims(args: argparse.Namespace) -> int:
@@ -492,16 +466,6 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
-def add_executor_args(p: argparse.ArgumentParser) -> None:
-    """Where the runs go (hil_bench.cluster): the same options on every command that spreads runs."""
-    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                   help="an existing Dask scheduler (its workers need hil-bench installed; "
-                        "docs/sweeps.md); default: a local cluster, one worker per core")
-    p.add_argument("--workers", type=int, default=None,
-                   help="local cluster: worker processes (default: one per core)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="bench", description="HIL bench for sensorless PMSM firmware")
     p.add_argument("--version", action=_VersionAction, help="show the version, where hil-bench "
@@ -596,7 +560,7 @@ def build_parser() -> argparse.ArgumentParser:
                                         "detection and reaction against the file's limits")
     g.add_argument("campaign", help="campaign TOML (e.g. bench/campaigns/g2_protection.toml)")
     g.add_argument("--out", help="report folder (default reports/campaigns/<name>)")
-    g.add_argument("--jobs", type=int, default=None,
+    g.add_argument("--jobs", type=positive_int, default=None,
                    help="local Dask cluster: worker processes (default: one per core)")
     g.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="run on an existing Dask scheduler instead (docs/sweeps.md)")
@@ -606,14 +570,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.set_defaults(func=_cmd_campaign)
     w = sub.add_parser("sweep", help="run a base scenario over axes of its keys on a Dask cluster "
                                      "(local by default): one Parquet table, plots")
-    w.add_argument("sweep", help="sweep TOML (e.g. bench/sweeps/observers_speed_load.toml)")
-    w.add_argument("--out", help="folder of results.parquet, plots/, report.html (default "
-                                 "reports/sweeps/<name>); a table already there is resumed")
-    w.add_argument("--quick", action="store_true", help="the file's coarse [quick] version")
-    add_executor_args(w)
-    w.add_argument("--time-limit-s", type=float, default=None,
-                   help="per run (default: the file's time_limit_s, else 600 s)")
-    w.add_argument("--no-plots", action="store_true", help="the table only")
+    from hil_bench.sweep.cli import add_arguments as add_sweep_arguments
+
+    add_sweep_arguments(w)
     w.set_defaults(func=_cmd_sweep)
     s = sub.add_parser("scenarios", help="list the bundled scenarios")
     s.set_defaults(func=_cmd_scenarios)
@@ -631,7 +590,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "stub's in <out>/rungs.md (one run at a time on a single device)")
     k.add_argument("--out", type=Path, default=Path("reports/claims"),
                    help="report folder (default reports/claims)")
-    k.add_argument("--jobs", type=int, default=None,
+    k.add_argument("--jobs", type=positive_int, default=None,
                    help="local Dask cluster: worker processes (default: the number of cores, "
                         "at most 4)")
     k.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",

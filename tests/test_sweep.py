@@ -1,10 +1,15 @@
 """bench sweep (issue 17): the sweep file, the executor on a real Dask cluster with a worker
-killed mid-sweep, the per-run time limit, resume by the scenario hash.
+killed mid-sweep, the per-run time limit, resume by the scenario hash; what a sweep file and the
+executor refuse (issue 28), plain ``dask worker`` processes and retried errors (issue 30).
 
-The cluster test starts Dask's own ``dask scheduler`` and two ``dask worker`` processes on
-127.0.0.1, runs a short SIL sweep on them, SIGKILLs one worker once the sweep is under way, and
-checks the table: every run exactly once, none lost, a controller fault a result row. Then the
-same sweep with one more speed resumes: only the new runs run.
+The cluster tests start Dask's own ``dask scheduler`` and ``dask worker`` processes on
+127.0.0.1, as Dask's documentation starts them (daemonic workers: no
+DASK_DISTRIBUTED__WORKER__DAEMON). One runs a short SIL sweep, SIGKILLs a worker once the sweep
+is under way, and checks the table: every run exactly once, none lost, a controller fault a
+result row; then the same sweep with one more speed resumes: only the new runs run. The other
+runs ``bench sweep --quick`` on such a cluster with an error injected on the workers' side (the
+folder its recordings go to is a file), then again once it is fixed: the error rows run again.
+The table's own tests (identity, damage, a full disk): tests/test_sweep_table.py.
 """
 from __future__ import annotations
 
@@ -88,17 +93,110 @@ def test_seeded_samples(tmp_path):
         assert all(300 <= s <= 700 for s in speeds) and len(set(speeds)) == 8   # continuous
 
 
+SPEED = '[[axes]]\nkey = "controller.speed_ref_rpm"\n'
+
+
 @pytest.mark.parametrize("bad,match", [
     ('[[axes]]\nkey = "plant.no_such"\nvalues = [1]\n', "t_sweep_00000"),
     ('[[axes]]\nname = "x"\nvalues = [1]\n', "give key"),
     ('[collect]\nmetrics = ["nope"]\n', "metrics: unknown 'nope'"),
     ('[sampling]\nmethod = "random"\n', "method = 'random'"),
+    # issue 28: numbers that are not, counts nothing could run, fields nothing reads
+    (SPEED + "values = [500, 1000]\nscale = nan\n", r"axes\[0\] \(controller.speed_ref_rpm\): "
+                                                   r"scale = nan: must be a finite number"),
+    (SPEED + "values = [500, nan]\n", "values: nan is not a finite number"),
+    (SPEED + "range = [500, inf, 3]\n", "range stop = inf: must be a finite number"),
+    (SPEED + 'values = [500]\nlog = "yes"\n', "log = 'yes': must be true or false"),
+    (SPEED + "range = [100, 2000, 1e5]\n" + '[[axes]]\nkey = "plant.rs_ohm"\n'
+     "range = [0.5, 1.0, 100000]\n",
+     r"10,000,000,000 runs \(100,000 x 100,000 grid\) is more than the limit of 20,000 runs"),
+    (SPEED + "range = [100, 2000, 3]\n[sampling]\nmethod = \"lhs\"\nn = 1e9\n",
+     r"1,000,000,000 runs \(\[sampling\] n = 1,000,000,000\) is more than the limit of 20,000"),
+    (SPEED + "range = [100, 2000, 3]\n[sampling]\nmethod = \"lhs\"\nn = 2.5\n",
+     "n = 2.5: must be a whole number"),
+    ('[sampling]\nmetod = "lhs"\n', "unknown field 'metod'"),
+    (SPEED + "range = [100, 2000, 3]\n[sampling]\nmethod = \"lhs\"\nn = 4\nseed = -1\n",
+     "seed = -1: must be >= 0"),
+    ('[plots]\nx = "nope"\n', "x = 'nope': not an axis"),
 ])
 def test_a_bad_sweep_file_is_named(tmp_path, bad, match):
     text = ("[sweep]\nname = \"t_sweep\"\nbase = \"gong_g2_500rpm\"\n" + bad)
     (tmp_path / "b.toml").write_text(text)
     with pytest.raises(SweepError, match=match):
         load_sweep(tmp_path / "b.toml")
+
+
+@pytest.mark.parametrize("field,match", [
+    ("time_limit_s = -1", "time_limit_s = -1: must be > 0"),
+    ("time_limit_s = nan", "time_limit_s = nan: must be a finite number"),
+    ('link = "stub:foo"', "link = 'stub:foo': unknown link; one of stub, sil"),
+    ('link = "sil2"', "link = 'sil2': unknown link"),
+    ('link = ""', "link = '': unknown link"),
+    ('link = "serial:/dev/ttyUSB0@fast"', "bad baud rate 'fast'"),
+    ("link = 3", "link = 3: must be a string"),
+    ("time_limt_s = 60", "unknown field 'time_limt_s'"),
+    ("max_runs = 4", r"12 runs \(2 x 3 x 2 grid\) is more than the limit of 4 runs"),
+    ('name = "../x"', "name = '../x': letters, digits, _ . - only"),
+    ("name = 1", "name = 1: must be a non-empty string"),
+])
+def test_a_bad_sweep_table_field_is_named(tmp_path, field, match):
+    p = write_sweep(tmp_path)
+    key = field.split(" ")[0]
+    old = {"link": 'link = "sil"', "name": 'name = "t_sweep"'}.get(key, "time_limit_s = 60")
+    p.write_text(p.read_text().replace(old, field, 1))
+    with pytest.raises(SweepError, match=match) as exc:
+        load_sweep(p)
+    assert str(p) in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_the_executor_refuses_bad_options_before_it_starts():
+    from hil_bench.cluster import ClusterError, Executor
+    from hil_bench.cluster.limits import time_limit
+
+    for address in ("not a url", "tcp://host", "http://h:8786", "tcp://h:0", "tcp://a b:1"):
+        with pytest.raises(ClusterError, match="not a Dask scheduler address"):
+            Executor(address)
+    for n in (0, -1, 1.5, True):
+        with pytest.raises(ClusterError, match=">= 1"):
+            Executor(None, n)
+    for limit in (-1, 0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="finite number of seconds > 0"):
+            with time_limit(limit):
+                pass
+
+
+def _start_a_child() -> int:
+    """What a run does on its worker: a multiprocessing child (the recorder)."""
+    import multiprocessing as mp
+
+    p = mp.get_context("fork").Process(target=os._exit, args=(7,))
+    p.start()
+    p.join(30)
+    return p.exitcode
+
+
+def _task_on_a_daemon(q) -> None:
+    import multiprocessing as mp
+
+    from hil_bench.cluster import call
+
+    r = call(_start_a_child, (), None)
+    q.put((getattr(r, "value", None), getattr(r, "error", None), mp.current_process().daemon))
+
+
+def test_a_task_on_a_daemonic_worker_process_may_start_a_child():
+    """Dask starts its workers as daemonic processes; multiprocessing forbids those children.
+    A task lifts the flag while it runs, and puts it back."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")
+    q = ctx.Queue()
+    worker = ctx.Process(target=_task_on_a_daemon, args=(q,), daemon=True)
+    worker.start()
+    value, error, daemon_after = q.get(timeout=60)
+    worker.join(30)
+    assert error is None and value == 7
+    assert daemon_after is True
 
 
 def test_the_time_limit_ends_a_run(tmp_path):
@@ -142,32 +240,51 @@ def _stop(proc: subprocess.Popen) -> None:
             proc.wait(5)
 
 
-def test_a_killed_worker_loses_no_run_and_a_sweep_resumes(tmp_path):
+def _plain_env() -> dict:
+    """The environment a lab's `dask worker` has: nothing of Dask's set."""
+    return {k: v for k, v in os.environ.items() if not k.startswith("DASK_")}
+
+
+def _scheduler() -> tuple[str, list[subprocess.Popen]]:
+    port = _free_port()
+    proc = _start([str(VENV_BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port",
+                   str(port), "--no-dashboard"], env=_plain_env())
+    return f"tcp://127.0.0.1:{port}", [proc]
+
+
+def _worker(address: str, name: str) -> subprocess.Popen:
+    return _start([str(VENV_BIN / "dask"), "worker", address, "--nthreads", "1", "--nworkers",
+                   "1", "--no-dashboard", "--name", name], env=_plain_env())
+
+
+def _wait_for_workers(address: str, n: int) -> None:
+    """Until n workers have joined; skipped with the reason if the cluster never comes up (this
+    waits on processes starting, not on a run: no result depends on it)."""
     from distributed import Client
 
+    deadline = time.monotonic() + 90
+    while True:
+        try:
+            with Client(address, timeout="2s") as c:
+                if len(c.scheduler_info()["workers"]) == n:
+                    return
+        except OSError:
+            pass
+        if time.monotonic() > deadline:
+            pytest.skip(f"the Dask scheduler and {n} worker(s) did not come up on {address} "
+                        f"within 90 s")
+        time.sleep(0.5)
+
+
+def test_a_killed_worker_loses_no_run_and_a_sweep_resumes(tmp_path):
     from hil_bench.cluster import Executor
     from hil_bench.sweep.run import run_sweep
 
-    port = _free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
-    procs = [_start([str(VENV_BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port",
-                     str(port), "--no-dashboard"])]
+    address, procs = _scheduler()
     try:
-        workers = [_start([str(VENV_BIN / "dask"), "worker", address, "--nthreads", "1",
-                           "--nworkers", "1", "--no-dashboard", "--name", f"w{i}"], env=env)
-                   for i in range(2)]
+        workers = [_worker(address, f"w{i}") for i in range(2)]
         procs += workers
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                with Client(address, timeout="2s") as c:
-                    if len(c.scheduler_info()["workers"]) == 2:
-                        break
-            except OSError:
-                pass
-            assert time.monotonic() < deadline, "the Dask cluster did not come up"
-            time.sleep(0.5)
+        _wait_for_workers(address, 2)
 
         sw = load_sweep(write_sweep(tmp_path))
         out = tmp_path / "out"
@@ -217,3 +334,68 @@ def test_a_killed_worker_loses_no_run_and_a_sweep_resumes(tmp_path):
     finally:
         for p in reversed(procs):
             _stop(p)
+
+
+QUICK = """
+[sweep]
+name = "t_quick"
+base = "gong_g2_500rpm"
+link = "sil"
+record = "decimated"           # every run keeps its recording: the error injected below
+
+[overrides]
+"scenario.duration_s" = 0.3
+"metrics.window_s" = [0.2, 0.3]
+"reference.estimators" = []
+
+[[axes]]
+name = "observer"
+key = "controller.estimator"
+values = ["SMO_TANH", "SMO_SIGN", "SMO_SIGMOID"]
+
+[[axes]]
+name = "speed_rpm"
+key = "controller.speed_ref_rpm"
+values = [50, 500, 1500, 3000]
+
+[collect]
+metrics = ["pee_rms_rad"]
+
+[quick]
+axes = {observer = ["SMO_TANH", "SMO_SIGN"], speed_rpm = [500, 1500]}
+"""
+
+
+def test_a_quick_sweep_on_plain_dask_workers_completes_and_a_rerun_retries_its_errors(tmp_path):
+    import pyarrow.parquet as pq
+
+    sweep = tmp_path / "q.toml"
+    sweep.write_text(QUICK)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "recordings").write_text("not a folder")      # the workers cannot keep a recording
+    address, procs = _scheduler()
+    try:
+        procs.append(_worker(address, "plain"))
+        _wait_for_workers(address, 1)
+        cmd = [str(VENV_BIN / "bench"), "sweep", str(sweep), "--quick", "--scheduler", address,
+               "--out", str(out), "--no-plots", "--no-progress"]
+        first = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+        assert first.returncode == 1, first.stderr
+        # the summary says what the errors were, not only how many
+        assert "4 rows: 4 error" in first.stdout
+        assert "4 errors like run 0 (observer=SMO_TANH, speed_rpm=500): could not keep the " \
+               "recording in" in first.stdout, first.stdout
+        assert "the error rows run again with" in first.stdout
+        (out / "recordings").unlink()                     # fixed
+        second = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+        assert second.returncode == 0, second.stdout + second.stderr
+        assert "4 runs in" in second.stdout and "(4 of them rows that were errors)" in second.stdout
+    finally:
+        for p in reversed(procs):
+            _stop(p)
+    rows = pq.read_table(out / "results.parquet").to_pylist()
+    assert len(rows) == 4 and len({r["scenario_hash"] for r in rows}) == 4
+    assert all(r["status"] == "ok" and math.isfinite(r["pee_rms_rad"]) for r in rows), rows
+    assert all(Path(r["recording"]).stat().st_size > 0 for r in rows)
+    assert {r["worker"] for r in rows} != {""}

@@ -19,21 +19,49 @@ What a cluster does to a run, and what the executor makes of it:
 * a run still going after the per-run time limit is ended by the runner (``limits``): the
   engine stops, the run says so, and that is its result.
 
-The runs start child processes (the firmware stub, the recorder): a worker must not be a
-daemonic process. The local cluster is started with ``distributed.worker.daemon = False``;
-workers of an external cluster need ``DASK_DISTRIBUTED__WORKER__DAEMON=False`` in their
-environment (a task on a daemonic worker comes back as a TaskFailure that says so).
+A run starts a child process (the recorder, a ``multiprocessing`` fork) and Dask starts its
+workers as daemonic processes, which ``multiprocessing`` forbids to have children (a check in
+``Process.start``, nothing the operating system enforces). The daemon flag only tells the
+worker's own ``multiprocessing`` what to do with its children at exit; the nanny that watches
+the worker keeps its own view. So a task lifts the flag in the worker process while it runs
+(``children_allowed``): any ``dask worker``, started as Dask's documentation says, runs the
+bench's runs, and so does the local cluster (started the same way). Every run reaps the
+processes it started before it returns.
 """
 from __future__ import annotations
 
 import os
+import re
 import resource
+import threading
 import time
 import traceback
 import uuid
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Iterator
 
+#: a Dask scheduler address: [protocol://]host:port (Dask's default protocol is tcp)
+_ADDRESS = re.compile(r"(?:(?P<proto>[a-z]+)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)"
+                      r":(?P<port>\d{1,5})\Z")
+PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+class ClusterError(ValueError):
+    """The executor cannot start: a bad scheduler address or worker count, a scheduler that
+    does not answer; the message is one line (a ValueError: the commands that spread runs
+    print those as their error line)."""
+
+
+def check_scheduler_address(address: str) -> str:
+    """``tcp://HOST:PORT`` (or another Dask protocol, or ``HOST:PORT``), else ClusterError."""
+    m = _ADDRESS.match(address.strip())
+    if not m or not 0 < int(m.group("port")) < 65536 or (
+            m.group("proto") and m.group("proto") not in PROTOCOLS):
+        raise ClusterError(f"--scheduler {address!r}: not a Dask scheduler address; give "
+                           f"tcp://HOST:PORT (as `dask scheduler` prints it, e.g. "
+                           f"tcp://192.168.1.10:8786)")
+    return address.strip()
 
 @dataclass
 class TaskFailure:
@@ -69,20 +97,48 @@ def _worker_name() -> str:
         return f"local pid {os.getpid()}"
 
 
-def call(fn: Callable, args: tuple, time_limit_s: float | None) -> TaskResult | TaskFailure:
-    """Run one task on a worker (or here): never raises."""
+_children_lock = threading.Lock()
+_children_tasks = 0
+_children_daemon: bool | None = None
+
+
+@contextmanager
+def children_allowed():
+    """Within this block this process may start ``multiprocessing`` children even when it is a
+    daemonic process (a Dask worker): the flag is lifted while any task of the process is in
+    such a block, and put back after the last. ClusterError when it cannot be lifted."""
     import multiprocessing as mp
 
+    global _children_tasks, _children_daemon
+    proc = mp.current_process()
+    with _children_lock:
+        if _children_tasks == 0:
+            _children_daemon = proc.daemon
+            if _children_daemon:
+                try:
+                    proc.daemon = False
+                except AssertionError:
+                    raise ClusterError(
+                        "this Dask worker is a daemonic process whose flag cannot be lifted, "
+                        "and a run starts a child process (the recorder): start the workers "
+                        "with DASK_DISTRIBUTED__WORKER__DAEMON=False") from None
+        _children_tasks += 1
+    try:
+        yield
+    finally:
+        with _children_lock:
+            _children_tasks -= 1
+            if _children_tasks == 0 and _children_daemon:
+                proc.daemon = True
+
+
+def call(fn: Callable, args: tuple, time_limit_s: float | None) -> TaskResult | TaskFailure:
+    """Run one task on a worker (or here): never raises."""
     from .limits import time_limit
 
-    if mp.current_process().daemon:
-        return TaskFailure("this Dask worker is a daemonic process and a run starts child "
-                           "processes (the stub, the recorder): start the workers with "
-                           "DASK_DISTRIBUTED__WORKER__DAEMON=False (docs/sweeps.md)",
-                           _worker_name())
     c0, t0 = process_cpu_s(), time.monotonic()
     try:
-        with time_limit(time_limit_s):
+        with children_allowed(), time_limit(time_limit_s):
             value = fn(*args)
     except Exception as exc:  # noqa: BLE001 - a task's failure is a row, never a crash
         return TaskFailure(f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}",
@@ -101,7 +157,6 @@ class Executor:
                  progress: bool = True, console=None, label: str = "runs"):
         import logging
 
-        import dask
         from distributed import Client, LocalCluster
         from rich.console import Console
 
@@ -109,18 +164,32 @@ class Executor:
         self.progress = progress
         self.label = label
         self.cluster = None
-        if scheduler:
-            self.client = Client(scheduler, timeout="10s")
+        if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                    or workers < 1):
+            raise ClusterError(f"--workers {workers!r}: give a number of worker processes >= 1 "
+                               f"(default: one per core, {default_workers()} here)")
+        if scheduler is not None:
+            scheduler = check_scheduler_address(scheduler)
+            try:
+                self.client = Client(scheduler, timeout="10s")
+            except (OSError, TimeoutError, ValueError) as exc:
+                why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                raise ClusterError(f"cannot reach the Dask scheduler {scheduler}: {why}") from None
             self.where = f"Dask scheduler {scheduler}"
             link = getattr(self.client, "dashboard_link", None)
             n = len(self.client.scheduler_info().get("workers", {}))
             self.console.print(f"{label}: on {scheduler} ({n} workers)"
-                               + (f"; progress on Dask's dashboard {link}" if link else ""))
+                               + (f"; progress on Dask's dashboard {link}" if link else "")
+                               + ("; no worker has joined yet: the runs wait for one" if not n
+                                  else ""))
         else:
             n = workers or default_workers()
-            with dask.config.set({"distributed.worker.daemon": False}):
-                self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                            dashboard_address=None, silence_logs=logging.ERROR)
+            # workers started as `dask worker` starts them (daemonic): children_allowed
+            # the scheduler's HTTP server (its health and metrics, even without a dashboard) on a
+            # free port: two sweeps started together would both want Dask's default 8787
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                        dashboard_address="127.0.0.1:0",
+                                        silence_logs=logging.ERROR)
             self.client = Client(self.cluster)
             self.where = f"local Dask cluster ({n} worker processes)"
         self.n_workers = n
@@ -146,18 +215,24 @@ class Executor:
                       MofNCompleteColumn(), TimeElapsedColumn(), console=self.console,
                       disable=not (self.progress and self.console.is_terminal)) as bar:
             task = bar.add_task("", total=len(items))
-            for fut in as_completed(list(futures)):
-                key = futures.pop(fut)
-                try:
-                    result = fut.result()
-                except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: every retry died
-                    result = TaskFailure(f"{type(exc).__name__}: {exc}")
-                fut.release()
-                if key in done:
-                    continue
-                done.add(key)
-                bar.update(task, advance=1, description=describe(key) if describe else key)
-                yield key, result
+            try:
+                for fut in as_completed(list(futures)):
+                    key = futures.pop(fut)
+                    try:
+                        result = fut.result()
+                    except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: every retry died
+                        result = TaskFailure(f"{type(exc).__name__}: {exc}")
+                    fut.release()
+                    if key in done:
+                        continue
+                    done.add(key)
+                    bar.update(task, advance=1, description=describe(key) if describe else key)
+                    yield key, result
+            finally:
+                # the caller stopped early (an error, its table cannot be written): the runs not
+                # started are not started, those running are abandoned
+                if futures:
+                    self.client.cancel(list(futures))
 
     def close(self) -> None:
         try:

@@ -5,6 +5,7 @@ Kept free of Dask so that the runner can import it on any machine."""
 from __future__ import annotations
 
 import contextvars
+import math
 import time
 from contextlib import contextmanager
 
@@ -14,7 +15,12 @@ _deadline: contextvars.ContextVar[tuple[float, float] | None] = contextvars.Cont
 
 @contextmanager
 def time_limit(seconds: float | None):
-    """Within this block a run that is still going after ``seconds`` is ended (None: no limit)."""
+    """Within this block a run that is still going after ``seconds`` is ended (None: no limit;
+    anything else must be a finite number of seconds > 0)."""
+    if seconds is not None and not (isinstance(seconds, (int, float)) and not isinstance(seconds, bool)
+                                    and math.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"a per-run time limit must be a finite number of seconds > 0, got "
+                         f"{seconds!r}")
     token = _deadline.set((time.monotonic() + seconds, seconds) if seconds else None)
     try:
         yield

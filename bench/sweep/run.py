@@ -1,5 +1,5 @@
 """Running a sweep: every point on the executor (hil_bench.cluster), one Parquet row per run,
-resumed by the scenario hash.
+resumed by the scenario hash (the table, its journal and its identity: hil_bench.sweep.table).
 
 A row: the run's index and inputs (one column per axis), the metrics and claim quantities the
 sweep collects, the status and verdict, the integrity, the end of the run and its error, cycles,
@@ -8,19 +8,19 @@ seed, the git revision and the hash of the run's full scenario (with its profile
 """
 from __future__ import annotations
 
+import errno
 import math
-import os
-import shutil
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-from .spec import Point, Sweep
+from rich.markup import escape
 
-RESULTS = "results.parquet"
-#: status of a row: the run's own outcome, or what kept it from having one
-STATUSES = ("ok", "controller_fault", "ended", "timeout", "error")
+from .spec import Point, Sweep
+from .table import (JOURNAL, RESULTS, STATUSES, Journal, Resumed, TableWriteError,  # noqa: F401
+                    compact, resume)
+
 WRITE_EVERY_S = 10.0
 #: a run's recording keeps every cycle of the windows its metrics read, and every 20th outside
 DECIMATE_OUTSIDE = 20
@@ -97,83 +97,148 @@ def run_point(text: str, name: str, link: str, record: str, keep_dir: str,
         row["recording"] = ""
         if keep and rec_path.exists():
             dest = Path(keep_dir) / rec_path.name
-            dest.parent.mkdir(parents=True, exist_ok=True)
-            for p in (rec_path, *(rec_path.with_suffix(sfx) for sfx, _ in SIDE_SUFFIXES)):
-                if p.exists():
-                    shutil.move(str(p), str(dest.parent / p.name))
-            row["recording"] = str(dest)
+            try:
+                keep_recording(rec_path, dest, [rec_path.with_suffix(sfx)
+                                                for sfx, _ in SIDE_SUFFIXES])
+            except OSError as exc:
+                # the row is not what the sweep promised (its recording): an error, run again
+                # (the run's own end, if any, on the next line: the first says why it is an error)
+                row["status"] = "error"
+                row["error"] = (f"could not keep the recording in {dest.parent}: {exc.strerror}"
+                                + (f"\nthe run: {row['error']}" if row["error"] else ""))
+            else:
+                row["recording"] = str(dest)
+                # the run's own messages name where it recorded (a temporary folder, gone now)
+                row["error"] = row["error"].replace(str(rec_path), str(dest))
     return row
 
 
-def _read_table(path: Path):
-    import pyarrow.parquet as pq
+def keep_recording(rec: Path, dest: Path, sides: list[Path]) -> None:
+    """Move a recording and its side files into ``dest``'s folder, each whole or not at all (a
+    copy across file systems is written aside: a full disk leaves no partial or empty file);
+    the recording itself last, so a kept .mcap always has its side files."""
+    from hil_bench.record.atomic import move_aside
 
-    return pq.read_table(path).to_pylist() if path.exists() else []
-
-
-def _write_table(rows: list[dict], path: Path) -> None:
-    """Atomically (a crash leaves the previous table, never half of one)."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    columns: dict[str, None] = {}
-    for r in rows:
-        for k in r:
-            columns.setdefault(k, None)
-    table = pa.Table.from_pylist([{k: r.get(k) for k in columns} for r in rows])
-    tmp = path.with_suffix(".parquet.tmp")
-    pq.write_table(table, tmp)
-    os.replace(tmp, path)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    for p in [*sides, rec]:
+        if p.exists():
+            move_aside(p, dest.parent / p.name)
 
 
-def run_sweep(sw: Sweep, out_dir: Path, executor, console=None) -> tuple[list[dict], dict]:
-    """Run the points whose hash is not in out_dir/results.parquet yet; write the table as the
-    runs end (every WRITE_EVERY_S and at the end). Returns (every row, what this call did)."""
+def _row_order(sw: Sweep, row: dict[str, Any]) -> dict[str, Any]:
+    """A row's columns in the order a reader wants them: who, inputs, outcome, metrics, the rest."""
+    first = ["sweep", "index", *(f"in.{a.name}" for a in sw.axes), "status", "verdict",
+             *sw.metrics]
+    out = {k: row[k] for k in first if k in row}
+    out.update((k, v) for k, v in row.items() if k not in out)
+    return out
+
+
+def needs_run(sw: Sweep, row: dict | None, retry_errors: bool) -> bool:
+    """Whether a point runs: not in the table yet; an ``error`` row (the bench's failure, not the
+    run's result: a worker that could not run it) unless told not to retry; a ``timeout`` row
+    whose limit was shorter than this sweep's."""
+    if row is None:
+        return True
+    if row["status"] == "error":
+        return retry_errors
+    if row["status"] == "timeout":
+        limit = row.get("time_limit_s")
+        return limit is None or not math.isfinite(limit) or limit < sw.time_limit_s
+    return False
+
+
+class SweepStopped(RuntimeError):
+    """The sweep could not go on (its table or journal cannot be written): one line that says
+    what was kept and how to complete it."""
+
+
+def run_sweep(sw: Sweep, out_dir: Path, executor, console=None, *, retry_errors: bool = True,
+              fresh: bool = False, resumed: Resumed | None = None) -> tuple[list[dict], dict]:
+    """Run the points out_dir's table does not hold yet (and, with ``retry_errors``, those whose
+    row is an ``error``); every row goes to the journal as its run ends and the table is
+    rewritten now and then and at the end (hil_bench.sweep.table). Returns (every row, what this
+    call did). TableError: out_dir holds another sweep or a damaged table; SweepStopped: the
+    table could not be written (every row finished is kept). ``resumed``: what
+    hil_bench.sweep.table.resume read from out_dir already (else it is read here)."""
+    from contextlib import closing
+
+    from hil_bench.cluster import TaskFailure
     from hil_bench.loop.runner import git_revision
 
-    out_dir.mkdir(parents=True, exist_ok=True)
-    table_path = out_dir / RESULTS
-    rows = _read_table(table_path)
-    have = {r["scenario_hash"] for r in rows}
-    todo = [p for p in sw.points if p.scenario_hash not in have]
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SweepStopped(f"cannot create the sweep folder {out_dir}: {exc.strerror}") from None
+    if resumed is None:
+        resumed = resume(sw, out_dir, fresh=fresh)
+    if console is not None:
+        for note in resumed.notes:
+            console.print(escape(note))
+    rows_by_hash: dict[str, dict] = {r["scenario_hash"]: r for r in resumed.rows}
     # the same scenario twice in one sweep (e.g. a relative axis at 1.0 twice) runs once
     unique: dict[str, Point] = {}
-    for p in todo:
+    for p in sw.points:
         unique.setdefault(p.scenario_hash, p)
+    todo = {h: p for h, p in unique.items() if needs_run(sw, rows_by_hash.get(h), retry_errors)}
+    retried = sum(1 for h in todo if h in rows_by_hash)
     rev = git_revision()
     keep_dir = str((out_dir / "recordings").resolve())
-    by_hash = {h: p for h, p in unique.items()}
     t0 = time.monotonic()
-    last_write = time.monotonic()
-    args = [(p.scenario_hash, (p.scenario_text, f"{sw.name}_{p.scenario_hash}", sw.link, sw.record,
-                               keep_dir, sw.metrics, sw.claims))
-            for p in unique.values()]
-    from hil_bench.cluster import TaskFailure
+    args = [(h, (p.scenario_text, f"{sw.name}_{h}", sw.link, sw.record, keep_dir, sw.metrics,
+                 sw.claims)) for h, p in todo.items()]
+
+    def ordered() -> list[dict]:
+        return sorted(rows_by_hash.values(), key=lambda r: r["index"])
 
     n_new = 0
-    for h, res in executor.map(run_point, args, time_limit_s=sw.time_limit_s,
-                               describe=lambda h: ", ".join(f"{k}={_fmt(v)}" for k, v in
-                                                            by_hash[h].inputs.items())):
-        p = by_hash[h]
-        row: dict[str, Any] = {"sweep": sw.name, "index": p.index}
-        row.update({f"in.{k}": v for k, v in p.inputs.items()})
-        if isinstance(res, TaskFailure):
-            row.update(status="error", error=res.error, end="BENCH", worker=res.worker,
-                       cpu_s=math.nan, wall_s=math.nan)
-        else:
-            row.update(res.value)
-            row.update(worker=res.worker, cpu_s=res.cpu_s, wall_s=res.wall_s)
-        row.update(seed=sw.seed if sw.method != "grid" else 0, git_revision=rev,
-                   scenario_hash=h, link=sw.link)
-        rows.append(row)
-        n_new += 1
-        if time.monotonic() - last_write > WRITE_EVERY_S:
-            _write_table(rows, table_path)
-            last_write = time.monotonic()
-    if rows:
-        _write_table(rows, table_path)
-    return rows, {"ran": n_new, "skipped": len(sw.points) - len(todo),
-                  "wall_s": time.monotonic() - t0}
+    journal = None
+    try:
+        journal = Journal(out_dir / JOURNAL)
+        if resumed.dirty:
+            compact(sw, ordered(), out_dir, journal)     # the journal's rows into the table
+        next_write, write_every = time.monotonic() + WRITE_EVERY_S, WRITE_EVERY_S
+        with closing(executor.map(run_point, args, time_limit_s=sw.time_limit_s,
+                                  describe=lambda h: ", ".join(f"{k}={_fmt(v)}" for k, v in
+                                                               todo[h].inputs.items()))) as done:
+            for h, res in done:
+                p = todo[h]
+                row: dict[str, Any] = {"sweep": sw.name, "index": p.index}
+                row.update({f"in.{k}": v for k, v in p.inputs.items()})
+                if isinstance(res, TaskFailure):
+                    row.update(status="error", error=res.error, end="BENCH", worker=res.worker,
+                               cycles_done=0, cpu_s=math.nan, wall_s=math.nan)
+                else:
+                    row.update(res.value)
+                    row.update(worker=res.worker, cpu_s=res.cpu_s, wall_s=res.wall_s)
+                row.setdefault("integrity_ok", False)     # no recording was checked
+                row.update(seed=sw.seed if sw.method != "grid" else 0, git_revision=rev,
+                           scenario_hash=h, link=sw.link, time_limit_s=sw.time_limit_s,
+                           sweep_id=sw.sweep_id)
+                row = _row_order(sw, row)
+                journal.append(row)
+                rows_by_hash[h] = row
+                n_new += 1
+                if time.monotonic() >= next_write:
+                    # rewriting the table costs more as it grows: at most ~5 % of the sweep's time
+                    c0 = time.monotonic()
+                    compact(sw, ordered(), out_dir, journal)
+                    write_every = max(WRITE_EVERY_S, 20 * (time.monotonic() - c0))
+                    next_write = time.monotonic() + write_every
+        if rows_by_hash:
+            compact(sw, ordered(), out_dir, journal)
+    except TableWriteError as exc:
+        kept = sum(1 for r in rows_by_hash.values() if r["status"] != "error")
+        fix = "free space" if exc.errno in (errno.ENOSPC, errno.EDQUOT) else "fix that"
+        raise SweepStopped(
+            f"{exc}; the sweep stopped after {n_new} of {len(todo)} runs: the {kept} rows "
+            f"finished are kept in {out_dir / RESULTS} and {out_dir / JOURNAL}; {fix} and "
+            f"run it again with --out {out_dir} to complete it") from None
+    finally:
+        if journal is not None:
+            journal.close()
+    return ordered(), {"ran": n_new, "retried": retried,
+                       "skipped": len(sw.points) - len(todo), "wall_s": time.monotonic() - t0}
 
 
 def _fmt(v) -> str:
@@ -187,4 +252,33 @@ def describe(rows: list[dict]) -> str:
     return ", ".join(f"{n} {s}" for s, n in c.most_common())
 
 
-__all__ = ["RESULTS", "STATUSES", "run_point", "run_sweep", "describe"]
+def error_summary(sw: Sweep, rows: list[dict], most: int = 3) -> list[str]:
+    """What the ``error`` rows were: per kind of message (its first line, numbers aside: a pid
+    or a pty differs from run to run), how many share it and the first one with its run's
+    inputs; the ``most`` commonest, then how many other kinds."""
+    import re
+    from collections import Counter
+
+    firsts: dict[str, tuple[str, dict]] = {}
+    counts: Counter = Counter()
+    for r in rows:
+        if r.get("status") != "error":
+            continue
+        msg = (str(r.get("error") or "").strip().splitlines() or ["(no message)"])[0]
+        kind = re.sub(r"\d+", "#", msg)
+        counts[kind] += 1
+        firsts.setdefault(kind, (msg, r))
+    lines = []
+    for kind, n in counts.most_common(most):
+        msg, r = firsts[kind]
+        ins = ", ".join(f"{a.name}={_fmt(r.get(f'in.{a.name}'))}" for a in sw.axes)
+        lines.append(f"{n} error{'s' if n > 1 else ''} like run {r['index']}"
+                     f"{' (' + ins + ')' if ins else ''}: {msg}")
+    if len(counts) > most:
+        lines.append(f"... and {len(counts) - most} other kinds of error (the table's error "
+                     f"column)")
+    return lines
+
+
+__all__ = ["RESULTS", "STATUSES", "SweepStopped", "run_point", "run_sweep", "describe",
+           "error_summary", "needs_run"]
