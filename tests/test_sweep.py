@@ -200,23 +200,21 @@ def test_a_task_on_a_daemonic_worker_process_may_start_a_child():
 
 
 def test_the_time_limit_ends_a_run(tmp_path):
-    """A run still going at the limit is ended by the runner and says so (real time: it cannot
-    finish early)."""
+    """A run still going at the limit is ended by the runner and says so. The run is paced at real
+    time in lockstep (--pace 1: 5 s of plant time take at least 5 s of wall time, so it cannot
+    finish before the 1.5 s limit), not a real-time run: a loaded host may end a real-time run
+    on its own (a period more than 100 periods late), which is not what this tests."""
     import dataclasses
 
     from hil_bench.cluster.limits import time_limit
     from hil_bench.loop.runner import Runner
     from hil_bench.scenario import load_scenario
 
-    scn = load_scenario("gong_g2_500rpm")
-    # no mlockall: in a process this size it takes longer than the limit itself
-    scn = dataclasses.replace(scn, duration_s=5.0, realtime=dataclasses.replace(
-        scn.realtime, max_consecutive_misses=1_000_000, mlock=False))
-    t0 = time.monotonic()
+    scn = dataclasses.replace(load_scenario("gong_g2_500rpm"), duration_s=5.0)
     with time_limit(1.5):
-        result = Runner(scn, "sil", tmp_path / "t.mcap", progress=False, realtime=True).run()
+        result = Runner(scn, "sil", tmp_path / "t.mcap", progress=False, pace=1.0).run()
     assert result.timed_out and "time limit of 1.5 s per run exceeded" in result.error
-    assert 0 < result.cycles_done < 50_000 and time.monotonic() - t0 < 4.5
+    assert 0 < result.cycles_done < 50_000
 
 
 def _free_port() -> int:
