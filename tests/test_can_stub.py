@@ -394,7 +394,7 @@ class RawSlcan:
         return err
 
 
-HELLO_PAYLOAD = MESSAGES["HELLO"].pack(proto_version=1, mode=0, period_us=600.0, estimator=1, flags=0,
+HELLO_PAYLOAD = MESSAGES["HELLO"].pack(proto_version=1, proto_minor=1, mode=0, period_us=600.0, estimator=1, flags=0,
                                        session=0x1234)
 
 

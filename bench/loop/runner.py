@@ -108,6 +108,8 @@ class RunResult:
     link_stats: dict = field(default_factory=dict)
     timing: dict = field(default_factory=dict)
     realtime_notes: str = ""
+    #: the controller speaks an older protocol version: which features the session left out
+    protocol_note: str = ""
     ts_s: float = 0.0              # the control period [s]
     target: dict = field(default_factory=dict)   # pil-qemu: the target's own figures (qemu.py)
     #: --live: the viewer's end-of-run figures (record/live_view.py LiveView.stats), else None
@@ -707,7 +709,14 @@ class Runner:
             self._event(0.0, "handshake",
                         f"controller fw 0x{int(ack['fw_version']):04X}, estimators mask "
                         f"0x{int(ack['estimators']):04X}", float(ack["fw_version"]))
-            self.session.configure(self.controller_params())
+            params = self.session.serve(self.controller_params(), needs_commands={
+                "RESTART": f"faults[{fs.index}] controller_reset"
+                for fs in self.scn.faults if fs.kind == "controller_reset"})
+            if self.session.features_off:
+                self.protocol_note = (f"the controller speaks protocol {self.session.version_text}: served "
+                                      f"without {', '.join(self.session.features_off)}")
+                self._event(0.0, "protocol", self.protocol_note, float(self.session.session_minor))
+            self.session.configure(params)
             self.session.command(Command.SET_SPEED_REF, self.scn.speed_ref_rad_s)
             self.session.command(Command.RUN)
         finally:
@@ -854,6 +863,7 @@ class Runner:
         r = e.result()
         result.cycles_done = r.cycles_done
         result.end = r.end_name
+        result.protocol_note = getattr(self, "protocol_note", "")
         result.realtime_notes = "; ".join(n for n in (r.rt_notes, self._throttling_note(),
                                                       self._stub_rt_notes()) if n)
         if result.timed_out:

@@ -62,6 +62,7 @@ static uint16_t hello(hil_session_t *s, capture_t *cap, uint16_t mode, uint16_t 
     hil_octet_t b[8];
     int k;
     h.proto_version = HIL_PROTO_VERSION;
+    h.proto_minor = HIL_PROTO_VERSION_MINOR;
     h.mode = mode;
     h.period_us = hil_hello_period_us_encode(100.0f);
     h.estimator = estimator;
