@@ -538,7 +538,7 @@ def _script(s: _Session, add, plant_factory, profile, scn, est: Estimator, ts_s:
     seen_states = sorted({State(x).name if x in {st.value for st in State} else str(x) for x in states})
     add(Item("6.4", "TELEM.state in the State table; no FAULT_CTRL",
              None if n == 0 else all(x in {st.value for st in State} for x in states) and stats["fault"] == 0,
-             f"states seen: {', '.join(seen_states)}" + (f"; {stats['fault']} FAULT_CTRL" if stats["fault"] else "")))
+             none_answered if n == 0 else f"states seen: {', '.join(seen_states)}" + (f"; {stats['fault']} FAULT_CTRL" if stats["fault"] else "")))
     # never reached: the cycles stopped before (MIN_CYCLES makes a session that runs them all reach both)
     add(retry_item or Item("6.5", "a repeated SENSE is answered from the cache", None, gone))
     add(crc_item or Item("2.4", "a SENSE with a bad CRC is dropped", None,

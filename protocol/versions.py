@@ -36,8 +36,9 @@ HASHES = VERSIONS_DIR / "versions.toml"
 
 #: What the tables cannot say, per version: meanings, compatibility, how an older peer is served.
 NOTES: dict[str, tuple[str, ...]] = {
-    "1.0": ("The first versioned release: the message set, the value tables and the 62 CONFIG parameters "
-            "of protocol/versions/1.0.json.",),
+    "1.0": ("The first versioned release (the tables at commit 058c260 of 2026-11-24, the last before the "
+            "first addition of 1.1): the message set, the value tables and the 62 CONFIG parameters of "
+            "protocol/versions/1.0.json; its DBC is protocol/versions/1.0.dbc.",),
     "1.1": (
         "HELLO carries the version both ways: HELLO.proto_minor (bits 4..7 of the octet whose bits 0..2 are "
         "the flags; a 1.0 controller ignores them, 1.0 section 3: undefined bits are ignored on reception) and "

@@ -31,12 +31,12 @@ from hil_bench.installation import checkout_root, version
 from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
 from hil_bench.plant_rt.profile import load_profile
-from hil_bench.protocol.messages import Command, Estimator, HelloFlag, Mode, Param
+from hil_bench.protocol.messages import PROTO_VERSION, Command, Estimator, HelloFlag, Mode, Param
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import ProcessRecorder, RecorderError, check_target
 from hil_bench.scenario import INV_COMP_CURRENTS, INV_COMP_SHAPES, RPM_PER_RAD_S, Scenario
 
-from .host_session import HostSession
+from .host_session import PROTO_MINOR, HostSession
 from .links import STUB_CAN_MODES, LinkError, OpenedLink, open_link
 from .links.engine_fd import engine_link_for
 
@@ -712,9 +712,11 @@ class Runner:
             params = self.session.serve(self.controller_params(), needs_commands={
                 "RESTART": f"faults[{fs.index}] controller_reset"
                 for fs in self.scn.faults if fs.kind == "controller_reset"})
-            if self.session.features_off:
-                self.protocol_note = (f"the controller speaks protocol {self.session.version_text}: served "
-                                      f"without {', '.join(self.session.features_off)}")
+            if self.session.session_minor < PROTO_MINOR:
+                self.protocol_note = (f"the controller speaks protocol {self.session.version_text} (the bench "
+                                      f"{PROTO_VERSION}.{PROTO_MINOR}): served as {self.session.version_text}"
+                                      + (f", without {', '.join(self.session.features_off)}"
+                                         if self.session.features_off else ", nothing of the run left out"))
                 self._event(0.0, "protocol", self.protocol_note, float(self.session.session_minor))
             self.session.configure(params)
             self.session.command(Command.SET_SPEED_REF, self.scn.speed_ref_rad_s)
