@@ -150,7 +150,10 @@ def estimator_defaults(estimator: Estimator, profile, ts_s: float,
     from hil_bench.firmware_stub.est_smo import smo_sigmoid_for, smo_tanh_for
 
     factory = smo_sigmoid_for if estimator is Estimator.SMO_SIGMOID else smo_tanh_for
-    chosen = {f: given[p] for f, p in SMO_CONFIG_PARAMS.items() if p in given}
+    # only the settings this observer has: SMO_WC_RAD_S given to SMO_TANH (which has no filter,
+    # docs/estimators.md) goes to the controller, which ignores it, not into the reference's rules
+    known = set(factory(profile, ts_s).config)
+    chosen = {f: given[p] for f, p in SMO_CONFIG_PARAMS.items() if p in given and f in known}
     config = factory(profile, ts_s, **chosen).config
     return {p: float(config[f]) for f, p in SMO_CONFIG_PARAMS.items()
             if f in config and p not in given}
