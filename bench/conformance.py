@@ -76,13 +76,13 @@ from hil_bench.protocol.timing import (
     KIT_ANSWER_QUANTILES,
     KIT_HEARTBEAT_MIN_COUNT,
     KIT_HEARTBEAT_WINDOW_S,
-    LOCKSTEP_GIVE_UP_S,
+    KIT_SILENCE_S,
 )
 
 AFTER_REPEAT = 8            # cycles after the repeated SENSE compared with the reference session
 ALIGN_SHARE = 0.25          # the alignment lasts at most this share of the cycles (the repeat comes later)
-#: a frame that must not be answered is given as long as the host waits for an answer at all
-SILENCE_S = LOCKSTEP_GIVE_UP_S
+#: a frame that must not be answered (a SENSE with a bad CRC) is given this long to be answered
+SILENCE_S = KIT_SILENCE_S
 HEARTBEAT_WAIT_S = 1.5      # for the heartbeats after FAULT_PLANT (a drive may still be stopping)
 DUTY_RAW_FULL = 32768
 #: the fewest cycles whose session reaches the repeated SENSE (from cycles // 2 up to cycles - 20)

@@ -94,6 +94,9 @@ KIT_ANSWER_PATIENCE_S = 2.0
 KIT_HEARTBEAT_WINDOW_S = 1.5
 #: ... with at least this many heartbeats in the window (a drive still starting may miss the first ones)
 KIT_HEARTBEAT_MIN_COUNT = 6
+#: a frame that must not be answered (a SENSE with a bad CRC, section 2.4) is given this long to be answered;
+#: longer than any answer of a controller that passes the answer-time item, at its p90 [s]
+KIT_SILENCE_S = 0.2
 
 TIMING += (
     Timing("conformance kit: the median and the p90 of a controller's lockstep answer times, each less the host's "
