@@ -163,6 +163,8 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     tm = result.timing
+    if result.protocol_note:
+        err.print(f"[yellow]protocol:[/yellow] {escape(result.protocol_note)}")
     out.print(f"ran {result.cycles_done}/{result.cycles_planned} cycles ({result.mode}) in "
               f"{result.wall_s:.2f} s ({result.cycles_done / max(result.wall_s, 1e-9):.0f} "
               f"cycles/s); recording {escape(str(result.recording))}")

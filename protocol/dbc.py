@@ -11,6 +11,11 @@ from the cantools database, once:
   (DUTY's raw 65535 = ``OFF``; the valid range ends at the signal attribute ``HilValidMax``);
 * ``flag_tables()``: the flag bytes (HELLO.flags, SENSE_AUX.flags), whose DBC value tables name every
   combination of their bits; the bits are the single-bit entries;
+* ``param_specs()``: the CONFIG parameters, one multiplexed signal of CONFIG each (multiplexer
+  ``param_id``): unit, range, enum values, and the attributes ``HilParamKind``, ``HilParamDefault``,
+  ``HilParamRequired``, ``HilSince``, meaning in the signal comment. For the codecs the multiplexed
+  signals (all IEEE binary32 at the same bits) are one signal, ``CONFIG.value``: the wire format is the
+  same for every parameter;
 * ``round_half_away()``: THE rounding rule of the protocol (shared with the generated C code).
 
 Cyclic (angle) signals: an unsigned ``rad`` signal whose raw range covers exactly one turn
@@ -21,6 +26,7 @@ A DBC change that this module does not know how to name fails loudly (``DbcError
 """
 from __future__ import annotations
 
+import copy
 import functools
 import math
 import re
@@ -76,6 +82,20 @@ _FLAG_TABLE_NAMING: tuple[tuple[str, str, tuple[str, str], dict[str, str]], ...]
                            "the plant reports faulty)",
     }),
 )
+
+#: (message, name of the one signal its multiplexed signals are to the codecs, its comment, its range). The
+#: multiplexed signals must share start bit, length and type: they differ only in unit, range and meaning.
+_MULTIPLEXED_NAMING: tuple[tuple[str, str, str, tuple[float, float]], ...] = (
+    ("CONFIG", "value", "IEEE-754 binary32, SI units of the parameter param_id names (its multiplexed signal: "
+                        "unit, range, kind, default); integer, boolean and enumerated parameters as the binary32 "
+                        "of the integer (4.0, 1.0).", (-3.4e38, 3.4e38)),
+)
+#: Signal attributes of the CONFIG parameters (the multiplexed signals of CONFIG).
+PARAM_KIND_ATTRIBUTE = "HilParamKind"
+PARAM_DEFAULT_ATTRIBUTE = "HilParamDefault"
+PARAM_REQUIRED_ATTRIBUTE = "HilParamRequired"
+SINCE_ATTRIBUTE = "HilSince"
+PARAM_KINDS = ("real", "integer", "boolean", "enum")
 
 #: Signal attribute (FLOAT, physical) ending the valid range of a signal below its declared DBC maximum.
 VALID_MAX_ATTRIBUTE = "HilValidMax"
@@ -266,6 +286,15 @@ def database() -> cantools.database.can.Database:
     return cantools.database.load_file(str(DBC_PATH), strict=True)
 
 
+def use_dbc(path: Path | str) -> None:
+    """Read another DBC file from now on (the generators' ``--dbc``: a test regenerates the C codec from
+    a copy of hil.dbc alone). Clears every cached specification."""
+    global DBC_PATH
+    DBC_PATH = Path(path).resolve()
+    for fn in (database, message_specs, sentinels, value_tables, flag_tables, param_specs):
+        fn.cache_clear()
+
+
 def proto_version_text() -> str:
     """Protocol version as written at the end of the DBC ``VERSION`` string ("1.0")."""
     version = database().version or ""
@@ -273,6 +302,11 @@ def proto_version_text() -> str:
     if not m:
         raise DbcError(f"{DBC_PATH}: VERSION {version!r} does not end with 'protocol <major>.<minor>'")
     return f"{int(m.group(1))}.{int(m.group(2))}"
+
+
+def proto_minor() -> int:
+    """The minor protocol version ("hil-bench protocol 1.1" -> 1): HELLO.proto_minor, HELLO_ACK.proto_minor."""
+    return int(proto_version_text().split(".")[1])
 
 
 def proto_version() -> int:
@@ -302,8 +336,9 @@ def _signal_spec(msg: cantools.database.can.Message, sig: cantools.database.can.
         raise DbcError(f"{where}: integer signals must be 1..32 bits, got {sig.length}")
     if sig.start + sig.length > 8 * msg.length:
         raise DbcError(f"{where}: signal does not fit in {msg.length} octets")
-    if sig.multiplexer_ids or sig.is_multiplexer:
-        raise DbcError(f"{where}: multiplexed signals are not supported")
+    if (sig.multiplexer_ids or sig.is_multiplexer) and msg.name not in {m for m, *_ in _MULTIPLEXED_NAMING}:
+        raise DbcError(f"{where}: multiplexed signals are supported only where protocol/dbc.py names the "
+                       f"message's multiplexed value (_MULTIPLEXED_NAMING)")
     scale, offset = _num(sig.scale), _num(sig.offset)
     if scale == 0:
         raise DbcError(f"{where}: scale must not be 0")
@@ -382,11 +417,9 @@ def specs_from_database(db: cantools.database.can.Database) -> tuple[MessageSpec
     for msg in db.messages:
         if msg.is_extended_frame or msg.frame_id > 0x7FF:
             raise DbcError(f"{DBC_PATH.name}: {msg.name}: only 11-bit ids are supported")
-        if msg.is_multiplexed():
-            raise DbcError(f"{DBC_PATH.name}: {msg.name}: multiplexed messages are not supported")
         if msg.length > 64:
             raise DbcError(f"{DBC_PATH.name}: {msg.name}: more than 64 octets")
-        signals = tuple(_signal_spec(msg, s) for s in sorted(msg.signals, key=lambda s: s.start))
+        signals = tuple(sorted((_signal_spec(msg, s) for s in _codec_signals(msg)), key=lambda s: s.start_bit))
         used = 0
         for s in signals:
             mask = ((1 << s.length_bits) - 1) << s.start_bit
@@ -408,6 +441,48 @@ def specs_from_database(db: cantools.database.can.Database) -> tuple[MessageSpec
     if len(set(names)) != len(names) or len({m.frame_id for m in specs}) != len(specs):
         raise DbcError(f"{DBC_PATH.name}: duplicate message name or id")
     return tuple(specs)
+
+
+def _codec_signals(msg: cantools.database.can.Message) -> list:
+    """The signals of a message as the codecs see them: a multiplexed message's multiplexed signals (one
+    per parameter of CONFIG) are one signal, named by _MULTIPLEXED_NAMING, since they share the bits."""
+    if not msg.is_multiplexed():
+        return list(msg.signals)
+    naming = {m: (name, comment, rng) for m, name, comment, rng in _MULTIPLEXED_NAMING}
+    where = f"{DBC_PATH.name}: {msg.name}"
+    if msg.name not in naming:
+        raise DbcError(f"{where}: multiplexed messages are supported only where protocol/dbc.py names their "
+                       f"multiplexed value (_MULTIPLEXED_NAMING)")
+    plain = [s for s in msg.signals if not s.multiplexer_ids]
+    muxed = [s for s in msg.signals if s.multiplexer_ids]
+    if sum(1 for s in plain if s.is_multiplexer) != 1 or not muxed:
+        raise DbcError(f"{where}: expected one multiplexer and multiplexed signals")
+    layouts = {(s.start, s.length, s.is_float, s.is_signed, s.byte_order, s.scale, s.offset) for s in muxed}
+    if len(layouts) != 1:
+        raise DbcError(f"{where}: the multiplexed signals must share start bit, length, type and scaling: "
+                       f"{sorted(layouts, key=str)}")
+    if any(len(s.multiplexer_ids) != 1 for s in muxed):
+        raise DbcError(f"{where}: each multiplexed signal stands for one multiplexer value")
+    name, comment, (lo, hi) = naming[msg.name]
+    first = muxed[0]
+    value = cantools.database.can.Signal(
+        name=name, start=first.start, length=first.length, byte_order=first.byte_order,
+        is_signed=first.is_signed, conversion=first.conversion, minimum=lo, maximum=hi, unit="",
+        comment=comment, receivers=list(first.receivers))
+    return [*plain, value]
+
+
+def codec_message(name: str) -> cantools.database.can.Message:
+    """A cantools message with the signals the codecs see (CONFIG: param_id, config_seq, value): what the
+    tests hold the codecs against, since cantools itself decodes CONFIG by its multiplexed signals."""
+    msg = database().get_message_by_name(name)
+    if not msg.is_multiplexed():
+        return msg
+    signals = [copy.copy(s) for s in _codec_signals(msg)]   # the database's own stay as they are
+    for s in signals:
+        s.is_multiplexer = False
+    return cantools.database.can.Message(frame_id=msg.frame_id, name=msg.name, length=msg.length,
+                                         signals=signals, senders=msg.senders, strict=True)
 
 
 def message_spec(name: str) -> MessageSpec:
@@ -507,3 +582,78 @@ def flag_table(py_name: str) -> FlagTable:
         if f.py_name == py_name:
             return f
     raise KeyError(py_name)
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One CONFIG parameter: a multiplexed signal of CONFIG (multiplexer value = ``param_id``)."""
+
+    name: str
+    param_id: int
+    unit: str           # "-" for a dimensionless parameter (the DBC's empty unit)
+    kind: str           # one of PARAM_KINDS
+    minimum: float      # the range the reference drive accepts (inclusive)
+    maximum: float
+    default: float | None   # None: required (no default)
+    since: str          # the protocol version that added it ("1.0", "1.1")
+    meaning: str
+    values: tuple[tuple[int, str], ...] = ()   # enum: (value, meaning)
+
+
+def _sig_attr(db: cantools.database.can.Database, sig, name: str):
+    """A signal attribute's value (ENUM by its value name), or its definition's default."""
+    definition = db.dbc.attribute_definitions.get(name) if db.dbc is not None else None
+    attrs = sig.dbc.attributes if sig.dbc is not None else {}
+    if name in attrs:
+        value = attrs[name].value
+    else:
+        value = None if definition is None else definition.default_value
+    if definition is not None and definition.type_name == "ENUM" and isinstance(value, int):
+        return definition.choices[value]
+    return value
+
+
+@functools.lru_cache(maxsize=None)
+def param_specs() -> tuple[ParamSpec, ...]:
+    """Every CONFIG parameter of the DBC, in id order, checked: one multiplexed signal per entry of the
+    Param value table, named as the entry, with a kind, and a default unless required."""
+    db = database()
+    msg = db.get_message_by_name("CONFIG")
+    where = f"{DBC_PATH.name}: CONFIG"
+    mux = next((s for s in msg.signals if s.is_multiplexer), None)
+    if mux is None:
+        raise DbcError(f"{where}: param_id must be the multiplexer (one signal per parameter)")
+    table = {int(k): str(v) for k, v in (mux.choices or {}).items()}
+    out = []
+    seen = set()
+    for sig in msg.signals:
+        if not sig.multiplexer_ids:
+            continue
+        pid = int(sig.multiplexer_ids[0])
+        w = f"{where}.{sig.name} (m{pid})"
+        if table.get(pid) != sig.name:
+            raise DbcError(f"{w}: the Param table names {pid} {table.get(pid)!r}, the signal is {sig.name!r}")
+        kind = str(_sig_attr(db, sig, PARAM_KIND_ATTRIBUTE))
+        if kind not in PARAM_KINDS:
+            raise DbcError(f"{w}: {PARAM_KIND_ATTRIBUTE} {kind!r} is not one of {PARAM_KINDS}")
+        required = int(_sig_attr(db, sig, PARAM_REQUIRED_ATTRIBUTE) or 0) == 1
+        default = None if required else float(_sig_attr(db, sig, PARAM_DEFAULT_ATTRIBUTE))
+        since = str(_sig_attr(db, sig, SINCE_ATTRIBUTE) or "")
+        if not re.fullmatch(r"\d+\.\d+", since):
+            raise DbcError(f"{w}: {SINCE_ATTRIBUTE} {since!r} is not <major>.<minor>")
+        values = tuple((int(k), str(v)) for k, v in sorted((sig.choices or {}).items()))
+        if (kind == "enum") != bool(values):
+            raise DbcError(f"{w}: an enum parameter has a value table, no other kind has one")
+        lo, hi = float(sig.minimum), float(sig.maximum)
+        if default is not None and not lo <= default <= hi:
+            raise DbcError(f"{w}: default {default!r} outside its range [{lo!r}, {hi!r}]")
+        if values and not all(lo <= v <= hi for v, _ in values):
+            raise DbcError(f"{w}: enum values outside its range [{lo!r}, {hi!r}]")
+        out.append(ParamSpec(name=sig.name, param_id=pid, unit=sig.unit or "-", kind=kind, minimum=lo,
+                             maximum=hi, default=default, since=since, meaning=str(sig.comment or ""),
+                             values=values))
+        seen.add(pid)
+    if seen != set(table):
+        raise DbcError(f"{where}: parameters without a multiplexed signal: "
+                       f"{sorted(table[p] for p in set(table) - seen)}")
+    return tuple(sorted(out, key=lambda p: p.param_id))

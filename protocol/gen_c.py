@@ -211,7 +211,9 @@ def _header(msgs: tuple[MessageSpec, ...]) -> str:
            " *         decoded: test the raw value first).",
            " * pack returns the message length or -1 (NULL pointer, size too small); unpack returns 0 or -1.",
            " * Octets of hil_octet_t are read as (octet & 0xFF). */", "",
-           f"#define {name('HIL_PROTO_VERSION')} {dbc.proto_version()}u", "",
+           f"#define {name('HIL_PROTO_VERSION')} {dbc.proto_version()}u /* major: HELLO.proto_version */",
+           f"#define {name('HIL_PROTO_VERSION_MINOR')} {dbc.proto_minor()}u /* HELLO.proto_minor, HELLO_ACK.proto_minor */",
+           "",
            "/* One wire octet (0..255) per element; uint_least8_t is 16 bits wide on TI C28x. */",
            f"typedef uint_least8_t {name('hil_octet_t')};", ""]
 
@@ -237,6 +239,8 @@ def _header(msgs: tuple[MessageSpec, ...]) -> str:
         for f in flags:
             out.append(f"#define {name(f'{prefix}_{f.name}')} 0x{f.mask:02X}u /* bit{f.bit}: {f.meaning} */")
         out.append("")
+
+    out += _param_macros(name)
 
     for msg in msgs:
         p, mac = c_prefix(msg), c_macro(msg)
@@ -265,6 +269,37 @@ def _header(msgs: tuple[MessageSpec, ...]) -> str:
         out.append("")
     out += ["#ifdef __cplusplus", "}", "#endif", "", "#endif /* HIL_MSGS_H */", ""]
     return "\n".join(out)
+
+
+_KIND_MACRO = {"real": "HIL_PARAM_KIND_REAL", "integer": "HIL_PARAM_KIND_INTEGER",
+               "boolean": "HIL_PARAM_KIND_BOOLEAN", "enum": "HIL_PARAM_KIND_ENUM"}
+
+
+def _param_macros(name: _Names) -> list[str]:
+    """Per CONFIG parameter (a multiplexed signal of CONFIG in the DBC): its kind, the range the reference
+    drive accepts, its default (or that it is required) and the minor version that added it."""
+    out = ["/* ---- CONFIG parameters: one multiplexed signal of CONFIG each (DBC attributes HilParamKind,",
+           " * HilParamDefault, HilParamRequired, HilSince; range = the signal's [min|max], what the reference",
+           " * drive accepts). Values travel as binary32 in CONFIG.value. ---- */"]
+    for i, kind in enumerate(dbc.PARAM_KINDS):
+        out.append(f"#define {name(_KIND_MACRO[kind])} {i}u")
+    major = dbc.proto_version()
+    for p in dbc.param_specs():
+        mac = f"HIL_PARAM_{p.name}"
+        since_major, since_minor = (int(x) for x in p.since.split("."))
+        if since_major != major:
+            raise dbc.DbcError(f"CONFIG.{p.name}: HilSince {p.since} is not of major version {major}")
+        out.append(f"/* {p.name} ({p.unit}): {c_string(p.kind)}"
+                   + (", " + ", ".join(f"{v} = {c_string(m)}" for v, m in p.values) if p.values else "") + " */")
+        out.append(f"#define {name(mac + '_KIND')} {_KIND_MACRO[p.kind]}")
+        out.append(f"#define {name(mac + '_MIN')} {c_float(p.minimum)}")
+        out.append(f"#define {name(mac + '_MAX')} {c_float(p.maximum)}")
+        out.append(f"#define {name(mac + '_REQUIRED')} {1 if p.default is None else 0}u")
+        out.append(f"#define {name(mac + '_DEFAULT')} {c_float(0.0 if p.default is None else p.default)}"
+                   + (" /* none: required */" if p.default is None else ""))
+        out.append(f"#define {name(mac + '_SINCE_MINOR')} {since_minor}u")
+    out.append("")
+    return out
 
 
 _HELPERS_COMMON = r"""
@@ -702,7 +737,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--check", action="store_true", help="compare with the committed files, do not write")
     ap.add_argument("--out-dir", type=Path, default=OUT_DIR, help="output directory (default protocol/c)")
+    ap.add_argument("--dbc", type=Path, default=None, help="read this DBC instead of protocol/hil.dbc "
+                                                            "(everything generated comes from it alone)")
     args = ap.parse_args(argv)
+    if args.dbc is not None:
+        dbc.use_dbc(args.dbc)
     stale = 0
     for fname, text in generate().items():
         path = args.out_dir / fname

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Fill the generated sections of docs/protocol.md from the DBC, the encoder, protocol/budget.py,
-protocol/params.py and protocol/timing.py.
+protocol/params.py, protocol/timing.py and protocol/versions.py (the changelog).
 
 A generated section sits between ``<!-- BEGIN GENERATED: <name> -->`` and ``<!-- END GENERATED: <name> -->``;
 everything else in the document is hand-written. Usage::
@@ -16,7 +16,7 @@ import re
 import sys
 from pathlib import Path
 
-from hil_bench.protocol import budget, dbc, framing, timing
+from hil_bench.protocol import budget, dbc, framing, timing, versions
 from hil_bench.protocol.messages import MESSAGES
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "protocol.md"
@@ -158,6 +158,7 @@ SECTIONS = {
     "value_tables": section_value_tables,
     "budget": budget.markdown_tables,
     "timing": timing.markdown_table,
+    "changelog": versions.markdown_changelog,
 }
 
 _BLOCK = re.compile(r"(<!-- BEGIN GENERATED: (\w+) -->\n)(.*?)(<!-- END GENERATED: \2 -->)", re.S)

@@ -94,3 +94,38 @@ def markdown_table() -> str:
     out = ["| what | value | `hil_bench.protocol.timing` |", "|---|---|---|"]
     out += [f"| {t.what} | {t.value} | `{t.name}` |" for t in TIMING]
     return "\n".join(out) + "\n"
+
+
+# -- the conformance kit (docs/protocol.md section 9): it judges the controller, not the host ------------------
+#: the kit's answer-time limit: the median and the 90th percentile of a controller's answer times in lockstep
+#: (SENSE(k) sent -> DUTY(k) received), each less the host's own loopback time at the same quantile, are at
+#: most this. Its source is the spec's requirement on a lockstep controller (6.0 item 4: DUTY(k) within
+#: 50 ms of SENSE(k)), judged on a statistic that a host stall of a few cycles cannot move, as a drive is
+#: judged on its typical and its slow answers, not on the one the host was descheduled in.
+KIT_ANSWER_LIMIT_S = 0.05
+#: the quantiles of the answer times the kit judges
+KIT_ANSWER_QUANTILES = (0.5, 0.9)
+#: the kit waits this long for one DUTY before it calls it missing (an answer that comes later than the
+#: limit but within this is a late answer: a timing figure, not a lost frame) [s]
+KIT_ANSWER_PATIENCE_S = 2.0
+#: the kit collects HEARTBEAT_CTRL this long while idle and estimates their period as the Theil-Sen slope of
+#: arrival time over counter (the median of the pairwise slopes): an arrival the host saw late because it was
+#: itself stalled moves the median only when more than 29 % of them are displaced (a stall of up to 400 ms
+#: of the 1.5 s window). The period must lie within HEARTBEAT_GAP_MIN_S .. HEARTBEAT_GAP_MAX_S.
+KIT_HEARTBEAT_WINDOW_S = 1.5
+#: ... with at least this many heartbeats in the window (a drive still starting may miss the first ones)
+KIT_HEARTBEAT_MIN_COUNT = 6
+#: a frame that must not be answered (a SENSE with a bad CRC, section 2.4) is given this long to be answered;
+#: longer than any answer of a controller that passes the answer-time item, at its p90 [s]
+KIT_SILENCE_S = 0.2
+
+TIMING += (
+    Timing("conformance kit: the median and the p90 of a controller's lockstep answer times, each less the host's "
+           "own loopback at that quantile, at most (section 9)", f"{KIT_ANSWER_LIMIT_S * 1e3:g} ms",
+           "KIT_ANSWER_LIMIT_S"),
+    Timing("conformance kit: an answer not there this long after its SENSE is missing (later than the limit "
+           "but within this: late)", f"{KIT_ANSWER_PATIENCE_S:g} s", "KIT_ANSWER_PATIENCE_S"),
+    Timing("conformance kit: HEARTBEAT_CTRL collected while idle, their period estimated robustly (Theil-Sen) "
+           "and held to the heartbeat gap above", f"{KIT_HEARTBEAT_WINDOW_S:g} s, at least "
+           f"{KIT_HEARTBEAT_MIN_COUNT}", "KIT_HEARTBEAT_WINDOW_S, KIT_HEARTBEAT_MIN_COUNT"),
+)

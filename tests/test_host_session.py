@@ -68,8 +68,8 @@ class ScriptedLink(Link):
             time.sleep(min(0.002, end - now))
 
 
-def hello_ack(session: int, status: int = 0, version: int = 1) -> tuple[int, bytes]:
-    return HELLO_ACK.frame_id, HELLO_ACK.pack_raw((version, status, 0x0100, 0x3E, session))
+def hello_ack(session: int, status: int = 0, version: int = 1, minor: int = 1) -> tuple[int, bytes]:
+    return HELLO_ACK.frame_id, HELLO_ACK.pack_raw((version, status, minor, 0x0100, 0x3E, session))
 
 
 def good_controller(fid, payload, *, config_status=0, param_offset=0, ack_len=8):
@@ -233,7 +233,7 @@ def _bad_controller(master: int, stop: threading.Event, status: int) -> None:
             if fid == HELLO.frame_id:
                 sid = HELLO.unpack(payload)["session"]
                 os.write(master, encode_frame(HELLO_ACK.frame_id,
-                                              HELLO_ACK.pack_raw((1, status, 1, 2, sid))))
+                                              HELLO_ACK.pack_raw((1, status, 1, 1, 2, sid))))
 
 
 def test_bench_run_against_a_bad_hello_ack_exits_non_zero_with_a_clear_message(tmp_path, capsys):

@@ -70,8 +70,12 @@ def test_canmatrix_reads_the_same_message_set():
         frame = cm.frame_by_name(m.name)
         assert frame.arbitration_id.id == m.frame_id and not frame.arbitration_id.extended
         assert frame.size == m.length
-        assert {s.name for s in frame.signals} == {s.name for s in m.signals}
+        muxed = {s.name for s in frame.signals if s.multiplex not in (None, "Multiplexor")}
+        assert {s.name for s in frame.signals} - muxed == {s.name for s in m.signals} - (
+            {"value"} if m.name == "CONFIG" else set())
         for s in m.signals:
+            if m.name == "CONFIG" and s.name == "value":   # the multiplexed parameters: below
+                continue
             cs = frame.signal_by_name(s.name)
             assert (cs.start_bit, cs.size, cs.is_little_endian, cs.is_signed, cs.is_float) == (
                 s.start_bit, s.length_bits, True, s.is_signed, s.is_float), s.qualified_name
@@ -84,6 +88,22 @@ def test_canmatrix_reads_the_same_message_set():
     assert cm.attributes["BusType"] == "CAN"
     assert cm.frame_defines["GenMsgSendType"].values[:1] == ["Cyclic"]
     assert float(cm.frame_by_name("DUTY").signal_by_name("d_a").attributes["HilValidMax"]) == 1.0
+    # every CONFIG parameter is a multiplexed signal of its own: unit, range, kind, default, enum values
+    config = cm.frame_by_name("CONFIG")
+    assert config.signal_by_name("param_id").multiplex == "Multiplexor"
+    for p in dbc.param_specs():
+        cs = config.signal_by_name(p.name)
+        assert cs.multiplex == p.param_id and cs.is_float and (cs.start_bit, cs.size) == (32, 32), p.name
+        assert (cs.unit or "-") == p.unit and float(cs.min) == p.minimum and float(cs.max) == p.maximum, p.name
+        assert cs.attribute("HilParamKind", cm) == p.kind, p.name
+        assert cs.attribute("HilSince", cm) == p.since, p.name
+        if p.default is None:
+            assert int(cs.attribute("HilParamRequired", cm)) == 1, p.name
+        else:
+            assert float(cs.attribute("HilParamDefault", cm)) == p.default, p.name
+        assert {int(k): v for k, v in cs.values.items()} == dict(p.values), p.name
+    enable = config.signal_by_name("INV_COMP_ENABLE")
+    assert len(enable.values) == 5 and enable.values[2] == "on, sampled currents"
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -49,14 +49,30 @@ def test_message_set_matches_the_dbc():
         ours = MESSAGES[m.name]
         assert BY_ID[m.frame_id] is ours
         assert (ours.frame_id, ours.length) == (m.frame_id, m.length)
-        assert ours.signal_names == tuple(s.name for s in sorted(m.signals, key=lambda s: s.start))
-        assert ours.uses_struct  # every version-1 message is byte-aligned
+        ct = dbc.codec_message(m.name)   # CONFIG: its multiplexed parameters as one value
+        assert ours.signal_names == tuple(s.name for s in sorted(ct.signals, key=lambda s: s.start))
+        # every message but HELLO / HELLO_ACK (the 1.1 minor version in a nibble) is byte-aligned
+        assert ours.uses_struct == (m.name not in ("HELLO", "HELLO_ACK")), m.name
+
+
+def test_cantools_decodes_config_by_its_parameter_signal():
+    """CONFIG in the DBC: param_id multiplexes one signal per parameter, which cantools decodes by name
+    with its value table; the octets are what our codec packs."""
+    ct = DB.get_message_by_name("CONFIG")
+    assert ct.is_multiplexed()
+    for name, value in (("RS_OHM", 0.35), ("INV_COMP_ENABLE", 2.0), ("LOOP_ANGLE", 1.0), ("POLE_PAIRS", 4.0)):
+        data = MESSAGES["CONFIG"].pack(param_id=int(Param[name]), config_seq=7, value=value)
+        assert ct.encode({"param_id": int(Param[name]), "config_seq": 7, name: value}, strict=True) == data
+        got = ct.decode(data, decode_choices=False)
+        assert got == {"param_id": int(Param[name]), "config_seq": 7, name: pytest.approx(value)}
+    assert DB.decode_message(ct.frame_id, MESSAGES["CONFIG"].pack(param_id=90, config_seq=1, value=2.0))[
+        "INV_COMP_ENABLE"] == "on, sampled currents"
 
 
 def test_proto_version_comes_from_the_dbc_version_string():
     assert PROTO_VERSION == 1
-    assert DB.version.endswith(f"protocol {PROTO_VERSION}.0")
-    assert dbc.proto_version_text() == "1.0"
+    assert DB.version.endswith(f"protocol {PROTO_VERSION}.{dbc.proto_minor()}")
+    assert dbc.proto_version_text() == "1.1"
 
 
 def test_value_table_enums():
@@ -236,7 +252,7 @@ def _random_physical(rng: random.Random, s: dbc.SignalSpec) -> float | int:
 
 @pytest.mark.parametrize("name", sorted(MESSAGES))
 def test_fast_path_matches_cantools_on_random_values(name):
-    msg, ct = MESSAGES[name], DB.get_message_by_name(name)
+    msg, ct = MESSAGES[name], dbc.codec_message(name)
     rng = random.Random(1234 + msg.frame_id)
     for _ in range(3000):
         values = [_random_physical(rng, s) for s in msg.signals]
@@ -251,7 +267,7 @@ def test_fast_path_matches_cantools_on_random_values(name):
 
 @pytest.mark.parametrize("name", sorted(MESSAGES))
 def test_unpack_matches_cantools_on_random_payloads(name):
-    msg, ct = MESSAGES[name], DB.get_message_by_name(name)
+    msg, ct = MESSAGES[name], dbc.codec_message(name)
     rng = random.Random(99 + msg.frame_id)
     for _ in range(2000):
         data = rng.randbytes(msg.length)

@@ -25,7 +25,7 @@ def test_mechanical_start_up_parameters_say_so():
     assert "float w_target = k->handover_speed_rad_s;" in c_source
     for name in ("IF_ACCEL_RAD_S2", "HANDOVER_SPEED_RAD_S"):
         assert "mechanical" in params.BY_NAME[name].meaning
-        assert re.search(rf"\| {name} \| [^|]+ \| real \| [^|]+ \| [^|]*mechanical", DOC), name
+        assert re.search(rf"\| {name} \| [^|]+ \| real \| [^|]+ \| [^|]+ \| [^|]+ \| [^|]*mechanical", DOC), name
 
 
 @pytest.mark.parametrize("name, value, ok", [
@@ -199,7 +199,8 @@ def test_the_stated_defaults_kinds_and_enum_values_are_the_stubs():
 
     from hil_bench.firmware_stub._binding import ffi, lib
 
-    assert "| 1 | RS_OHM | ohm | real | **required** |" in DOC and "| 24 | IQ_MAX_A | A | real | 5 |" in DOC
+    assert "| 1 | RS_OHM | ohm | real | 1e-06 .. 100 | **required** | 1.0 |" in DOC and \
+        "| 24 | IQ_MAX_A | A | real | 0 .. 1000 | 5 | 1.0 |" in DOC
     c = ffi.new("controller_t *")
     lib.ctrl_init(c)
     cfg = ffi.addressof(c[0], "cfg")

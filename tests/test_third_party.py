@@ -105,7 +105,7 @@ def test_a_heartbeat_period_off_the_spec_fails_the_heartbeat_item(tmp_path):
         drive.close()
     first = result.items[0]
     assert first.section == "6.7" and first.ok is False, result.text()
-    assert "gaps above 50 and below 200 ms" in first.text
+    assert "period (robust fit) above 50 and below 200 ms" in first.text
 
 
 def test_a_drive_closing_its_loop_on_the_encoder_angle_is_not_a_pass(tmp_path):

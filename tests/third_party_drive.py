@@ -1,8 +1,13 @@
 #!/usr/bin/env python3
 """An independent controller written from docs/protocol.md alone, as a drive team outside the project would.
 
+It is a drive of **protocol 1.0**, built against the DBC of that release (``protocol/versions/1.0.dbc``,
+as a drive team's copy of last month's table would be): it knows the 62 parameters, the estimators and the
+commands of 1.0, answers UNKNOWN_PARAM to a parameter added since, and sends 0 in the bits of HELLO_ACK that
+1.1 uses for its minor version. Today's host serves it as 1.0 (docs/protocol.md 6.1, section 10).
+
 It shares no code with the bench: its own COBS, CRC-16 and deframer (docs/protocol.md section 2), stock
-cantools on protocol/hil.dbc for the payloads (section 4), and its own sensorless FOC: Clarke/Park, a
+cantools on that DBC for the payloads (section 4), and its own sensorless FOC: Clarke/Park, a
 sign sliding-mode observer with a low-pass filter and a PLL, an alignment and I-f start-up, speed and
 current PI, SVPWM (textbook; the parameters come over CONFIG, section 6.2). It follows the session rules
 of section 6: HELLO statuses (it runs lockstep only and answers MODE_UNSUPPORTED to real time), CONFIG
@@ -32,7 +37,8 @@ from pathlib import Path
 
 import cantools
 
-DBC = Path(__file__).resolve().parents[1] / "protocol" / "hil.dbc"
+#: the DBC this drive was built against: protocol 1.0's, as released
+DBC = Path(__file__).resolve().parents[1] / "protocol" / "versions" / "1.0.dbc"
 TWO_PI = 2.0 * math.pi
 SQRT3 = math.sqrt(3.0)
 ANGLE_SCALE = TWO_PI / 65536.0

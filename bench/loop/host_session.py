@@ -10,6 +10,11 @@ runner turns it into the run's error (recording finalised, non-zero exit), never
 
 While it waits during the handshake and the configuration the host sends HEARTBEAT_PLANT every 100 ms
 (section 6.7). CMD frames carry ``seq`` 1, 2, ... per session (section 6.3).
+
+Versions (section 6.1, section 10): HELLO says the host's protocol version (``proto_version`` major,
+``proto_minor``), HELLO_ACK the version the session speaks (the lower minor). An older minor is served:
+:meth:`HostSession.serve` keeps to what that version knows, names the features that are off, and refuses
+(:class:`VersionRefused`) a run that needs one of them.
 """
 from __future__ import annotations
 
@@ -17,6 +22,8 @@ import random
 import time
 from typing import Callable
 
+from hil_bench.protocol import versions
+from hil_bench.protocol.dbc import proto_minor as _proto_minor
 from hil_bench.protocol.messages import (
     MESSAGES,
     PROTO_VERSION,
@@ -36,6 +43,9 @@ from .links.base import Link, LinkError
 
 FrameLog = Callable[[str, int, bytes], None]
 
+#: the host's own minor protocol version (HELLO.proto_minor)
+PROTO_MINOR: int = _proto_minor()
+
 _HELLO = MESSAGES["HELLO"]
 _HELLO_ACK = MESSAGES["HELLO_ACK"]
 _CONFIG = MESSAGES["CONFIG"]
@@ -49,6 +59,10 @@ _RX_ERROR_COUNTERS = ("crc_errors", "cobs_errors", "length_errors", "overruns")
 
 class ProtocolViolation(LinkError):
     """The controller answered something the protocol does not allow; the message names frame and field."""
+
+
+class VersionRefused(LinkError):
+    """The controller speaks an older protocol version that lacks something the run needs."""
 
 
 class ControllerFault(LinkError):
@@ -121,6 +135,10 @@ class HostSession:
         self.death_message = death_message or (lambda: "controller stopped answering")
         self.session_id = random.randrange(1, 0xFFFF)
         self.hello_ack: dict | None = None
+        #: the minor version the session speaks (HELLO_ACK.proto_minor), once the handshake is done
+        self.session_minor: int = PROTO_MINOR
+        #: what the session leaves out because the controller's version lacks it (``serve``)
+        self.features_off: list[str] = []
         self._config_seq = 0
         self._cmd_seq = 0
         self._hb_counter = 0
@@ -194,8 +212,9 @@ class HostSession:
         """Send HELLO every 100 ms until the matching HELLO_ACK (for the session's patience, or
         ``timeout_s``); raise LinkError on failure (at once when the controller died)."""
         timeout_s = self.patience_s if timeout_s is None else float(timeout_s)
-        hello = _HELLO.pack(proto_version=PROTO_VERSION, mode=int(mode), period_us=period_s * 1e6,
-                            estimator=int(estimator), flags=flags, session=self.session_id)
+        hello = _HELLO.pack(proto_version=PROTO_VERSION, proto_minor=PROTO_MINOR, mode=int(mode),
+                            period_us=period_s * 1e6, estimator=int(estimator), flags=flags,
+                            session=self.session_id)
         deadline = time.monotonic() + timeout_s
         wrong: dict[int, int] = {}    # session echoed instead of ours -> ACKs seen
         while time.monotonic() < deadline:
@@ -232,19 +251,55 @@ class HostSession:
         status = int(ack["status"])
         name = _status_name(HelloStatus, status, "HELLO_ACK")
         version = int(ack["proto_version"])
+        minor = int(ack["proto_minor"])
         if status != HelloStatus.OK:
             what = {
                 HelloStatus.MODE_UNSUPPORTED: f" (the controller does not support mode {Mode(mode).name})",
-                HelloStatus.ESTIMATOR_UNSUPPORTED: f" (estimator {estimator} was asked for)",
-                HelloStatus.VERSION_MISMATCH: f" (controller protocol {version}, ours {PROTO_VERSION})",
+                HelloStatus.ESTIMATOR_UNSUPPORTED: f" ({self._estimator_text(estimator, version, minor)})",
+                HelloStatus.VERSION_MISMATCH: f" (controller protocol {version}, ours {PROTO_VERSION}."
+                                              f"{PROTO_MINOR}: another major version)",
             }.get(HelloStatus(status), "")
             raise LinkError(f"controller refused the handshake: {name}{what}")
         if version != PROTO_VERSION:
             raise ProtocolViolation(f"HELLO_ACK: status OK but proto_version = {version}, ours is "
                                     f"{PROTO_VERSION} (docs/protocol.md section 6.1)")
+        if minor > PROTO_MINOR:
+            raise ProtocolViolation(f"HELLO_ACK: proto_minor = {minor}, above the host's {PROTO_MINOR}: the "
+                                    f"session speaks the lower of the two (docs/protocol.md section 6.1)")
+        self.session_minor = minor
         self.hello_ack = ack
         self._cmd_seq = 0   # a new session: CMD seq starts again at 1
         return ack
+
+    @staticmethod
+    def _estimator_text(estimator: int, major: int, minor: int) -> str:
+        from hil_bench.protocol.messages import Estimator
+
+        try:
+            name = Estimator(estimator).name
+        except ValueError:
+            return f"estimator {estimator} was asked for"
+        if major == PROTO_VERSION and minor < PROTO_MINOR and name not in versions.known(major, minor).estimators:
+            return (f"estimator {estimator} {name} was asked for; the controller speaks protocol {major}.{minor}, "
+                    f"and {name} came with {versions.added_in('estimators', name)}")
+        return f"estimator {estimator} {name} was asked for"
+
+    @property
+    def version_text(self) -> str:
+        """The version the session speaks, "1.1"."""
+        return f"{PROTO_VERSION}.{self.session_minor}"
+
+    def serve(self, params: dict[Param, float], *, needs_commands: dict[str, str] | None = None
+              ) -> dict[Param, float]:
+        """The parameters to send in this session (``hil_bench.protocol.versions.serve``): all of them when
+        the controller speaks the host's version; to an older minor only what its version knows, the
+        features left out listed in ``features_off``. Raises :class:`VersionRefused` naming what the run
+        needs and the version lacks."""
+        try:
+            served, self.features_off = versions.serve(params, PROTO_VERSION, self.session_minor, needs_commands)
+        except versions.NeedsNewerVersion as exc:
+            raise VersionRefused(str(exc)) from None
+        return served
 
     # -- configuration -----------------------------------------------------------------------------
     def configure(self, params: dict[Param, float], timeout_s: float | None = None) -> None:

@@ -31,13 +31,13 @@ from hil_bench.installation import checkout_root, version
 from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
 from hil_bench.plant_rt.profile import load_profile
-from hil_bench.protocol.messages import Command, Estimator, HelloFlag, Mode, Param
+from hil_bench.protocol.messages import PROTO_VERSION, Command, Estimator, HelloFlag, Mode, Param
 from hil_bench.protocol.timing import RESEND_MAX_INTERVAL_S
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import ProcessRecorder, RecorderError, check_target
 from hil_bench.scenario import INV_COMP_CURRENTS, INV_COMP_SHAPES, RPM_PER_RAD_S, Scenario
 
-from .host_session import HostSession
+from .host_session import PROTO_MINOR, HostSession
 from .links import STUB_CAN_MODES, LinkError, OpenedLink, open_link
 from .links.engine_fd import engine_link_for
 
@@ -109,6 +109,8 @@ class RunResult:
     link_stats: dict = field(default_factory=dict)
     timing: dict = field(default_factory=dict)
     realtime_notes: str = ""
+    #: the controller speaks an older protocol version: which features the session left out
+    protocol_note: str = ""
     ts_s: float = 0.0              # the control period [s]
     target: dict = field(default_factory=dict)   # pil-qemu: the target's own figures (qemu.py)
     #: --live: the viewer's end-of-run figures (record/live_view.py LiveView.stats), else None
@@ -149,7 +151,10 @@ def estimator_defaults(estimator: Estimator, profile, ts_s: float,
     from hil_bench.firmware_stub.est_smo import smo_sigmoid_for, smo_tanh_for
 
     factory = smo_sigmoid_for if estimator is Estimator.SMO_SIGMOID else smo_tanh_for
-    chosen = {f: given[p] for f, p in SMO_CONFIG_PARAMS.items() if p in given}
+    # only the settings this observer has: SMO_WC_RAD_S given to SMO_TANH (which has no filter,
+    # docs/estimators.md) goes to the controller, which ignores it, not into the reference's rules
+    known = set(factory(profile, ts_s).config)
+    chosen = {f: given[p] for f, p in SMO_CONFIG_PARAMS.items() if p in given and f in known}
     config = factory(profile, ts_s, **chosen).config
     return {p: float(config[f]) for f, p in SMO_CONFIG_PARAMS.items()
             if f in config and p not in given}
@@ -709,7 +714,16 @@ class Runner:
             self._event(0.0, "handshake",
                         f"controller fw 0x{int(ack['fw_version']):04X}, estimators mask "
                         f"0x{int(ack['estimators']):04X}", float(ack["fw_version"]))
-            self.session.configure(self.controller_params())
+            params = self.session.serve(self.controller_params(), needs_commands={
+                "RESTART": f"faults[{fs.index}] controller_reset"
+                for fs in self.scn.faults if fs.kind == "controller_reset"})
+            if self.session.session_minor < PROTO_MINOR:
+                self.protocol_note = (f"the controller speaks protocol {self.session.version_text} (the bench "
+                                      f"{PROTO_VERSION}.{PROTO_MINOR}): served as {self.session.version_text}"
+                                      + (f", without {', '.join(self.session.features_off)}"
+                                         if self.session.features_off else ", nothing of the run left out"))
+                self._event(0.0, "protocol", self.protocol_note, float(self.session.session_minor))
+            self.session.configure(params)
             self.session.command(Command.SET_SPEED_REF, self.scn.speed_ref_rad_s)
             self.session.command(Command.RUN)
         finally:
@@ -857,6 +871,7 @@ class Runner:
         r = e.result()
         result.cycles_done = r.cycles_done
         result.end = r.end_name
+        result.protocol_note = getattr(self, "protocol_note", "")
         result.realtime_notes = "; ".join(n for n in (r.rt_notes, self._throttling_note(),
                                                       self._stub_rt_notes()) if n)
         if result.timed_out:

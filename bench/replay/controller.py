@@ -85,7 +85,11 @@ def run_controller(cap: Capture, opts: ReplayOptions, profile, out, window, pace
             try:
                 session.handshake(period_s=h["period_us"] * 1e-6, estimator=h["estimator"],
                                   flags=h["flags"], mode=Mode.LOCKSTEP)
-                session.configure(params)
+                served = session.serve(params)   # an older controller: what its version knows (6.1)
+                if served != params:
+                    res.notes.append(f"the controller speaks protocol {session.version_text}: served without "
+                                     f"{', '.join(session.features_off)}")
+                session.configure(served)
                 # the capture's commands before its first cycle (speed reference, RUN), as sent
                 pre = [(fid, data) for d, fid, data in cap.setup_frames if fid == _CMD.frame_id]
                 if pre:

@@ -12,4 +12,7 @@ int ctrl_param_set(ctrl_config_t *cfg, unsigned param_id, float value);
 /** Read one parameter back (its value now: the default until CONFIG set it); 0 = OK, 1 = unknown. */
 int ctrl_param_get(const ctrl_config_t *cfg, unsigned param_id, float *value);
 
+/** The protocol minor version that added the parameter (0: protocol 1.0), -1 if unknown. */
+int ctrl_param_since_minor(unsigned param_id);
+
 #endif

@@ -22,9 +22,24 @@ typedef char check_fault_stall[((int)CTRL_FAULT_STALL == (int)HIL_FAULT_STALL) ?
 
 uint16_t hil_session_estimators(void)
 {
-    return (uint16_t)((1u << HIL_EST_SMO_SIGN) | (1u << HIL_EST_SMO_SIGMOID) |
-                      (1u << HIL_EST_SMO_TANH) | (1u << HIL_EST_HFI_SDFT) |
-                      (1u << HIL_EST_ENCODER) | (1u << HIL_EST_SMO_STA));
+    return hil_session_estimators_of_minor(HIL_PROTO_VERSION_MINOR);
+}
+
+/* What each minor version added to the value tables (docs/protocol.md section 10, the changelog;
+ * protocol/versions.py records the tables of each version and tests/test_protocol_versions.py checks
+ * a stub that claims 1.0 against them) */
+#define HIL_EST_SMO_STA_SINCE_MINOR 1u
+#define HIL_CMD_RESTART_SINCE_MINOR 1u
+
+uint16_t hil_session_estimators_of_minor(uint16_t minor)
+{
+    uint16_t mask = (uint16_t)((1u << HIL_EST_SMO_SIGN) | (1u << HIL_EST_SMO_SIGMOID) |
+                               (1u << HIL_EST_SMO_TANH) | (1u << HIL_EST_HFI_SDFT) |
+                               (1u << HIL_EST_ENCODER));
+    if (minor >= HIL_EST_SMO_STA_SINCE_MINOR) {
+        mask = (uint16_t)(mask | (1u << HIL_EST_SMO_STA));
+    }
+    return mask;
 }
 
 void hil_session_init(hil_session_t *s, const hil_port_t *port)
@@ -36,6 +51,8 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->flags = 0u;
     s->mode = 0u;
     s->modes = HIL_SESSION_MODES_DEFAULT;
+    s->proto_minor = (uint16_t)HIL_PROTO_VERSION_MINOR;
+    s->session_minor = (uint16_t)HIL_PROTO_VERSION_MINOR;
     s->aux_seq = 0u;
     s->aux_valid = 0;
     s->aux_flags = 0u;
@@ -68,9 +85,12 @@ void hil_session_restart(hil_session_t *s)
 {
     const hil_port_t port = s->port;
     const uint16_t modes = s->modes;
+    const uint16_t minor = s->proto_minor;
     const uint32_t restarts = s->restarts + 1u;
     hil_session_init(s, &port);
     s->modes = modes;
+    s->proto_minor = minor;
+    s->session_minor = minor;
     s->restarts = restarts;
     hil_session_heartbeat(s, 0u);
 }
@@ -93,14 +113,19 @@ static void on_hello(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
     hil_hello_ack_t a;
     hil_octet_t buf[HIL_HELLO_ACK_LENGTH];
     float period_us;
+    uint16_t minor, estimators;
     if (hil_hello_unpack(&h, data, dlc) != 0) {
         s->stats.length_errors++;
         return;
     }
     period_us = hil_hello_period_us_decode(h.period_us);
+    /* the session speaks the lower of the two minor versions (a 1.0 host sends 0 there) */
+    minor = h.proto_minor < s->proto_minor ? h.proto_minor : s->proto_minor;
+    estimators = hil_session_estimators_of_minor(minor);
     a.proto_version = (uint16_t)HIL_PROTO_VERSION;
+    a.proto_minor = minor;
     a.fw_version = HIL_FW_VERSION;
-    a.estimators = hil_session_estimators();
+    a.estimators = estimators;
     a.session = h.session;
     a.status = HIL_HELLO_STATUS_OK;
     /* checked in the order of docs/protocol.md 6.1 */
@@ -108,7 +133,7 @@ static void on_hello(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         a.status = HIL_HELLO_STATUS_VERSION_MISMATCH;
     } else if (h.mode >= 16u || (((unsigned)s->modes >> (unsigned)h.mode) & 1u) == 0u) {
         a.status = HIL_HELLO_STATUS_MODE_UNSUPPORTED;
-    } else if (h.estimator >= 16u || (((unsigned)hil_session_estimators() >> (unsigned)h.estimator) & 1u) == 0u) {
+    } else if (h.estimator >= 16u || (((unsigned)estimators >> (unsigned)h.estimator) & 1u) == 0u) {
         a.status = HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED;
     } else if (h.estimator == HIL_EST_ENCODER && (h.flags & HIL_HELLO_FLAG_ENCODER_VALID) == 0u) {
         a.status = HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED; /* no angle will come (6.8) */
@@ -124,6 +149,7 @@ static void on_hello(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         s->session_id = h.session;
         s->flags = h.flags;
         s->mode = h.mode;
+        s->session_minor = minor;
         s->have_seq = 0;
         s->cache_n = 0u;
         s->aux_valid = 0;
@@ -154,7 +180,9 @@ static void on_config(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
     }
     a.param_id = c.param_id;
     a.config_seq = c.config_seq;
-    if (!controller_idle(s)) {
+    if (ctrl_param_since_minor(c.param_id) > (int)s->session_minor) {
+        a.status = HIL_CONFIG_STATUS_UNKNOWN_PARAM; /* added after the version of this session */
+    } else if (!controller_idle(s)) {
         a.status = HIL_CONFIG_STATUS_LOCKED;
     } else {
         a.status = (uint16_t)ctrl_param_set(&s->ctrl.cfg, c.param_id, c.value);
@@ -206,7 +234,9 @@ static void on_cmd(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         ctrl_set_mode(&s->ctrl, c.value > 0.5f ? CTRL_MODE_CURRENT : CTRL_MODE_SPEED);
         break;
     case HIL_CMD_RESTART:
-        hil_session_restart(s);
+        if (s->session_minor >= HIL_CMD_RESTART_SINCE_MINOR) {
+            hil_session_restart(s);
+        }
         break;
     default:
         break;

@@ -12,6 +12,14 @@
  * IDLE). `restarts` counts them across restarts, so a port that keeps state of its own (a timer,
  * its link's error count) sees one happened.
  *
+ * Versions (docs/protocol.md 6.1, 10): HELLO carries the host's protocol version (major
+ * proto_version, proto_minor), HELLO_ACK the one the session speaks: the major, and the lower of the
+ * host's minor and `proto_minor` (this controller's own: HIL_PROTO_VERSION_MINOR, which a port may
+ * lower after init to behave as an older drive, e.g. the Linux stub's --proto 1.0). In a session of
+ * an older minor the controller knows only what that version knows: a parameter added later is
+ * UNKNOWN_PARAM, an estimator added later is not in `estimators` (ESTIMATOR_UNSUPPORTED), a command
+ * added later is ignored like any command it does not know.
+ *
  * Retries (docs/protocol.md 6.5): the session keeps the TELEM, TELEM_EMF and DUTY frames it sent for
  * the last SENSE it ran. A SENSE repeating that seq is answered from this cache, byte for byte, and
  * the control ISR does not run again. An accepted HELLO empties the cache.
@@ -64,6 +72,8 @@ typedef struct {
     uint16_t flags;   /**< HELLO flags */
     uint16_t mode;    /**< HELLO mode */
     uint16_t modes;   /**< HELLO modes accepted (bit n = mode n); a port may narrow it after init */
+    uint16_t proto_minor;   /**< this controller's minor protocol version; a port may lower it after init */
+    uint16_t session_minor; /**< the minor version the session speaks (HELLO_ACK.proto_minor) */
     /* per-cycle auxiliary data latched before SENSE */
     uint16_t aux_seq;
     int aux_valid;
@@ -88,10 +98,12 @@ typedef struct {
 
 /** Bitmask of estimators this firmware implements (bit n = estimator id n). */
 uint16_t hil_session_estimators(void);
+/** The estimators of a session of protocol 1.`minor` (those added in a later minor left out). */
+uint16_t hil_session_estimators_of_minor(uint16_t minor);
 void hil_session_init(hil_session_t *s, const hil_port_t *port);
 void hil_session_on_frame(hil_session_t *s, const hil_frame_t *f);
 /** Restart as from power-up (CMD RESTART; a port may call it for a reset line of its own): the
- *  session and the controller re-initialised, the port and the modes it allows kept, `restarts`
+ *  session and the controller re-initialised, the port, the modes it allows and its protocol version kept, `restarts`
  *  + 1, and a HEARTBEAT_CTRL sent at once (counter 0, state IDLE, no errors: a port resets its
  *  link's error count with it). */
 void hil_session_restart(hil_session_t *s);

@@ -296,6 +296,7 @@ int hil_hello_pack(hil_octet_t *dst, const hil_hello_t *src, size_t size)
     if (dst == NULL || src == NULL || size < HIL_HELLO_LENGTH) {
         return -1;
     }
+    dst[5] = 0u;
     u = (uint32_t)src->proto_version;
     dst[0] = (hil_octet_t)(u & 0xFFu);
     u = (uint32_t)src->mode;
@@ -306,7 +307,9 @@ int hil_hello_pack(hil_octet_t *dst, const hil_hello_t *src, size_t size)
     u = (uint32_t)src->estimator;
     dst[4] = (hil_octet_t)(u & 0xFFu);
     u = (uint32_t)src->flags;
-    dst[5] = (hil_octet_t)(u & 0xFFu);
+    dst[5] = (hil_octet_t)(dst[5] | (u & 0xFu));
+    u = (uint32_t)src->proto_minor;
+    dst[5] = (hil_octet_t)(dst[5] | ((u & 0xFu) << 4));
     u = (uint32_t)src->session;
     dst[6] = (hil_octet_t)(u & 0xFFu);
     dst[7] = (hil_octet_t)((u >> 8) & 0xFFu);
@@ -328,8 +331,10 @@ int hil_hello_unpack(hil_hello_t *dst, const hil_octet_t *src, size_t size)
     dst->period_us = (uint16_t)u;
     u = ((uint32_t)src[4] & 0xFFu);
     dst->estimator = (uint16_t)u;
-    u = ((uint32_t)src[5] & 0xFFu);
+    u = (((uint32_t)src[5] & 0xFFu) & 0xFu);
     dst->flags = (uint16_t)u;
+    u = ((((uint32_t)src[5] & 0xFFu) >> 4) & 0xFu);
+    dst->proto_minor = (uint16_t)u;
     u = ((uint32_t)src[6] & 0xFFu)
         | (((uint32_t)src[7] & 0xFFu) << 8);
     dst->session = (uint16_t)u;
@@ -399,7 +404,7 @@ int hil_hello_estimator_is_in_range(uint16_t raw)
 
 uint16_t hil_hello_flags_encode(float value)
 {
-    return (uint16_t)hil_round_sat_s32((hil_calc_t)value, INT32_C(0), INT32_C(255));
+    return (uint16_t)hil_round_sat_s32((hil_calc_t)value, INT32_C(0), INT32_C(15));
 }
 
 float hil_hello_flags_decode(uint16_t raw)
@@ -410,6 +415,21 @@ float hil_hello_flags_decode(uint16_t raw)
 int hil_hello_flags_is_in_range(uint16_t raw)
 {
     return (raw <= HIL_HELLO_FLAGS_RAW_MAX) ? 1 : 0;
+}
+
+uint16_t hil_hello_proto_minor_encode(float value)
+{
+    return (uint16_t)hil_round_sat_s32((hil_calc_t)value, INT32_C(0), INT32_C(15));
+}
+
+float hil_hello_proto_minor_decode(uint16_t raw)
+{
+    return (float)raw;
+}
+
+int hil_hello_proto_minor_is_in_range(uint16_t raw)
+{
+    return (raw <= HIL_HELLO_PROTO_MINOR_RAW_MAX) ? 1 : 0;
 }
 
 uint16_t hil_hello_session_encode(float value)
@@ -435,10 +455,13 @@ int hil_hello_ack_pack(hil_octet_t *dst, const hil_hello_ack_t *src, size_t size
     if (dst == NULL || src == NULL || size < HIL_HELLO_ACK_LENGTH) {
         return -1;
     }
+    dst[1] = 0u;
     u = (uint32_t)src->proto_version;
     dst[0] = (hil_octet_t)(u & 0xFFu);
     u = (uint32_t)src->status;
-    dst[1] = (hil_octet_t)(u & 0xFFu);
+    dst[1] = (hil_octet_t)(dst[1] | (u & 0xFu));
+    u = (uint32_t)src->proto_minor;
+    dst[1] = (hil_octet_t)(dst[1] | ((u & 0xFu) << 4));
     u = (uint32_t)src->fw_version;
     dst[2] = (hil_octet_t)(u & 0xFFu);
     dst[3] = (hil_octet_t)((u >> 8) & 0xFFu);
@@ -459,8 +482,10 @@ int hil_hello_ack_unpack(hil_hello_ack_t *dst, const hil_octet_t *src, size_t si
     }
     u = ((uint32_t)src[0] & 0xFFu);
     dst->proto_version = (uint16_t)u;
-    u = ((uint32_t)src[1] & 0xFFu);
+    u = (((uint32_t)src[1] & 0xFFu) & 0xFu);
     dst->status = (uint16_t)u;
+    u = ((((uint32_t)src[1] & 0xFFu) >> 4) & 0xFu);
+    dst->proto_minor = (uint16_t)u;
     u = ((uint32_t)src[2] & 0xFFu)
         | (((uint32_t)src[3] & 0xFFu) << 8);
     dst->fw_version = (uint16_t)u;
@@ -490,7 +515,7 @@ int hil_hello_ack_proto_version_is_in_range(uint16_t raw)
 
 uint16_t hil_hello_ack_status_encode(float value)
 {
-    return (uint16_t)hil_round_sat_s32((hil_calc_t)value, INT32_C(0), INT32_C(255));
+    return (uint16_t)hil_round_sat_s32((hil_calc_t)value, INT32_C(0), INT32_C(15));
 }
 
 float hil_hello_ack_status_decode(uint16_t raw)
@@ -501,6 +526,21 @@ float hil_hello_ack_status_decode(uint16_t raw)
 int hil_hello_ack_status_is_in_range(uint16_t raw)
 {
     return (raw <= HIL_HELLO_ACK_STATUS_RAW_MAX) ? 1 : 0;
+}
+
+uint16_t hil_hello_ack_proto_minor_encode(float value)
+{
+    return (uint16_t)hil_round_sat_s32((hil_calc_t)value, INT32_C(0), INT32_C(15));
+}
+
+float hil_hello_ack_proto_minor_decode(uint16_t raw)
+{
+    return (float)raw;
+}
+
+int hil_hello_ack_proto_minor_is_in_range(uint16_t raw)
+{
+    return (raw <= HIL_HELLO_ACK_PROTO_MINOR_RAW_MAX) ? 1 : 0;
 }
 
 uint16_t hil_hello_ack_fw_version_encode(float value)

@@ -20,12 +20,14 @@ static const hil_signal_info_t hil_hello_signals[] = {
     {"mode", HIL_SIG_UNSIGNED, 8u, 8u, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 255.0, 0},
     {"period_us", HIL_SIG_UNSIGNED, 16u, 16u, 0.1, 0.0, 0.0, 6553.5, 0.0, 65535.0, 0.0, 65535.0, 0},
     {"estimator", HIL_SIG_UNSIGNED, 32u, 8u, 1.0, 0.0, 0.0, 255.0, 0.0, 255.0, 0.0, 255.0, 0},
-    {"flags", HIL_SIG_UNSIGNED, 40u, 8u, 1.0, 0.0, 0.0, 255.0, 0.0, 255.0, 0.0, 255.0, 0},
+    {"flags", HIL_SIG_UNSIGNED, 40u, 4u, 1.0, 0.0, 0.0, 15.0, 0.0, 15.0, 0.0, 15.0, 0},
+    {"proto_minor", HIL_SIG_UNSIGNED, 44u, 4u, 1.0, 0.0, 0.0, 15.0, 0.0, 15.0, 0.0, 15.0, 0},
     {"session", HIL_SIG_UNSIGNED, 48u, 16u, 1.0, 0.0, 0.0, 65535.0, 0.0, 65535.0, 0.0, 65535.0, 0},
 };
 static const hil_signal_info_t hil_hello_ack_signals[] = {
     {"proto_version", HIL_SIG_UNSIGNED, 0u, 8u, 1.0, 0.0, 0.0, 255.0, 0.0, 255.0, 0.0, 255.0, 0},
-    {"status", HIL_SIG_UNSIGNED, 8u, 8u, 1.0, 0.0, 0.0, 255.0, 0.0, 255.0, 0.0, 255.0, 0},
+    {"status", HIL_SIG_UNSIGNED, 8u, 4u, 1.0, 0.0, 0.0, 15.0, 0.0, 15.0, 0.0, 15.0, 0},
+    {"proto_minor", HIL_SIG_UNSIGNED, 12u, 4u, 1.0, 0.0, 0.0, 15.0, 0.0, 15.0, 0.0, 15.0, 0},
     {"fw_version", HIL_SIG_UNSIGNED, 16u, 16u, 1.0, 0.0, 0.0, 65535.0, 0.0, 65535.0, 0.0, 65535.0, 0},
     {"estimators", HIL_SIG_UNSIGNED, 32u, 16u, 1.0, 0.0, 0.0, 65535.0, 0.0, 65535.0, 0.0, 65535.0, 0},
     {"session", HIL_SIG_UNSIGNED, 48u, 16u, 1.0, 0.0, 0.0, 65535.0, 0.0, 65535.0, 0.0, 65535.0, 0},
@@ -98,8 +100,8 @@ static const hil_signal_info_t hil_telem_emf_signals[] = {
 const hil_message_info_t hil_messages[] = {
     {"FAULT_PLANT", 0x010u, 8u, 3u, hil_fault_plant_signals},
     {"FAULT_CTRL", 0x011u, 8u, 3u, hil_fault_ctrl_signals},
-    {"HELLO", 0x020u, 8u, 6u, hil_hello_signals},
-    {"HELLO_ACK", 0x021u, 8u, 5u, hil_hello_ack_signals},
+    {"HELLO", 0x020u, 8u, 7u, hil_hello_signals},
+    {"HELLO_ACK", 0x021u, 8u, 6u, hil_hello_ack_signals},
     {"CONFIG", 0x030u, 8u, 3u, hil_config_signals},
     {"CONFIG_ACK", 0x031u, 8u, 3u, hil_config_ack_signals},
     {"CMD", 0x040u, 8u, 3u, hil_cmd_signals},
@@ -199,16 +201,18 @@ int hil_reflect_pack(const hil_message_info_t *msg, const double *raw, hil_octet
         m.period_us = (uint16_t)raw[2];
         m.estimator = (uint16_t)raw[3];
         m.flags = (uint16_t)raw[4];
-        m.session = (uint16_t)raw[5];
+        m.proto_minor = (uint16_t)raw[5];
+        m.session = (uint16_t)raw[6];
         return hil_hello_pack(dst, &m, size);
     }
     case HIL_HELLO_ACK_FRAME_ID: {
         hil_hello_ack_t m;
         m.proto_version = (uint16_t)raw[0];
         m.status = (uint16_t)raw[1];
-        m.fw_version = (uint16_t)raw[2];
-        m.estimators = (uint16_t)raw[3];
-        m.session = (uint16_t)raw[4];
+        m.proto_minor = (uint16_t)raw[2];
+        m.fw_version = (uint16_t)raw[3];
+        m.estimators = (uint16_t)raw[4];
+        m.session = (uint16_t)raw[5];
         return hil_hello_ack_pack(dst, &m, size);
     }
     case HIL_CONFIG_FRAME_ID: {
@@ -338,7 +342,8 @@ int hil_reflect_unpack(const hil_message_info_t *msg, double *raw, const hil_oct
         raw[2] = (double)m.period_us;
         raw[3] = (double)m.estimator;
         raw[4] = (double)m.flags;
-        raw[5] = (double)m.session;
+        raw[5] = (double)m.proto_minor;
+        raw[6] = (double)m.session;
         return 0;
     }
     case HIL_HELLO_ACK_FRAME_ID: {
@@ -348,9 +353,10 @@ int hil_reflect_unpack(const hil_message_info_t *msg, double *raw, const hil_oct
         }
         raw[0] = (double)m.proto_version;
         raw[1] = (double)m.status;
-        raw[2] = (double)m.fw_version;
-        raw[3] = (double)m.estimators;
-        raw[4] = (double)m.session;
+        raw[2] = (double)m.proto_minor;
+        raw[3] = (double)m.fw_version;
+        raw[4] = (double)m.estimators;
+        raw[5] = (double)m.session;
         return 0;
     }
     case HIL_CONFIG_FRAME_ID: {
@@ -504,16 +510,18 @@ int hil_reflect_encode(const hil_message_info_t *msg, size_t sig, float value, d
         case 2u: *raw = (double)hil_hello_period_us_encode(value); return 0;
         case 3u: *raw = (double)hil_hello_estimator_encode(value); return 0;
         case 4u: *raw = (double)hil_hello_flags_encode(value); return 0;
-        case 5u: *raw = (double)hil_hello_session_encode(value); return 0;
+        case 5u: *raw = (double)hil_hello_proto_minor_encode(value); return 0;
+        case 6u: *raw = (double)hil_hello_session_encode(value); return 0;
         default: return -1;
         }
     case HIL_HELLO_ACK_FRAME_ID:
         switch (sig) {
         case 0u: *raw = (double)hil_hello_ack_proto_version_encode(value); return 0;
         case 1u: *raw = (double)hil_hello_ack_status_encode(value); return 0;
-        case 2u: *raw = (double)hil_hello_ack_fw_version_encode(value); return 0;
-        case 3u: *raw = (double)hil_hello_ack_estimators_encode(value); return 0;
-        case 4u: *raw = (double)hil_hello_ack_session_encode(value); return 0;
+        case 2u: *raw = (double)hil_hello_ack_proto_minor_encode(value); return 0;
+        case 3u: *raw = (double)hil_hello_ack_fw_version_encode(value); return 0;
+        case 4u: *raw = (double)hil_hello_ack_estimators_encode(value); return 0;
+        case 5u: *raw = (double)hil_hello_ack_session_encode(value); return 0;
         default: return -1;
         }
     case HIL_CONFIG_FRAME_ID:
@@ -637,16 +645,18 @@ int hil_reflect_decode(const hil_message_info_t *msg, size_t sig, double raw, fl
         case 2u: *value = hil_hello_period_us_decode((uint16_t)raw); return 0;
         case 3u: *value = hil_hello_estimator_decode((uint16_t)raw); return 0;
         case 4u: *value = hil_hello_flags_decode((uint16_t)raw); return 0;
-        case 5u: *value = hil_hello_session_decode((uint16_t)raw); return 0;
+        case 5u: *value = hil_hello_proto_minor_decode((uint16_t)raw); return 0;
+        case 6u: *value = hil_hello_session_decode((uint16_t)raw); return 0;
         default: return -1;
         }
     case HIL_HELLO_ACK_FRAME_ID:
         switch (sig) {
         case 0u: *value = hil_hello_ack_proto_version_decode((uint16_t)raw); return 0;
         case 1u: *value = hil_hello_ack_status_decode((uint16_t)raw); return 0;
-        case 2u: *value = hil_hello_ack_fw_version_decode((uint16_t)raw); return 0;
-        case 3u: *value = hil_hello_ack_estimators_decode((uint16_t)raw); return 0;
-        case 4u: *value = hil_hello_ack_session_decode((uint16_t)raw); return 0;
+        case 2u: *value = hil_hello_ack_proto_minor_decode((uint16_t)raw); return 0;
+        case 3u: *value = hil_hello_ack_fw_version_decode((uint16_t)raw); return 0;
+        case 4u: *value = hil_hello_ack_estimators_decode((uint16_t)raw); return 0;
+        case 5u: *value = hil_hello_ack_session_decode((uint16_t)raw); return 0;
         default: return -1;
         }
     case HIL_CONFIG_FRAME_ID:
@@ -770,16 +780,18 @@ int hil_reflect_is_in_range(const hil_message_info_t *msg, size_t sig, double ra
         case 2u: *in_range = hil_hello_period_us_is_in_range((uint16_t)raw); return 0;
         case 3u: *in_range = hil_hello_estimator_is_in_range((uint16_t)raw); return 0;
         case 4u: *in_range = hil_hello_flags_is_in_range((uint16_t)raw); return 0;
-        case 5u: *in_range = hil_hello_session_is_in_range((uint16_t)raw); return 0;
+        case 5u: *in_range = hil_hello_proto_minor_is_in_range((uint16_t)raw); return 0;
+        case 6u: *in_range = hil_hello_session_is_in_range((uint16_t)raw); return 0;
         default: return -1;
         }
     case HIL_HELLO_ACK_FRAME_ID:
         switch (sig) {
         case 0u: *in_range = hil_hello_ack_proto_version_is_in_range((uint16_t)raw); return 0;
         case 1u: *in_range = hil_hello_ack_status_is_in_range((uint16_t)raw); return 0;
-        case 2u: *in_range = hil_hello_ack_fw_version_is_in_range((uint16_t)raw); return 0;
-        case 3u: *in_range = hil_hello_ack_estimators_is_in_range((uint16_t)raw); return 0;
-        case 4u: *in_range = hil_hello_ack_session_is_in_range((uint16_t)raw); return 0;
+        case 2u: *in_range = hil_hello_ack_proto_minor_is_in_range((uint16_t)raw); return 0;
+        case 3u: *in_range = hil_hello_ack_fw_version_is_in_range((uint16_t)raw); return 0;
+        case 4u: *in_range = hil_hello_ack_estimators_is_in_range((uint16_t)raw); return 0;
+        case 5u: *in_range = hil_hello_ack_session_is_in_range((uint16_t)raw); return 0;
         default: return -1;
         }
     case HIL_CONFIG_FRAME_ID:

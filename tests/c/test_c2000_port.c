@@ -132,6 +132,7 @@ int main(int argc, char **argv)
         hil_hello_ack_t a;
         memset(&h, 0, sizeof h);
         h.proto_version = HIL_PROTO_VERSION;
+        h.proto_minor = HIL_PROTO_VERSION_MINOR;
         h.mode = HIL_MODE_LOCKSTEP;
         h.period_us = hil_hello_period_us_encode(100.0f);
         h.estimator = HIL_EST_SMO_SIGN;

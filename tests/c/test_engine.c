@@ -157,6 +157,7 @@ static void setup_frames(frame_sink_t sink, void *ctx, uint16_t mode)
     hil_cmd_t cmd;
     size_t i;
     h.proto_version = (uint16_t)HIL_PROTO_VERSION;
+    h.proto_minor = (uint16_t)HIL_PROTO_VERSION_MINOR;
     h.mode = mode;
     h.period_us = hil_hello_period_us_encode(100.0f);
     h.estimator = (uint16_t)HIL_EST_SMO_SIGN;

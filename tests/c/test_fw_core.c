@@ -195,6 +195,7 @@ static void send_hello(hil_session_t *s, uint16_t version, uint16_t estimator)
     hil_hello_t h;
     hil_octet_t b[8];
     h.proto_version = version;
+    h.proto_minor = HIL_PROTO_VERSION_MINOR;
     h.mode = HIL_MODE_LOCKSTEP;
     h.period_us = hil_hello_period_us_encode(100.0f);
     h.estimator = estimator;

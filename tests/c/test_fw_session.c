@@ -1,9 +1,9 @@
 /**
  * @file test_fw_session.c
- * @brief The portable HIL session against docs/protocol.md 1.0: the answer cache for repeated SENSE
+ * @brief The portable HIL session against docs/protocol.md 1.1: the answer cache for repeated SENSE
  * (6.5), HELLO statuses MODE_UNSUPPORTED / ESTIMATOR_UNSUPPORTED (6.1, 6.8), the encoder-angle rule
- * (6.8), CMD seq gaps (6.3), CMD RESTART (6.3) and whole-number parameters (6.2). Driven frame by
- * frame through a capturing port.
+ * (6.8), CMD seq gaps (6.3), CMD RESTART (6.3), whole-number parameters (6.2) and the minor version
+ * a session speaks (6.1, 10). Driven frame by frame through a capturing port.
  */
 #include <math.h>
 #include <stdio.h>
@@ -62,6 +62,7 @@ static uint16_t hello(hil_session_t *s, capture_t *cap, uint16_t mode, uint16_t 
     hil_octet_t b[8];
     int k;
     h.proto_version = HIL_PROTO_VERSION;
+    h.proto_minor = HIL_PROTO_VERSION_MINOR;
     h.mode = mode;
     h.period_us = hil_hello_period_us_encode(100.0f);
     h.estimator = estimator;
@@ -458,6 +459,72 @@ static void test_cmd_restart_is_a_power_cycle_in_band(void)
     CHECK(s.restarts == 1u, "a HELLO is not a restart");
 }
 
+/* 6.1, 10: HELLO_ACK.proto_minor is the lower of the host's and the controller's; a session of 1.0
+ * knows only 1.0: no SMO_STA, UNKNOWN_PARAM to a 1.1 parameter, CMD RESTART ignored. */
+static void hello_minor(hil_session_t *s, capture_t *cap, uint16_t minor, uint16_t estimator,
+                        hil_hello_ack_t *ack)
+{
+    hil_hello_t h;
+    hil_octet_t b[8];
+    int k;
+    h.proto_version = HIL_PROTO_VERSION;
+    h.proto_minor = minor;
+    h.mode = HIL_MODE_LOCKSTEP;
+    h.period_us = hil_hello_period_us_encode(100.0f);
+    h.estimator = estimator;
+    h.flags = 0u;
+    h.session = 0x1111u;
+    hil_hello_pack(b, &h, sizeof b);
+    deliver(s, HIL_HELLO_FRAME_ID, b, HIL_HELLO_LENGTH);
+    k = find(cap, HIL_HELLO_ACK_FRAME_ID);
+    memset(ack, 0, sizeof *ack);
+    if (k >= 0) {
+        hil_hello_ack_unpack(ack, cap->data[k], 8u);
+    }
+}
+
+static void test_the_session_speaks_the_lower_minor_version(void)
+{
+    static hil_session_t s;
+    capture_t cap;
+    hil_port_t port;
+    hil_hello_ack_t a;
+    memset(&cap, 0, sizeof cap);
+    port.ctx = &cap;
+    port.send = capture_send;
+    hil_session_init(&s, &port);
+    CHECK(HIL_PROTO_VERSION_MINOR == 1u && s.proto_minor == 1u, "this firmware speaks 1.1");
+    hello_minor(&s, &cap, 1u, HIL_EST_SMO_STA, &a);
+    CHECK(a.status == HIL_HELLO_STATUS_OK && a.proto_minor == 1u && (a.estimators >> HIL_EST_SMO_STA) & 1u,
+          "a 1.1 host: 1.1, SMO_STA offered");
+    CHECK(config(&s, &cap, HIL_PARAM_LOOP_ANGLE, 1.0f) == HIL_CONFIG_STATUS_OK, "LOOP_ANGLE known in 1.1");
+    hello_minor(&s, &cap, 0u, HIL_EST_SMO_STA, &a);
+    CHECK(a.status == HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED && a.proto_minor == 0u &&
+              ((a.estimators >> HIL_EST_SMO_STA) & 1u) == 0u, "a 1.0 host: a 1.0 session, no SMO_STA");
+    hello_minor(&s, &cap, 0u, HIL_EST_SMO_SIGN, &a);
+    CHECK(a.status == HIL_HELLO_STATUS_OK && a.proto_minor == 0u, "1.0 session");
+    CHECK(config(&s, &cap, HIL_PARAM_LOOP_ANGLE, 0.0f) == HIL_CONFIG_STATUS_UNKNOWN_PARAM,
+          "a 1.1 parameter in a 1.0 session: UNKNOWN_PARAM");
+    CHECK(config(&s, &cap, HIL_PARAM_INV_COMP_ENABLE, 0.0f) == HIL_CONFIG_STATUS_UNKNOWN_PARAM, "INV_COMP too");
+    CHECK(config(&s, &cap, HIL_PARAM_RS_OHM, 0.5f) == HIL_CONFIG_STATUS_OK, "a 1.0 parameter: OK");
+    cmd(&s, HIL_CMD_RESTART, 1u, 0.0f);
+    CHECK(s.restarts == 0u && s.hello_done, "CMD RESTART is not a 1.0 command: ignored");
+    /* a drive claiming 1.0 (the Linux stub's --proto 1.0) answers a 1.1 host as 1.0 */
+    s.proto_minor = 0u;
+    hello_minor(&s, &cap, 1u, HIL_EST_SMO_SIGN, &a);
+    CHECK(a.status == HIL_HELLO_STATUS_OK && a.proto_minor == 0u, "a 1.0 drive answers 1.0 to a 1.1 host");
+    cmd(&s, HIL_CMD_RESTART, 1u, 0.0f);
+    CHECK(s.restarts == 0u, "and ignores RESTART");
+    s.proto_minor = 1u;
+    hello_minor(&s, &cap, 1u, HIL_EST_SMO_SIGN, &a);
+    cmd(&s, HIL_CMD_RESTART, 1u, 0.0f);
+    CHECK(s.restarts == 1u && s.proto_minor == 1u, "in 1.1 RESTART restarts, the version kept");
+    /* the ranges are the DBC's: RS_OHM above 0 since 1.1 */
+    CHECK(config(&s, &cap, HIL_PARAM_RS_OHM, 0.0f) == HIL_CONFIG_STATUS_OUT_OF_RANGE, "RS_OHM 0 refused");
+    CHECK(ctrl_param_since_minor(HIL_PARAM_LOOP_ANGLE) == 1 && ctrl_param_since_minor(HIL_PARAM_RS_OHM) == 0 &&
+              ctrl_param_since_minor(999u) == -1, "since minor from the DBC");
+}
+
 int main(void)
 {
     test_retry_is_answered_from_the_cache();
@@ -466,5 +533,6 @@ int main(void)
     test_bus_and_encoder_reach_the_protection();
     test_cmd_seq_and_whole_parameters();
     test_cmd_restart_is_a_power_cycle_in_band();
+    test_the_session_speaks_the_lower_minor_version();
     return check_summary("test_fw_session");
 }

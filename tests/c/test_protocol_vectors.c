@@ -585,6 +585,7 @@ static void direct_api(void)
     CHECK(hil_duty_pack(buf, &duty, sizeof buf) == 8, "pack DUTY");
     CHECK((buf[2] & 0xFFu) == 0xFFu && (buf[3] & 0xFFu) == 0xFFu && (buf[5] & 0xFFu) == 0x40u, "DUTY OFF on the wire");
     hello.proto_version = HIL_PROTO_VERSION;
+    hello.proto_minor = HIL_PROTO_VERSION_MINOR;
     hello.mode = HIL_MODE_LOCKSTEP;
     hello.period_us = hil_hello_period_us_encode(50.0f);
     hello.estimator = HIL_EST_SMO_SIGN;

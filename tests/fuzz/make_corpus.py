@@ -38,7 +38,7 @@ def record(name: str, payload: bytes, flags: int = 0) -> bytes:
 
 def session(estimator: Estimator, n_cycles: int, amp_a: float, extra: list[bytes] = ()) -> bytes:
     """HELLO, the Gong motor's CONFIG, RUN, speed reference, then cycles of rotating currents."""
-    out = [record("HELLO", MESSAGES["HELLO"].pack(proto_version=PROTO_VERSION, mode=0, period_us=100.0,
+    out = [record("HELLO", MESSAGES["HELLO"].pack(proto_version=PROTO_VERSION, proto_minor=1, mode=0, period_us=100.0,
                                                    estimator=int(estimator), flags=0, session=7))]
     cfg = {Param.RS_OHM: 0.6383, Param.LD_H: 2e-3, Param.LQ_H: 2e-3, Param.PSI_F_WB: 0.085,
            Param.POLE_PAIRS: 4, Param.J_KGM2: 0.013, Param.B_NMS: 0.0035, Param.V_DC_NOM_V: 310.0}

@@ -13,6 +13,7 @@
  *   hil_stub --socketcan IFACE               raw SocketCAN socket (can0, vcan0)
  *            [--idle-timeout-s S] [--quiet] [--echo] [--inject KIND@CYCLE]
  *            [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N] [--heartbeat-always]
+ *            [--proto 1.MINOR]
  *
  * --isr chooses what fires the control ISR, as on a DSP drive (docs/protocol.md 6.4):
  *   sense (default)  the arrival of SENSE (the bench's frame is the ADC-complete interrupt);
@@ -54,6 +55,11 @@
  * controller back to their state at power-up, no handshake, no configuration, heartbeat counter
  * from 0, a HEARTBEAT_CTRL at once); the port's own state (the ISR timer, the heartbeat timing,
  * the link's error count) starts over with it.
+ *
+ * --proto 1.MINOR: speak an older minor version of the protocol, as a drive built against it would
+ * (docs/protocol.md 10): HELLO_ACK says that minor, parameters, estimators and commands added after it
+ * are unknown (UNKNOWN_PARAM, ESTIMATOR_UNSUPPORTED, ignored). `--proto 1.0` is a 1.0 drive; the bench's
+ * tests run it against today's host.
  *
  * --echo sends every received frame straight back instead of running the controller (a loopback
  * for testing the link codecs byte for byte).
@@ -317,7 +323,7 @@ static void usage(void)
             "                [--idle-timeout-s S] [--quiet] [--echo]\n"
             "                [--inject silent|crash|garbage|bad-duty|unknown-id|wrong-dlc|bus-off|slow|late@CYCLE]\n"
             "                [--isr sense|timer[:PHASE_US]] [--rt-priority N] [--cpu N] [--busy-poll]\n"
-            "                [--heartbeat-always]\n");
+            "                [--heartbeat-always] [--proto 1.MINOR]\n");
 }
 
 static int parse_inject(const char *arg, inject_t *kind, unsigned long *cycle)
@@ -366,7 +372,7 @@ int main(int argc, char **argv)
     int was_open = 0;
     const char *exit_reason = "host closed the link";
     transport_t *t;
-    int rt_priority = 0, rt_cpu = -1, busy_poll = 0, hb_always = 0;
+    int rt_priority = 0, rt_cpu = -1, busy_poll = 0, hb_always = 0, proto_minor = -1;
     unsigned long last_hb_errors = 0ul;
     uint32_t last_restarts = 0u;
     long long last_busy_ms = 0;
@@ -421,6 +427,19 @@ int main(int argc, char **argv)
             hb_always = 1;
         } else if (strcmp(argv[i], "--cpu") == 0 && i + 1 < argc) {
             rt_cpu = (int)strtol(argv[++i], NULL, 10);
+        } else if (strcmp(argv[i], "--proto") == 0 && i + 1 < argc) {
+            const char *v = argv[++i];
+            char *end = NULL;
+            long major = strtol(v, &end, 10);
+            long minor = (end != NULL && *end == '.') ? strtol(end + 1, &end, 10) : -1;
+            if (major != (long)HIL_PROTO_VERSION || minor < 0 || minor > (long)HIL_PROTO_VERSION_MINOR ||
+                end == NULL || *end != '\0') {
+                fprintf(stderr, "hil_stub: --proto '%s': this stub speaks protocol %u.0 to %u.%u\n", v,
+                        (unsigned)HIL_PROTO_VERSION, (unsigned)HIL_PROTO_VERSION,
+                        (unsigned)HIL_PROTO_VERSION_MINOR);
+                return 2;
+            }
+            proto_minor = (int)minor;
         } else if (strcmp(argv[i], "--echo") == 0) {
             app.echo = 1;
         } else if (strcmp(argv[i], "--inject") == 0 && i + 1 < argc) {
@@ -482,6 +501,10 @@ int main(int argc, char **argv)
     port.ctx = &app;
     port.send = port_send;
     hil_session_init(&app.session, &port);
+    if (proto_minor >= 0) {
+        app.session.proto_minor = (uint16_t)proto_minor;
+        app.session.session_minor = (uint16_t)proto_minor;
+    }
     last_rx_ms = last_hb_ms = now_ms();
     if (!quiet) {
         fprintf(stderr, "hil_stub: listening on %s%s\n", t->name, app.echo ? " (echo)" : "");
