@@ -118,7 +118,7 @@ def said_listening(err, live, port: int) -> None:
 
 def add_live_hand_options(p: argparse.ArgumentParser, what: str) -> None:
     """--live-host and --live-wait (bench run, bench replay; docs/foxglove.md)."""
-    from hil_bench.record.live_view import DEFAULT_WAIT_S
+    from hil_bench.record.live_defaults import DEFAULT_WAIT_S
 
     p.add_argument("--live-host", default=None, metavar="ADDR",
                    help="--live: the address to listen on (default 127.0.0.1, this machine "

@@ -48,12 +48,8 @@ from hil_bench.plant_rt._plant_c import ffi, lib
 
 from . import channels as chans
 
-DEFAULT_PORT = 8765
-DEFAULT_HOST = "127.0.0.1"
-DEFAULT_RATE_HZ = 50.0
-DEFAULT_BACKLOG = 256
-#: --live-wait without a value: how long the bench waits for the first viewer [s]
-DEFAULT_WAIT_S = 300.0
+from .live_defaults import (DEFAULT_BACKLOG, DEFAULT_HOST, DEFAULT_PORT,  # noqa: F401
+                            DEFAULT_RATE_HZ, DEFAULT_WAIT_S)
 #: topics every row of which goes to the viewer (rare rows that mean something one by one)
 EVERY_ROW_TOPICS = (chans.EVENTS, chans.FAULTS, chans.LINK_STATS)
 #: the viewer-only channel that sends a subscriber every /events row of the run so far

@@ -221,8 +221,11 @@ def link_frames(cols: Mapping[str, np.ndarray]) -> pandas.DataFrame:
                     per_msg[fid] = ([], {sig.name: [] for sig in msg.signals})
                 rows, values = per_msg[fid]
                 rows.append(row)
-                for name, value in msg.decode(data, decode_choices=False).items():
-                    values[name].append(value)
+                decoded = msg.decode(data, decode_choices=False)
+                for name, column in values.items():
+                    # a multiplexed message (CONFIG: one signal per parameter) has only the
+                    # signals of its multiplexer value in a frame: the others are missing there
+                    column.append(decoded.get(name))
     n = len(f_t)
     names = [m.name for _, (m, _) in sorted(by_id.items())]
     data = {"seq": np.asarray(f_seq, dtype=np.int64),
@@ -235,21 +238,24 @@ def link_frames(cols: Mapping[str, np.ndarray]) -> pandas.DataFrame:
         rows, values = per_msg[fid]
         at = np.asarray(rows, dtype=np.int64)
         for column, sig, kind, extra in by_id[fid][1]:
-            got = np.asarray(values.pop(sig.name))
+            listed = values.pop(sig.name)
+            present = np.asarray([v is not None for v in listed], dtype=bool)
+            got = np.asarray([v for v in listed if v is not None])
+            at_sig = at[present]
             if kind == "cat":
                 raw = np.full(n, np.nan)
-                raw[at] = got
+                raw[at_sig] = got
                 data[column] = categorical(raw, extra, missing=())
             elif kind == "int":
                 vals, mask = np.zeros(n, dtype=np.int64), np.ones(n, dtype=bool)
-                vals[at], mask[at] = got.astype(np.int64), False
+                vals[at_sig], mask[at_sig] = got.astype(np.int64), False
                 data[column] = pd.arrays.IntegerArray(vals, mask)
             else:
                 full = np.full(n, np.nan)
                 vals = got.astype(np.float64)
                 if kind == "off":
                     vals[vals == extra] = np.nan
-                full[at] = vals
+                full[at_sig] = vals
                 data[column] = full
             units[column] = sig.unit or ""
     df = pd.DataFrame(data, index=_index(np.asarray(f_t, dtype=np.float64), n), copy=False)
