@@ -23,16 +23,21 @@ import os
 import socket
 import subprocess
 import threading
+import time
 import tty
 from pathlib import Path
 
 from hil_bench.installation import find_executable
 
+from hil_bench.protocol.timing import PATIENCE_S
+
 from .base import LinkError, reap
 from .serial_link import FdTransport, SerialLink
 
 STUB_SOCKETCAND_BUS = "hil0"   #: the bus name the stub serves as a socketcand server
-STUB_GREETING_TIMEOUT_S = 1.0  #: the stub greets within milliseconds of starting
+#: the stub greets within milliseconds of starting, on a quiet host; a busy host may delay its start
+#: by seconds, so the bench waits as it waits for any answer (docs/protocol.md 6.5, the patience)
+STUB_GREETING_TIMEOUT_S = PATIENCE_S
 MODES = ("serial", "slcan", "socketcand", "socketcan")
 
 
@@ -45,7 +50,8 @@ def stub_path() -> Path:
         raise LinkError(f"firmware stub: {exc}") from None
 
 
-STUB_START_TIMEOUT_S = 5.0   # for the stub to open its port ("listening on" on stderr)
+#: for the stub to open its port ("listening on" on stderr), while its process lives (the patience)
+STUB_START_TIMEOUT_S = PATIENCE_S
 
 
 class StubProcess:
@@ -109,7 +115,10 @@ class StubProcess:
         # But close it only once the stub has opened it: a pty with no slave open reads as EIO,
         # which would look like a dead stub to a bench that is quicker than the stub's start-up
         # (a sanitizer build takes a while).
-        self._listening.wait(STUB_START_TIMEOUT_S)
+        deadline = time.monotonic() + STUB_START_TIMEOUT_S
+        while (not self._listening.wait(0.05) and self.proc.poll() is None
+               and time.monotonic() < deadline):
+            pass
         os.close(slave)
         self.link = SerialLink(FdTransport(master, f"pty {self.slave_name} (hil_stub pid "
                                                    f"{self.proc.pid})"))
