@@ -184,9 +184,8 @@ class Session:
         """Every /events row of the run so far (scenario events, the script's, faults, ...)."""
         import pandas as pd
 
-        if not self.closed and not self._open.engine.running() or self._held():
+        if not self.closed and (not self._open.engine.running() or self._held()):
             self._read()      # what the inputs answered while it holds wrote
-
         return _concat_events(self._events) if self._events else pd.DataFrame(
             columns=["kind", "text", "value"], index=pd.Index([], name="t_s"))
 
@@ -200,18 +199,25 @@ class Session:
         """Run ``cycles`` control periods and hold again."""
         if isinstance(cycles, bool) or not isinstance(cycles, int) or cycles < 0:
             raise ValueError(f"step: cycles is a whole number >= 0, got {cycles!r}")
-        self._usable("step")
+        self._step(cycles, f"step({cycles})", f"script: step {cycles} cycles to cycle "
+                                              f"{self.cycle + cycles}")
+
+    def _step(self, cycles: int, what: str, note: str) -> None:
+        self._usable(what)
         target = self.cycle + cycles
-        self._check_target(target, f"step({cycles})")
+        self._check_target(target, what)
         if cycles:
-            self._note(f"script: step {cycles} cycles to cycle {target}")
+            self._note(note)
         deadline = time.monotonic() + self.wall_timeout_s
         while self.cycle < target:
-            self._advance(min(target, self.cycle + self._piece()), deadline, f"step({cycles})")
+            self._advance(min(target, self.cycle + self._piece()), deadline, what)
 
     def run_for(self, duration_s: float) -> None:
         """Run ``duration_s`` of simulated time (rounded to whole periods) and hold again."""
-        self.step(self._cycles("run_for", duration_s))
+        cycles = self._cycles("run_for", duration_s)
+        self._step(cycles, f"run_for({duration_s:g})", f"script: run_for {duration_s:g} s "
+                                                       f"({cycles} cycles) to cycle "
+                                                       f"{self.cycle + cycles}")
 
     def run_until(self, condition: str | Callable[[pandas.DataFrame], Any], *,
                   timeout_s: float, hold_for_s: float = 0.0,
@@ -220,10 +226,10 @@ class Session:
         looking every ``every_s`` of simulated time; returns the time it was met [s] (the run
         then holds at the end of that look, at most ``every_s`` later).
 
-        condition  a pandas expression over a window's columns (``"speed_rpm > 450"``,
-                   ``"abs(pee_rad) < 0.05 and state == 'CLOSED_LOOP'"``; ``t_s`` is the index),
-                   or a callable taking the rows of one look (a DataFrame) and returning a
-                   boolean per row (or one boolean for the look's last row)
+        condition  an expression over a window's columns and ``t_s`` (``"speed_rpm > 450"``,
+                   ``"abs(pee_rad) < 0.05 and state == 'CLOSED_LOOP'"``: _Expression says what
+                   it may hold), or a callable taking the rows of one look (a DataFrame) and
+                   returning a boolean per row (or one boolean for the look's last row)
         timeout_s  simulated time [s] from now within which it must be met: else
                    ConditionNotMet (an AssertionError) saying where the run was
         """
@@ -270,10 +276,9 @@ class Session:
         """Run ``duration_s`` of simulated time and return its rows: the plant's state and the
         controller's telemetry (state and estimator by name), indexed by ``t_s`` [s]."""
         cycles = self._cycles("capture", duration_s)
-        k0 = self.cycle
         with self.window() as w:
-            self._note(f"script: capture {cycles} cycles from cycle {k0}")
-            self.step(cycles)
+            self._step(cycles, f"capture({duration_s:g})",
+                       f"script: capture {cycles} cycles from cycle {self.cycle}")
         return w.frame
 
     def window(self) -> _WindowBlock:
@@ -406,8 +411,8 @@ class Session:
                 self._note(f"script: close: the run goes on to its end (cycle "
                            f"{self.cycles_planned})")
                 self._box.push(HOLD_AT, -1.0, "script: hold no more")
-                self._runner._watch(self._open.engine, self._open.rec, self._open.opened,
-                                    self._open.link, self._open.result, started=True)
+                self._runner.watch(self._open.engine, self._open.rec, self._open.opened,
+                                   self._open.link, self._open.result, started=True)
             else:
                 self._join_engine()
         except BaseException as exc:
@@ -415,6 +420,8 @@ class Session:
             raise
         self._cm.__exit__(None, None, None)
         self.closed = True
+        if self._open.result.interrupted:   # Ctrl-C while it ran to its end: finalised, then said
+            raise KeyboardInterrupt(self._open.result.error)
         return self._check()
 
     def stop(self, reason: str = "the script stopped the run") -> None:

@@ -134,13 +134,13 @@ def settles(y: Any, target: float, *, within_s: float, band: float | None = None
         settle = _crossing(s.t, s.y, i, edge) - t0
     if settle > within_s:
         late = t0 + within_s
-        j = int(np.searchsorted(s.t, late, side="right")) - 1
-        j = max(j, 0)
+        after = np.flatnonzero(s.t > late)
+        j = int(after[np.argmax(err[after])])      # the furthest excursion after the deadline
         raise SignalCheckFailed(
             f"{s.name} settles to {_fmt(target)} ± {_fmt(band)} {_fmt(settle)} s after "
             f"t = {_fmt(t0)} s (at t = {_fmt(t0 + settle)} s), {_fmt(settle - within_s)} s later "
-            f"than {_fmt(within_s)} s; at t = {_fmt(s.t[j])} s it was {_fmt(s.y[j])}, "
-            f"{_fmt(max(err[j] - band, 0.0))} beyond the band",
+            f"than {_fmt(within_s)} s; after t = {_fmt(late)} s it is out of the band up to "
+            f"{_fmt(s.y[j])} at t = {_fmt(s.t[j])} s, {_fmt(err[j] - band)} beyond it",
             settle, t0 + settle, settle - within_s)
     return settle
 
@@ -359,8 +359,8 @@ def frequency(y: Any, *, expected_hz: float | None = None, tolerance_hz: float |
               end_s: float | None = None, t: Any = None) -> float:
     """The frequency of the signal's dominant oscillation [Hz] over [start_s, end_s] (uniformly
     sampled): the peak of a Hann-windowed spectrum, refined by a least-squares fit of a sine, its
-    harmonics and a constant (``_dominant_frequency``). With ``expected_hz`` it fails unless within ``tolerance_hz`` or ``rel_tol``
-    (relative) of it."""
+    harmonics and a constant (``_dominant_frequency``). With ``expected_hz`` it fails unless
+    within ``tolerance_hz`` or ``rel_tol`` (relative) of it."""
     __tracebackhide__ = True
     s = _signal(y, t, start_s, end_s, "frequency")
     f_hz = _dominant_frequency(s)

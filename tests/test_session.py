@@ -92,7 +92,8 @@ def test_a_window_is_the_recordings_rows_of_its_cycles(scripted):
     w = out["load_window"]
     k0 = out["load_k"]
     assert len(w) == 500 and w.index.name == "t_s"
-    assert w.index[0] == pytest.approx(k0 * TS_S) and w.index[-1] == pytest.approx((k0 + 499) * TS_S)
+    assert w.index[0] == pytest.approx(k0 * TS_S)
+    assert w.index[-1] == pytest.approx((k0 + 499) * TS_S)
     st = _topic(s.recording, "/plant/state")
     t = np.asarray(st["t_s"])
     sel = (t >= w.index[0] - 1e-9) & (t <= w.index[-1] + 1e-9)
@@ -374,3 +375,29 @@ def test_the_example_projects_scripted_test_passes(tmp_path, link):
     rec = Path(props["gong_g2_500rpm/recording"])
     assert rec.is_file() and rec.parent == tmp_path / "recs"
     assert props["gong_g2_500rpm/integrity"].startswith("script: 2 script input(s)")
+
+
+def test_hil_session_ends_a_failed_tests_run_where_it_holds(tmp_path):
+    """A test that fails with its session open: the fixture stops the run where it holds (not
+    run to its end), the recording is finalised and named in the failure's report."""
+    import subprocess
+    import sys
+
+    (tmp_path / "test_fails.py").write_text(
+        "def test_fails(hil_session):\n"
+        "    s = hil_session('gong_g2_500rpm', overrides={'scenario.duration_s': 0.3,\n"
+        "                                                 'metrics.window_s': [0.1, 0.3]})\n"
+        "    s.step(100)\n"
+        "    assert s.controller_state == 'CLOSED_LOOP', s.controller_state\n")
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--hil-link", "sil",
+         "--hil-recordings", str(tmp_path / "recs"), "test_fails.py"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert "AssertionError: ALIGN" in proc.stdout, proc.stdout
+    rec = tmp_path / "recs" / "test_fails.py_test_fails-s1.mcap"
+    assert "hil-bench recordings" in proc.stdout and str(rec) in proc.stdout, proc.stdout
+    result = load_recording(rec, topics=["/plant/state"]).metadata["run_result"]
+    assert result["cycles_done"] == "100"
+    assert result["error"] == ("the script ended the run at cycle 100 (t = 0.01 s) of 3000: "
+                               "the test failed")

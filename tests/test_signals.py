@@ -47,13 +47,14 @@ def second_order(zeta: float, wn_rad_s: float, t_end_s: float) -> tuple[pd.Serie
     phi = math.acos(zeta)
 
     def y(t):
-        return 1.0 - np.exp(-zeta * wn_rad_s * t) / math.sqrt(1.0 - zeta ** 2) * np.sin(wd * t + phi)
+        return 1.0 - (np.exp(-zeta * wn_rad_s * t) / math.sqrt(1.0 - zeta ** 2)
+                      * np.sin(wd * t + phi))
 
     t = np.arange(0.0, t_end_s, DT)
     return pd.Series(y(t), index=pd.Index(t, name="t_s"), name="x"), y
 
 
-# -- settling ------------------------------------------------------------------------------------------
+# -- settling --------------------------------------------------------------------------------------
 
 def test_settling_time_of_a_first_order_step_is_tau_ln_amp_over_band():
     tau, amp, band = 0.02, 300.0, 6.0            # a 2 % band
@@ -97,9 +98,13 @@ def test_a_late_settling_fails_saying_when_and_by_how_much():
     msg = str(e)
     assert "speed_rpm settles to 300 ± 6 0.0782" in msg, msg
     assert "0.0282" in msg and "later than 0.05 s" in msg, msg
-    # where it was at the deadline, and how far beyond the band
-    at = float(re.search(r"at t = ([\d.]+) s it was ([\d.]+)", msg).group(2))
-    assert at == pytest.approx(amp * (1 - math.exp(-0.05 / tau)), rel=1e-4)
+    # the furthest it was out of the band after the deadline: its first sample after 0.05 s
+    value, t, by = map(float, re.search(r"after t = 0.05 s it is out of the band up to "
+                                        r"([\d.]+) at t = ([\d.]+) s, ([\d.]+) beyond it",
+                                        msg).groups())
+    assert t == pytest.approx(0.05 + DT, abs=1e-9)
+    assert value == pytest.approx(amp * (1 - math.exp(-t / tau)), rel=1e-5)
+    assert by == pytest.approx(amp - value - band, abs=1e-3)   # both printed to 6 digits
 
 
 def test_a_signal_that_never_settles_fails_at_its_last_sample():
@@ -109,7 +114,7 @@ def test_a_signal_that_never_settles_fails_at_its_last_sample():
         signals.settles(y, 100.0, band=1.0, within_s=1.0, t=t)
 
 
-# -- overshoot -----------------------------------------------------------------------------------------
+# -- overshoot -------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("zeta", [0.2, 0.5, 0.7])
 def test_overshoot_of_a_second_order_step_is_exp_minus_zeta_pi_over_root(zeta):
@@ -144,7 +149,7 @@ def test_a_falling_step_overshoots_downwards():
     assert signals.overshoot(falling, 6.0) == pytest.approx(exact, abs=peak_tol_pct(0.5, 300.0))
 
 
-# -- rise time -----------------------------------------------------------------------------------------
+# -- rise time -------------------------------------------------------------------------------------
 
 def test_rise_time_10_90_of_a_first_order_step_is_tau_ln_9():
     tau = 0.015
@@ -187,7 +192,7 @@ def test_a_step_that_never_gets_there_says_how_far_short():
         signals.rise_time(y, 0.0, 1.0)
 
 
-# -- bands ---------------------------------------------------------------------------------------------
+# -- bands -----------------------------------------------------------------------------------------
 
 def test_stays_within_gives_the_extremes_and_fails_at_the_furthest_excursion():
     t = np.arange(0.0, 0.1, DT)
@@ -210,7 +215,7 @@ def test_stays_near_returns_the_largest_deviation():
         signals.stays_near(y, 800.0, 2.0, t=t)
 
 
-# -- ramps ---------------------------------------------------------------------------------------------
+# -- ramps -----------------------------------------------------------------------------------------
 
 def test_follows_ramp_measures_the_ripple_on_a_ramp():
     t = np.arange(0.1, 0.4, DT)
@@ -232,7 +237,7 @@ def test_follows_a_reference_series():
     assert signals.follows(y, ref, 0.02) == pytest.approx(0.01, abs=1e-12)
 
 
-# -- frequency -----------------------------------------------------------------------------------------
+# -- frequency -------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("f_hz", [33.3, 47.31, 250.0, 1234.5])
 def test_frequency_of_a_sine_of_known_frequency(f_hz):
@@ -261,7 +266,7 @@ def test_a_wrong_frequency_fails_saying_by_how_much():
     assert "e_alpha_v oscillates at 50 Hz" in str(e) and "-2 Hz from 52 Hz" in str(e)
 
 
-# -- inputs and tracebacks -----------------------------------------------------------------------------
+# -- inputs and tracebacks -------------------------------------------------------------------------
 
 def test_bad_inputs_are_clear_errors():
     t = np.arange(0.0, 1.0, 0.1)

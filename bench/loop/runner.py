@@ -516,7 +516,7 @@ class Runner:
     def run(self) -> RunResult:
         with self.opened_run() as opened:
             if opened.engine is not None:
-                self._watch(opened.engine, opened.rec, opened.opened, opened.link, opened.result)
+                self.watch(opened.engine, opened.rec, opened.opened, opened.link, opened.result)
         return opened.result
 
     @contextlib.contextmanager
@@ -878,8 +878,8 @@ class Runner:
         self._engine_t0 = time.perf_counter()
         e.start()
 
-    def _watch(self, e: eng.Engine, rec: ProcessRecorder, opened: OpenedLink, link,
-               result: RunResult, started: bool = False) -> None:
+    def watch(self, e: eng.Engine, rec: ProcessRecorder, opened: OpenedLink, link,
+              result: RunResult, started: bool = False) -> None:
         """Start the engine (unless ``started``) and watch it to its end: progress, Ctrl-C, a
         recorder that dies, the executor's time limit; then what the engine's end says."""
         progress = _Progress(self.n_cycles, self.scn.name) if self.progress else None
