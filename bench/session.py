@@ -747,13 +747,13 @@ class _Rows:
     def __len__(self) -> int:
         return len(self.t)
 
-    def frame(self, names: list[str] | None = None) -> pandas.DataFrame:
-        """The rows as a DataFrame (``names``: only those columns)."""
-        return _frame(self.state, self.telem, names)
+    def frame(self) -> pandas.DataFrame:
+        """The rows as a DataFrame (``_frame``)."""
+        return _frame(self.state, self.telem)
 
     def arrays(self, names: list[str]) -> dict[str, Any]:
         """The columns ``names`` as numpy arrays (state and estimator: their names), t_s too."""
-        out = _columns(self.state, self.telem, names, categorical=False)
+        out = _arrays(self.state, self.telem, names)
         out["t_s"] = self.t
         return out
 
@@ -782,33 +782,41 @@ def _names_in(expression: str) -> list[str]:
     return [n for n in dict.fromkeys(_NAME.findall(expression)) if n in known and n != "t_s"]
 
 
-def _frame(state: dict | None, telem: dict | None,
-           names: list[str] | None = None) -> pandas.DataFrame:
-    """One row per recorded cycle: the plant's state, then the controller's telemetry of the same
-    cycle (its EMF as e_alpha_hat_v / e_beta_hat_v; state and estimator as categoricals of their
-    names; NaN where a cycle has none), indexed by t_s [s]; ``names``: only those columns."""
+def _frame(state: dict | None, telem: dict | None) -> pandas.DataFrame:
+    """One row per recorded cycle, indexed by t_s [s]: the plant's state, then the controller's
+    telemetry of the same cycle (its EMF estimate as e_alpha_hat_v / e_beta_hat_v), each as
+    ``load_recording`` gives its channel (hil_bench.record.tables: state and estimator as
+    categoricals named by the DBC, NaN in a cycle without telemetry; units in
+    ``attrs["units"]``)."""
+    from hil_bench.record import channels as ch
+    from hil_bench.record import tables
+
+    tables.require("pandas", "a Session's rows as a DataFrame")
+    plant = tables.channel_frame(ch.PLANT_STATE, state or {})
+    tel = tables.channel_frame(ch.CONTROLLER_TELEMETRY, telem or {})
+    units = {**plant.attrs.get("units", {}),
+             **{TELEMETRY_RENAMES.get(c, c): u for c, u in tel.attrs.get("units", {}).items()}}
+    df = plant.join(tel.rename(columns=TELEMETRY_RENAMES), how="left")
+    df.attrs = {"units": {c: units.get(c, "") for c in ("t_s", *df.columns)},
+                "description": "the plant's state and the controller's telemetry of each "
+                               "recorded cycle (hil_bench.Session)"}
+    return df
+
+
+def _arrays(state: dict, telem: dict, names: list[str]) -> dict[str, Any]:
+    """The columns ``names`` as numpy arrays, the telemetry aligned on the state's rows (NaN,
+    or "" for state and estimator, in a cycle without telemetry); state and estimator as their
+    names (a value the DBC's table lacks: its decimal text, as tables.categorical does)."""
     import numpy as np
-    import pandas as pd
-
-    t = np.asarray(state["t_s"], float) if state else np.array([], float)
-    cols = _columns(state, telem, names, categorical=True)
-    return pd.DataFrame(cols, index=pd.Index(t, name="t_s"), copy=False)
-
-
-def _columns(state: dict | None, telem: dict | None, names: list[str] | None,
-             categorical: bool) -> dict[str, Any]:
-    """The window's columns (``names``: only those), the telemetry aligned on the state's rows;
-    state and estimator as categoricals, or (``categorical`` False) arrays of their names."""
-    import numpy as np
-    import pandas as pd
 
     from hil_bench.record import channels as ch
 
-    want = None if names is None else set(names)
-    t = np.asarray(state["t_s"], float) if state else np.array([], float)
-    cols: dict[str, Any] = {n: (np.asarray(state[n]) if state else np.array([], float))
-                            for n in ch.PLANT_STATE_VALUES
-                            if n != "t_s" and (want is None or n in want)}
+    t = np.asarray(state.get("t_s", ()), float)
+    out: dict[str, Any] = {n: np.asarray(state[n]) for n in names if n in ch.PLANT_STATE_VALUES}
+    wanted = {TELEMETRY_RENAMES.get(n, n): n for n in ch.TELEMETRY_VALUES}
+    tel_names = [n for n in names if n in wanted and n not in out]
+    if not tel_names:
+        return out
     n = len(t)
     have = np.zeros(n, bool)
     at = np.zeros(n, np.intp)
@@ -816,66 +824,27 @@ def _columns(state: dict | None, telem: dict | None, names: list[str] | None,
         tt = np.asarray(telem["t_s"], float)
         at = np.minimum(np.searchsorted(tt, t), len(tt) - 1)
         have = tt[at] == t
-    for name in ch.TELEMETRY_VALUES:
-        key = TELEMETRY_RENAMES.get(name, name)
-        if name == "t_s" or (want is not None and key not in want):
-            continue
-        if name in _ENUMS:
-            categories, lookup = _ENUMS[name]
-            codes = np.full(n, -1, np.int8)
+    tables = _enum_names()
+    for key in tel_names:
+        field = wanted[key]
+        if field in tables:
+            v = np.full(n, "", dtype=object)
             if have.any():
-                raw = np.asarray(telem[name], np.int64)[at[have]]
-                codes[have] = lookup(raw)
-            if categorical:
-                cols[key] = pd.Categorical.from_codes(codes, dtype=categories)
-            else:
-                names_ = np.array(list(categories.categories) + [""], dtype=object)
-                cols[key] = names_[codes]          # -1: the last, "" (no telemetry)
-        elif name == "seq":
-            v = np.full(n, -1, np.int64)
-            if have.any():
-                v[have] = np.asarray(telem[name], np.int64)[at[have]]
-            cols[key] = v
+                raw = np.asarray(telem[field], np.int64)[at[have]]
+                v[have] = [tables[field].get(int(r), str(int(r))) for r in raw]
         else:
             v = np.full(n, np.nan)
             if have.any():
-                v[have] = np.asarray(telem[name], float)[at[have]]
-            cols[key] = v
-    return cols
+                v[have] = np.asarray(telem[field], float)[at[have]]
+        out[key] = v
+    return out
 
 
-def _enum_lookup(enum) -> tuple[Any, Callable]:
-    import numpy as np
-    import pandas as pd
+def _enum_names() -> dict[str, dict[int, str]]:
+    from hil_bench.protocol.messages import Estimator, State
 
-    names = pd.CategoricalDtype([m.name for m in enum])
-    table = np.full(max(m.value for m in enum) + 2, -1, np.int8)
-    for i, m in enumerate(enum):
-        table[m.value] = i
-
-    def lookup(raw):
-        ok = (raw >= 0) & (raw < len(table))
-        return np.where(ok, table[np.clip(raw, 0, len(table) - 1)], -1).astype(np.int8)
-
-    return names, lookup
-
-
-class _Enums(dict):
-    """state and estimator: their names (protocol/hil.dbc value tables), built on first use."""
-
-    def __missing__(self, key):
-        raise KeyError(key)
-
-    def __contains__(self, key) -> bool:
-        if not super().__len__():
-            from hil_bench.protocol.messages import Estimator, State
-
-            self["state"] = _enum_lookup(State)
-            self["estimator"] = _enum_lookup(Estimator)
-        return super().__contains__(key)
-
-
-_ENUMS = _Enums()
+    return {"state": {int(m): m.name for m in State},
+            "estimator": {int(m): m.name for m in Estimator}}
 
 
 def _concat_events(parts: list) -> pandas.DataFrame:
@@ -1049,12 +1018,11 @@ def _not_met_text(what: str, t0_s: float, t1_s: float, timeout_s: float, last, e
     expression names."""
     values = ""
     if last is not None and len(last):
-        last = last.frame(_names_in(what))
-        cols = list(last.columns)
-        row = last.iloc[-1]
+        cols = _names_in(what)
+        row = last.last().iloc[-1]
         values = ", ".join(f"{c} = {row[c]:.6g}" if isinstance(row[c], float) else
                            f"{c} = {row[c]}" for c in cols)
-        values = f"; at t = {last.index[-1]:.6g} s: {values}" if values else ""
+        values = f"; at t = {last.t[-1]:.6g} s: {values}" if values else ""
     end = f" ({ended})" if ended else ""
     return (f"run_until({what}): not met within {timeout_s:g} s of simulated time (t = "
             f"{t0_s:.6g} s to {t1_s:.6g} s){end}{values}")

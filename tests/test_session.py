@@ -273,7 +273,7 @@ def test_refusals_and_bad_inputs_are_clear(tmp_path):
     assert not (ev.kind == "script").any()
     s.stop()
     assert s.closed and s.result is None
-    with pytest.raises(SessionError, match="step: the session is closed"):
+    with pytest.raises(SessionError, match=r"step\(1\): the session is closed"):
         s.step(1)
 
 

@@ -1,6 +1,10 @@
+#!/usr/bin/env python3
 """Benchmark of a scripted session (hil_bench.Session) against bench run, in CPU seconds.
 
-    python -m hil_bench.perf.session [--repeats N] [--link sil]
+    python tools/perf_session.py [--repeats N] [--link sil]
+
+(A checkout's tool, not hil_bench.perf: the Session is the package's top-level API, which the
+benchmarks under hil_bench.perf sit below: tools/import_graph.py.)
 
 Gong G2 (the bundled gong_g2_500rpm: 15 000 cycles, recorded, checked) over ``--link sil`` (the
 firmware in this process, so that the engine, the firmware and the script are one process's CPU;
