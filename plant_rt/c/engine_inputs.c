@@ -68,7 +68,7 @@ static void hold_at(engine_t *e, const cycle_t *c, const live_input_t *in)
         refuse(e, c, in, "a real-time run cannot hold: the controller runs on its own clock");
         return;
     }
-    if (!isfinite(in->value) || floor(in->value) < in->value) {
+    if (!isfinite(in->value) || floor(in->value) < in->value || in->value > 9.0e18) {
         refuse(e, c, in, "not a cycle number");
         return;
     }

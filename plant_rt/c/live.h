@@ -14,7 +14,7 @@
  *    Ordering: the producer fills a slot, then publishes it with a release store of head; the
  *    consumer reads head with acquire, copies the slot, then releases tail (as rec_ring.h).
  *
- *    A script (hil_bench.Session, bench/loop/session.py) is the other producer a run can have
+ *    A script (hil_bench.Session, bench/session.py) is the other producer a run can have
  *    (never both: one producer per mailbox). Its inputs say what a scenario's events can say
  *    (speed and current references, control mode, load torque, plant faults on and off, the bus
  *    voltage as the plant's bus fault) and where the lockstep run holds (LIVE_IN_HOLD_AT: the
@@ -84,7 +84,8 @@ typedef struct live_inbox {
     uint64_t tail;               /* consumer: inputs taken (monotonic) */
     uint8_t pad_tail_[56];
     /* a script's session: */
-    uint32_t wake;               /* producer: bumped with every input (a held engine sleeps on it) */
+    uint32_t wake;               /* producer: bumped with every input (a held engine sleeps
+                                  * on it) */
     uint8_t pad_wake_[60];
     uint32_t news;               /* consumer: bumped after each input answered and each hold
                                   * begun (a script sleeps on it); what is below is written first */
