@@ -6,6 +6,9 @@ The Python API (docs/api.md), imported on first use so that ``import hil_bench``
                                                               recording path)
     hil_bench.check(path)                                 -> Result of a recording
     hil_bench.load_recording(path)                        -> each channel as a pandas DataFrame
+    hil_bench.Session(scenario, link="stub", ...)         -> a scripted lockstep run, step by step
+    hil_bench.signals                                     -> settling, overshoot, band, step, ramp,
+                                                             frequency checks on recorded signals
     hil_bench.__version__
 
 The data path, one sub-package per stage (docs/architecture.md, "The house")::
@@ -28,6 +31,14 @@ from __future__ import annotations
 TYPE_CHECKING = False   # typing itself is not imported: `import hil_bench` stays cheap
 
 if TYPE_CHECKING:
+    from hil_bench import signals
+    from hil_bench.session import (
+        ConditionNotMet,
+        InputRefused,
+        Session,
+        SessionError,
+        SessionTimeout,
+    )
     from hil_bench.api import (
         ClaimsNotReproduced,
         ClaimTable,
@@ -45,16 +56,25 @@ if TYPE_CHECKING:
 #: the API's names, each imported from hil_bench.api on first use
 _API = ("run", "check", "load_recording", "Result", "RunInfo", "ClaimVerdict", "ClaimTable",
         "Integrity", "RecordingData", "ClaimsNotReproduced", "RunFailed")
-__all__ = [*_API, "__version__"]
+#: scripted tests' names, from hil_bench.session on first use; and the signal checks' module
+_SESSION = ("Session", "SessionError", "SessionTimeout", "InputRefused", "ConditionNotMet")
+__all__ = [*_API, *_SESSION, "signals", "__version__"]
 
 
 def __getattr__(name: str):
-    if name in _API:
-        from hil_bench import api
+    if name in _API or name in _SESSION:
+        if name in _API:
+            from hil_bench import api as module
+        else:
+            from hil_bench import session as module
 
-        value = getattr(api, name)
+        value = getattr(module, name)
         globals()[name] = value          # once: later lookups are plain attribute reads
         return value
+    if name == "signals":
+        import importlib
+
+        return importlib.import_module("hil_bench.signals")
     if name == "__version__":
         from hil_bench.installation import version
 

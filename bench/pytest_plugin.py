@@ -140,6 +140,42 @@ def hil_run(request: pytest.FixtureRequest, hil_link: HilLink,
     return _run
 
 
+@pytest.fixture
+def hil_session(request: pytest.FixtureRequest, hil_link: HilLink,
+                hil_recordings: Path) -> Callable[..., Any]:
+    """``hil_session(scenario, overrides=None, **kwargs) -> hil_bench.Session``: a scripted
+    lockstep run on ``hil_link``, recorded under ``hil_recordings`` (named after the test);
+    keyword arguments are ``hil_bench.Session``'s. A session the test leaves open is closed at
+    its end: run to its end and checked if the test passed (its figures become JUnit XML
+    properties, as ``hil_run``'s), ended where it holds if the test failed (the recording kept,
+    named in the report)."""
+    from hil_bench.session import Session
+
+    stem = _UNSAFE.sub("_", request.node.nodeid).strip("_")[-120:]
+    sessions: list[Any] = []
+    failed_before = request.session.testsfailed
+
+    def _open(scenario: str | Path, overrides: Mapping[str, Any] | None = None,
+              **kwargs: Any) -> Any:
+        out = kwargs.pop("out", None) or hil_recordings / f"{stem}-s{len(sessions) + 1}.mcap"
+        request.node.stash.setdefault(_RECORDINGS, []).append(Path(out))
+        s = Session(scenario, link=kwargs.pop("link", hil_link.spec), overrides=overrides,
+                    out=out, force=kwargs.pop("force", True), **kwargs)
+        sessions.append(s)
+        return s
+
+    yield _open
+    failed = request.session.testsfailed > failed_before
+    for s in sessions:
+        if not s.closed:
+            if failed:
+                s.stop("the test failed")
+            else:
+                s.close()
+        if s.result is not None:
+            _record(request.node.user_properties, s.result)
+
+
 def _record(user_properties: list, result: Any) -> None:
     """The run's figures as JUnit XML properties, prefixed with the scenario's name: what the
     ``record_property`` fixture does, without its warning per test under junit_family xunit2

@@ -377,14 +377,41 @@ int engine_attach_inbox(engine_t *e, void *mem, size_t size);
 #define LIVE_IN_PAUSE 3
 #define LIVE_IN_RESUME 4
 #define LIVE_IN_REFUSED 5
-typedef struct { int32_t kind; int32_t client; double value; char text[192]; } live_input_t;
-typedef struct live_inbox { uint64_t magic; uint64_t head; uint64_t tail; ...; } live_inbox_t;
+#define LIVE_IN_HOLD_AT 6
+#define LIVE_IN_IQ_REF 7
+#define LIVE_IN_ID_REF 8
+#define LIVE_IN_CONTROL_MODE 9
+#define LIVE_IN_FAULT_ON 10
+#define LIVE_IN_FAULT_OFF 11
+#define LIVE_IN_NOTE 12
+#define LIVE_FROM_VIEWER 0
+#define LIVE_FROM_SCRIPT 1
+#define LIVE_INPUT_ARGS 4
+#define LIVE_REFUSED_TEXT 384
+#define LIVE_WORD_WAKE 0
+#define LIVE_WORD_NEWS 1
+typedef struct { int32_t kind; int32_t client; double value; int32_t origin; int32_t arg[4];
+                 char text[192]; ...; } live_input_t;
+typedef struct live_inbox { uint64_t magic; uint64_t head; uint64_t tail;
+                            char refused_text[384]; ...; } live_inbox_t;
 size_t live_inbox_size(void);
 int live_inbox_format(void *mem, size_t size);
 live_inbox_t *live_inbox_attach(void *mem, size_t size);
 int live_inbox_push(live_inbox_t *b, int kind, int client, double value, const char *text);
+int live_inbox_push_input(live_inbox_t *b, int kind, int origin, double value,
+                          const int32_t *args, const char *text);
 int live_inbox_take(live_inbox_t *b, live_input_t *out);
 uint64_t live_inbox_pending(const live_inbox_t *b);
+void live_inbox_answer(live_inbox_t *b, const char *why);
+void live_inbox_set_held(live_inbox_t *b, int64_t k);
+uint32_t live_inbox_wake_word(const live_inbox_t *b);
+uint32_t live_inbox_news(const live_inbox_t *b, int64_t *held_k, uint64_t *answered,
+                         uint64_t *refused);
+int live_inbox_wait(live_inbox_t *b, int word, uint32_t seen, int64_t timeout_ns);
+void live_inbox_kick(live_inbox_t *b);
+uint64_t live_ring_head(const void *ring_mem);
+long live_ring_window(const void *ring_mem, size_t mapping_size, uint64_t from, uint64_t to,
+                      uint8_t *out, size_t cap);
 typedef struct { uint64_t offset; uint32_t length; uint16_t channel; uint16_t pad_; int64_t t_ns; }
     live_pick_t;
 size_t live_pick(const uint8_t *in, size_t n_in, const int32_t *mode, size_t n_mode,

@@ -12,6 +12,7 @@ finalises the MCAP recording and returns a RunResult that says what happened.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import mmap
@@ -22,6 +23,7 @@ import subprocess
 import sys
 import time
 import traceback
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -121,6 +123,17 @@ class RunResult:
     @property
     def ok(self) -> bool:
         return self.error is None and not self.interrupted
+
+
+@dataclass
+class OpenedRun:
+    """A run set up to its engine (``Runner.opened_run``): what the block that drives it needs."""
+
+    engine: eng.Engine | None      #: None: the run failed before (``result.error``)
+    rec: ProcessRecorder
+    opened: OpenedLink
+    link: object                   #: the engine's side of the link (links/engine_fd.py)
+    result: RunResult
 
 
 def motor_params(profile) -> dict[Param, float]:
@@ -311,7 +324,7 @@ class Runner:
                  realtime: bool | None = None, record: bool = True, cpu: int | None = None,
                  ring_bytes: int | None = None, recorder_cpus: tuple[int, ...] | None = None,
                  full_rate_s: tuple[tuple[float, float], ...] = (), live=None,
-                 pace: float | None = None):
+                 pace: float | None = None, scripted: bool = False):
         """``recorder_cpus``: overrides where the recorder runs (hil_bench.perf.loop compares).
         ``full_rate_s``: time windows [s] recorded in full when the scenario's recording is
         decimated (the windows its metrics read: hil_bench.sweep). ``live``: a
@@ -320,7 +333,10 @@ class Runner:
         time (1.0: as fast as real time, to watch; None: as fast as the link goes). Every run
         waits for its controller by the same rule, the scenario's ``[link]`` (docs/protocol.md
         6.5: late is not lost; the run ends only when the controller is gone or silent for
-        ``patience_s``), whatever the controller and whoever runs it."""
+        ``patience_s``), whatever the controller and whoever runs it. ``scripted``: a script
+        drives the run through the engine's mailbox (hil_bench.Session: ``opened_run``,
+        lockstep)."""
+        self.scripted = scripted
         if live is not None:
             import dataclasses
 
@@ -339,6 +355,13 @@ class Runner:
         self._recorder_cpus_override = recorder_cpus
         self.mode = "realtime" if (realtime if realtime is not None else
                                    scenario.mode == "realtime") else "lockstep"
+        if scripted and (self.mode == "realtime" or live is not None):
+            raise RunAborted(f"{scenario.display_path}: a scripted session runs in lockstep "
+                             f"without a live view: "
+                             + ("the scenario runs in real time (mode = \"realtime\"), where "
+                                "the controller keeps its own clock and no script can hold it"
+                                if self.mode == "realtime" else "a viewer's inputs and a "
+                                "script's would share one mailbox"))
         if pace is not None and self.mode == "realtime":
             raise RunAborted(f"--pace {pace:g}: a real-time run is paced by its own clock "
                              f"(--pace is for lockstep runs)")
@@ -491,6 +514,19 @@ class Runner:
                 f"(docs/realtime.md)")
 
     def run(self) -> RunResult:
+        with self.opened_run() as opened:
+            if opened.engine is not None:
+                self.watch(opened.engine, opened.rec, opened.opened, opened.link, opened.result)
+        return opened.result
+
+    @contextlib.contextmanager
+    def opened_run(self) -> Iterator[OpenedRun]:
+        """The run set up to its engine, which the block starts and watches (``run``: ``_watch``;
+        a script: hil_bench.Session). Whatever the block raises is handled as in a run (Ctrl-C:
+        interrupted; a link, recorder or run error: the run's error), and leaving the block
+        ends the run: STOP, the final statistics, the run_result record, the recording
+        finalised. A run that failed before its engine existed yields ``engine`` None with the
+        recording already finalised and ``result.error`` saying why."""
         scn = self.scn
         check_target(self.out_path, self.force)      # before any process or device is touched
         self._check_budget_of_spec()
@@ -502,7 +538,7 @@ class Runner:
         try:
             self._check_budget(opened)
             self.live_inbox = None
-            if self.live is not None:
+            if self.live is not None or self.scripted:
                 self.live_inbox = new_live_inbox()
             rec = ProcessRecorder(self.out_path, force=self.force, cpus=self._recorder_cpus(),
                                   background=self.mode == "realtime",
@@ -516,6 +552,7 @@ class Runner:
             raise
         engine = None
         engine_link = None
+        yielded = False
         closing = self._closing = DeferredInterrupts()
         try:
             try:
@@ -530,7 +567,8 @@ class Runner:
                 self._start_controller(opened)
                 engine_link = engine_link_for(opened.link)
                 engine = self._make_engine(rec, opened, engine_link)
-                self._watch(engine, rec, opened, engine_link, result)
+                yielded = True
+                yield OpenedRun(engine, rec, opened, engine_link, result)
             except KeyboardInterrupt:
                 closing.hold()
                 result.interrupted = True
@@ -557,7 +595,8 @@ class Runner:
             if result.cycles_done == 0 and result.error and rec.final_path:
                 result.error += (f" (no cycle ran; the recording of the attempt, with its "
                                  f"handshake frames, is {rec.final_path})")
-        return result
+        if not yielded:
+            yield OpenedRun(None, rec, opened, engine_link, result)
 
     def _wait_for_viewer(self, rec: ProcessRecorder) -> None:
         """--live-wait: the run starts once a viewer has subscribed (its channels are advertised
@@ -833,13 +872,19 @@ class Runner:
             e.add_event(k, kind, command=command, value=v,
                         text=ev.describe() if last else None, record_value=value)
 
-    def _watch(self, e: eng.Engine, rec: ProcessRecorder, opened: OpenedLink, link,
-               result: RunResult) -> None:
-        """Start the engine and watch it: progress, Ctrl-C, a recorder that dies."""
-        progress = _Progress(self.n_cycles, self.scn.name) if self.progress else None
+    def start_engine(self, e: eng.Engine) -> None:
+        """Start the engine's thread (the run's engine time counts from here)."""
         self.engine = e
-        t_start = time.perf_counter()
+        self._engine_t0 = time.perf_counter()
         e.start()
+
+    def watch(self, e: eng.Engine, rec: ProcessRecorder, opened: OpenedLink, link,
+              result: RunResult, started: bool = False) -> None:
+        """Start the engine (unless ``started``) and watch it to its end: progress, Ctrl-C, a
+        recorder that dies, the executor's time limit; then what the engine's end says."""
+        progress = _Progress(self.n_cycles, self.scn.name) if self.progress else None
+        if not started:
+            self.start_engine(e)
         try:
             while e.running():
                 try:
@@ -867,7 +912,11 @@ class Runner:
         finally:
             if progress is not None:
                 progress.close(e.cycles_done)
-        result.engine_s = time.perf_counter() - t_start
+        self.engine_ended(e, opened, link, result)
+
+    def engine_ended(self, e: eng.Engine, opened: OpenedLink, link, result: RunResult) -> None:
+        """The engine has returned: its time, cycles, end and what its end means for the run."""
+        result.engine_s = time.perf_counter() - self._engine_t0
         r = e.result()
         result.cycles_done = r.cycles_done
         result.end = r.end_name

@@ -68,7 +68,7 @@ ALLOWABLE_COUNTERS: tuple[str, ...] = tuple(c for c in LINK_COUNTERS if c != "es
 
 @dataclass(frozen=True)
 class Problem:
-    kind: str            # "completeness", "link", "estimator", "fault" or "operator"
+    kind: str            # "completeness", "link", "estimator", "fault", "operator" or "script"
     name: str            # run_result, cycles, error, interrupted, truncated, unreadable_chunks, damage, rows,
                          # encoder_angle_sent, never_acted / untraced / count (a fault), or a counter
     text: str
@@ -116,6 +116,8 @@ class Integrity:
             return "estimator mismatch: see integrity"
         if any(p.kind == "operator" for p in self.problems):
             return "operator input during the run: see integrity"
+        if any(p.kind == "script" for p in self.problems):
+            return "script input during the run: see integrity"
         bad = self.unallowed
         return f"{bad[0].kind} problem: see integrity" if bad else None
 
@@ -404,16 +406,18 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
     # -- faults: every fault of the scenario acted and left a trace (docs/faults.md) ------------------
     out.problems += fault_problems(rec, scenario_faults, out.cycles_done)
 
-    # -- operator inputs (bench run --live, docs/foxglove.md): a run a viewer steered is not the
-    # scenario's run, whatever its file says: no claim of it can PASS -------------------------------------
+    # -- operator inputs (bench run --live, docs/foxglove.md) and a script's (hil_bench.Session,
+    # docs/api.md): a run a viewer or a script steered is not the scenario's run, whatever its file
+    # says: no claim of it can PASS ------------------------------------------------------------------------
     events = _topic(rec, ch.EVENTS)
     if events and "kind" in events:
-        steered = [str(t) for k, t in zip(events["kind"], events.get("text", ())) if k == "operator"]
-        if steered:
-            add(Problem("operator", "operator_input",
-                        f"{len(steered)} operator input(s) during the run (bench run --live): "
-                        f"{steered[0]}" + (f" (+{len(steered) - 1} more)" if len(steered) > 1 else ""),
-                        float(len(steered))))
+        for kind, who in (("operator", "operator input(s) during the run (bench run --live)"),
+                          ("script", "script input(s) during the run (hil_bench.Session)")):
+            steered = [str(t) for k, t in zip(events["kind"], events.get("text", ())) if k == kind]
+            if steered:
+                add(Problem(kind, f"{kind}_input", f"{len(steered)} {who}: {steered[0]}"
+                            + (f" (+{len(steered) - 1} more)" if len(steered) > 1 else ""),
+                            float(len(steered))))
 
     # -- the estimator under test -------------------------------------------------------------------------
     sent = str(rec.run.get("encoder_angle_sent", "")).lower() in ("true", "1")

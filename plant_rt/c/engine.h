@@ -45,6 +45,9 @@
  *   resume or a stop; the pause leaves no trace in the rows but its /events rows. A replay
  *   (bench replay --live) takes them too, at the start of each replayed row, and refuses every
  *   one (an "operator_refused" row at that row's time): it plays the capture's own inputs.
+ *   A script (hil_bench.Session) pushes the same kinds and more (live.h) into the same mailbox,
+ *   recorded as kind "script" / "script_refused" / "script_note", and holds a lockstep run
+ *   before a cycle it names (LIVE_IN_HOLD_AT), checked with the inputs at each cycle's start.
  *
  * Frame rules, both modes (docs/protocol.md section 6): frames are handled in arrival order, one
  * at a time, so the outcome never depends on how reads were batched. The first valid DUTY(k)
@@ -378,7 +381,9 @@ typedef struct engine {
     double cur_t_s;
     /* operator inputs of the live view (live.h; NULL: none) */
     live_inbox_t *inbox;
-    int paused;                  /* lockstep: held by an operator's pause */
+    int paused;                  /* lockstep: held by an operator's pause (1) or a script (2) */
+    int hold_armed;              /* lockstep: a script (hil_bench.Session) holds the run before */
+    long hold_at;                /* cycle hold_at (LIVE_IN_HOLD_AT; engine_inputs.c) */
     int64_t paused_ns;           /* lockstep: wall time the run spent paused */
     /* live (read by the bench while it runs) */
     volatile int stop_requested;

@@ -9,7 +9,7 @@
  *   engine_lockstep.c  the lockstep wait (its rule at the top) and the lockstep loop
  *   engine_realtime.c  the real-time loop on the wall clock
  *   engine_replay.c    replays: into a controller, into the plant, offline estimators
- *   engine_inputs.c    operator inputs of the live view (live.h)
+ *   engine_inputs.c    inputs through the mailbox (live.h): a live view's, a script's; holds
  *   engine_io.c        the link through the injected link faults (engine_faults.h)
  *   engine_trace.c     the evidence each scenario fault left in the counters
  *   engine_record.c    rows into the recording ring, statistics, the frames' text
@@ -144,7 +144,7 @@ double eng_duty_of_raw(const engine_t *e, uint32_t raw);
 int eng_handle_frame(engine_t *e, cycle_t *c, const eng_frame_t *f, int cycle_open);
 int eng_drain_frames(engine_t *e, cycle_t *c, int cycle_open, int *completed);
 
-/* engine_inputs.c: operator inputs of the live view */
+/* engine_inputs.c: inputs of a live view or a script (live.h), holds */
 void eng_take_inputs(engine_t *e, const cycle_t *c);
 int eng_hold_while_paused(engine_t *e, cycle_t *c);
 

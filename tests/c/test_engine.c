@@ -582,6 +582,170 @@ static void test_sil_realtime(void)
     CHECK(r.cycles == 2000 && r.speed_rpm > 20.0, "the rotor turns: %.1f rpm", r.speed_rpm);
 }
 
+/* ---- a script's session (live.h): the run held before named cycles, inputs at them ----------- */
+
+typedef struct {
+    engine_t *e;
+    int end;
+} engine_thread_t;
+
+static void *engine_main(void *arg)
+{
+    engine_thread_t *t = (engine_thread_t *)arg;
+    t->end = engine_run(t->e);
+    return NULL;
+}
+
+/** Wait (at most ~60 s of wall time: a hang fails, it does not block the suite) until the run
+ *  holds before cycle k; 1 if it does. */
+static int wait_held(live_inbox_t *b, int64_t k)
+{
+    int i;
+    for (i = 0; i < 60000; ++i) {
+        int64_t held;
+        const uint32_t w = live_inbox_news(b, &held, NULL, NULL);
+        if (held == k) {
+            return 1;
+        }
+        (void)live_inbox_wait(b, LIVE_WORD_NEWS, w, 1000000LL);
+    }
+    return 0;
+}
+
+static int wait_answered(live_inbox_t *b, uint64_t n)
+{
+    int i;
+    for (i = 0; i < 60000; ++i) {
+        uint64_t answered;
+        const uint32_t w = live_inbox_news(b, NULL, &answered, NULL);
+        if (answered >= n) {
+            return 1;
+        }
+        (void)live_inbox_wait(b, LIVE_WORD_NEWS, w, 1000000LL);
+    }
+    return 0;
+}
+
+#define SCRIPT_CYCLES 3000L
+#define SCRIPT_STEP_AT 1200L
+
+/**
+ * The firmware in the engine's thread (SIL), 3000 cycles; at cycle 0 a speed reference and at
+ * cycle SCRIPT_STEP_AT a load torque: scheduled as engine events (scripted = 0), or pushed by a
+ * script while the run holds before those cycles (scripted = 1). Returns the plant's final state.
+ */
+static loop_result_t sil_script_loop(int scripted, double y_out[4], uint64_t *refused,
+                                     char *refusal, size_t refusal_cap)
+{
+    static plant_t plant;
+    static engine_t eng;
+    static sil_port_t sil;
+    plant_params_t pp;
+    engine_config_t cfg;
+    loop_result_t res;
+    hil_octet_t answers[4096];
+    void *box_mem = calloc(1u, live_inbox_size());
+    live_inbox_t *box;
+    engine_thread_t th;
+    pthread_t tid;
+    const double speed_rad_s = 400.0 / 9.5492966;
+    const double load_nm = 0.2;
+    memset(&res, 0, sizeof res);
+    plant_params(&pp);
+    CHECK(plant_init(&plant, &pp) == 0, "plant");
+    sil_port_init(&sil, 0, eng_now_ns());
+    setup_frames(sil_sink, &sil, (uint16_t)ENGINE_LOCKSTEP);
+    (void)sil_port_read(&sil, answers, sizeof answers, eng_now_ns());
+    loop_config(&cfg, ENGINE_LOCKSTEP, SCRIPT_CYCLES, &pp);
+    cfg.cmd_seq_start = 3u;
+    engine_sil_peer(&sil, &cfg.link_peer);
+    CHECK(engine_init(&eng, &cfg, &plant, NULL, 0u) == 0, "engine_init: %s", eng.message);
+    CHECK(live_inbox_format(box_mem, live_inbox_size()) == 0, "mailbox");
+    box = live_inbox_attach(box_mem, live_inbox_size());
+    CHECK(engine_attach_inbox(&eng, box_mem, live_inbox_size()) == 0, "attach: %s", eng.message);
+    if (!scripted) {
+        engine_event_t ev;
+        memset(&ev, 0, sizeof ev);
+        ev.cycle = 0;
+        ev.kind = ENGINE_EV_CMD;
+        ev.command = (int)HIL_CMD_SET_SPEED_REF;
+        ev.value = speed_rad_s;
+        CHECK(engine_add_event(&eng, &ev) == 0, "event: %s", eng.message);
+        ev.cycle = SCRIPT_STEP_AT;
+        ev.kind = ENGINE_EV_LOAD;
+        ev.command = 0;
+        ev.value = load_nm;
+        CHECK(engine_add_event(&eng, &ev) == 0, "event: %s", eng.message);
+        res.end = engine_run(&eng);
+    } else {
+        const int32_t bad_fault[4] = {99, 0, 0, 0};
+        uint64_t pushed = 0u;
+        /* held before cycle 0 (taken as the run starts), then the script's inputs there */
+        CHECK(live_inbox_push_input(box, LIVE_IN_HOLD_AT, LIVE_FROM_SCRIPT, 0.0, NULL, "hold") == 0,
+              "push");
+        pushed++;
+        th.e = &eng;
+        th.end = -1;
+        pthread_create(&tid, NULL, engine_main, &th);
+        CHECK(wait_held(box, 0), "the run holds before cycle 0");
+        CHECK(eng.cycles_done == 0, "nothing ran: %ld", eng.cycles_done);
+        CHECK(live_inbox_push_input(box, LIVE_IN_SPEED_REF, LIVE_FROM_SCRIPT, speed_rad_s, NULL,
+                                    "script: speed reference 400 rpm") == 0, "push");
+        pushed++;
+        CHECK(live_inbox_push_input(box, LIVE_IN_FAULT_ON, LIVE_FROM_SCRIPT, 0.0, bad_fault,
+                                    "script: fault 99") == 0, "push");
+        pushed++;
+        CHECK(wait_answered(box, pushed), "both answered while held");
+        CHECK(eng.cycles_done == 0, "still held: %ld", eng.cycles_done);
+        CHECK(live_inbox_push_input(box, LIVE_IN_HOLD_AT, LIVE_FROM_SCRIPT,
+                                    (double)SCRIPT_STEP_AT, NULL, "hold") == 0, "push");
+        pushed++;
+        CHECK(wait_held(box, SCRIPT_STEP_AT), "the run holds before cycle %ld", SCRIPT_STEP_AT);
+        CHECK(eng.cycles_done == SCRIPT_STEP_AT, "ran to the hold: %ld", eng.cycles_done);
+        CHECK(live_inbox_push_input(box, LIVE_IN_LOAD, LIVE_FROM_SCRIPT, load_nm, NULL,
+                                    "script: load") == 0, "push");
+        pushed++;
+        CHECK(live_inbox_push_input(box, LIVE_IN_HOLD_AT, LIVE_FROM_SCRIPT, -1.0, NULL,
+                                    "hold no more") == 0, "push");
+        pushed++;
+        pthread_join(tid, NULL);
+        res.end = th.end;
+        CHECK(wait_answered(box, pushed), "every input answered");
+        (void)live_inbox_news(box, NULL, NULL, refused);
+        snprintf(refusal, refusal_cap, "%s", box->refused_text);
+    }
+    res.cycles = eng.cycles_done;
+    res.n = eng.n;
+    memcpy(res.message, eng.message, sizeof res.message);
+    memcpy(y_out, plant.y, 4u * sizeof y_out[0]);
+    free(box_mem);
+    return res;
+}
+
+static void test_sil_script_holds_and_steers(void)
+{
+    /* inputs a script pushes while the run holds act exactly as the same changes scheduled as
+     * events at those cycles: the same plant state to the bit, whatever the holds lasted */
+    double ya[4], yb[4];
+    uint64_t refused = 0u;
+    char refusal[LIVE_REFUSED_TEXT];
+    loop_result_t a = sil_script_loop(0, ya, &refused, refusal, sizeof refusal);
+    loop_result_t b = sil_script_loop(1, yb, &refused, refusal, sizeof refusal);
+    CHECK(a.end == ENGINE_END_DONE && a.cycles == SCRIPT_CYCLES, "events: end %d: %s", a.end,
+          a.message);
+    CHECK(b.end == ENGINE_END_DONE && b.cycles == SCRIPT_CYCLES, "script: end %d: %s", b.end,
+          b.message);
+    CHECK(memcmp(ya, yb, sizeof ya) == 0, "same plant state to the bit: speed %.17g vs %.17g",
+          ya[2], yb[2]);
+    CHECK(ya[2] * 60.0 / 6.283185307179586 > 100.0, "the rotor turns: %.1f rpm",
+          ya[2] * 60.0 / 6.283185307179586);
+    CHECK(refused == 1u && strstr(refusal, "script: fault 99: refused:") == refusal,
+          "the plant refused the unknown fault, and said so: %llu, %s",
+          (unsigned long long)refused, refusal);
+    CHECK(b.n.operator_inputs == 0u && b.n.operator_refused == 0u,
+          "a script's inputs are not an operator's");
+}
+
 int main(void)
 {
     /* the controller thread may answer after a run ended and the engine closed its end of the
@@ -600,5 +764,6 @@ int main(void)
     test_sil_closed_loop_is_the_threaded_one();
     test_sil_restart_at_its_cycle();
     test_sil_realtime();
+    test_sil_script_holds_and_steers();
     return check_summary("engine");
 }
