@@ -415,7 +415,7 @@ class Runner:
         if self.live is not None:   # a viewer's inputs: the scenario's limits; a pause in lockstep
             import dataclasses
 
-            from hil_bench.record.live_view import operator_limits
+            from hil_bench.scenario import operator_limits
 
             self.live = dataclasses.replace(self.live, can_pause=self.mode == "lockstep",
                                             **operator_limits(self.plant.params,

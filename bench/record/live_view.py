@@ -85,7 +85,7 @@ class LiveOptions:
     #: where the engine refuses a pause
     can_pause: bool = True
     #: the scenario's limits of an operator's speed reference [rpm] and load torque [N m]
-    #: (either sign), with the reason a value beyond is refused (:func:`operator_limits`)
+    #: (either sign), with the reason a value beyond is refused (``hil_bench.scenario.operator_limits``)
     speed_max_rpm: float = math.inf
     speed_why: str = ""
     load_max_nm: float = math.inf
@@ -144,26 +144,6 @@ def host_warning(host: str) -> str | None:
     return (f"live view: --live-host {host} is not a loopback address: anyone who can reach this "
             f"machine on that port can watch the run (and steer it, if the scenario allows "
             f"operator inputs); the Foxglove WebSocket has no authentication")
-
-
-def operator_limits(params, duration_s: float) -> dict:
-    """The scenario's limits of an operator input, as :class:`LiveOptions` fields: a speed the
-    protocol can report (TELEM.omega_hat / pole pairs), a load torque the scenario check allows
-    (``scenario.load_torque_limit_nm``: the same rule as the scenario's own loads)."""
-    from hil_bench.scenario.scenario import (OMEGA_HAT_RANGE_RAD_S, RPM_PER_RAD_S,
-                                             load_torque_limit_nm)
-
-    lo, hi = OMEGA_HAT_RANGE_RAD_S
-    pp = int(params.pole_pairs)
-    max_rad_s = min(-lo, hi) / pp
-    load = load_torque_limit_nm(params, duration_s, max_rad_s)
-    return dict(
-        speed_max_rpm=max_rad_s * RPM_PER_RAD_S,
-        speed_why=(f"TELEM.omega_hat carries [{lo:g}, {hi:g}] rad/s electrical, {pp} pole "
-                   f"pairs: the scenario's speed limit"),
-        load_max_nm=load,
-        load_why=("the scenario's load limit: a larger load drives the rotor past the speed the "
-                  "protocol reports within the run, against the most torque the motor makes"))
 
 
 #: what a viewer may publish (client-publish, JSON): topic -> (live.h kind, JSON key, what)

@@ -93,7 +93,7 @@ def build_options(args: argparse.Namespace):
     if args.window:
         a, _, b = args.window.partition(",")
         window = (float(a), float(b))
-    from hil_bench.cli import live_options, said_listening
+    from hil_bench.record.live_cli import live_options, said_listening
 
     err = Console(stderr=True)
     live = live_options(args, err) if hasattr(args, "live") else None   # ValueError: bad values

@@ -19,6 +19,7 @@ from .scenario import (
     derive_scenario,
     load_scenario,
     load_torque_limit_nm,
+    operator_limits,
     parse_scenario,
     resolve_path,
     scenario_of,
@@ -27,6 +28,6 @@ from .scenario import (
 
 __all__ = ["Fields", "ScenarioError", "line_of", "RPM_PER_RAD_S", "SCENARIO_DIR", "Event",
            "INV_COMP_CURRENTS", "INV_COMP_SHAPES", "InverterComp",
-           "LinkSettings", "RealtimeSettings", "Scenario", "check_against_profile",
+           "LinkSettings", "RealtimeSettings", "Scenario", "check_against_profile", "operator_limits",
            "derive_scenario", "load_scenario", "load_torque_limit_nm", "parse_scenario",
            "resolve_path", "scenario_of", "speed_ref_at"]

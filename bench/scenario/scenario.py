@@ -758,3 +758,21 @@ def scenario_of(rec) -> Scenario:
         return parse_scenario(text, Path(f"{rec.path}#{name}"))
     except ScenarioError as exc:
         raise RecordingError(f"{rec.path}: attached scenario is invalid: {exc}") from None
+
+
+def operator_limits(params, duration_s: float) -> dict:
+    """The scenario's limits of an operator input (the live view's, hil_bench.record.live_view
+    LiveOptions fields): a speed the
+    protocol can report (TELEM.omega_hat / pole pairs), a load torque the scenario check allows
+    (``scenario.load_torque_limit_nm``: the same rule as the scenario's own loads)."""
+    lo, hi = OMEGA_HAT_RANGE_RAD_S
+    pp = int(params.pole_pairs)
+    max_rad_s = min(-lo, hi) / pp
+    load = load_torque_limit_nm(params, duration_s, max_rad_s)
+    return dict(
+        speed_max_rpm=max_rad_s * RPM_PER_RAD_S,
+        speed_why=(f"TELEM.omega_hat carries [{lo:g}, {hi:g}] rad/s electrical, {pp} pole "
+                   f"pairs: the scenario's speed limit"),
+        load_max_nm=load,
+        load_why=("the scenario's load limit: a larger load drives the rotor past the speed the "
+                  "protocol reports within the run, against the most torque the motor makes"))
