@@ -172,7 +172,8 @@ def test_real_time_on_the_emulator_is_refused(elf):
 
 
 def _block(**values) -> bytes:
-    words = {f: 0 for f in TargetStats.__dataclass_fields__ if f != "icount_shift"}
+    words = {f: 0 for f in TargetStats.__dataclass_fields__ if f not in TargetStats.NOT_IN_BLOCK}
+    assert len(words) == TargetStats.words()
     words.update({"magic": TargetStats.MAGIC, "version": TargetStats.VERSION, **values})
     return struct.pack(f"<{len(words)}I", *words.values())
 
