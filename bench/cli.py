@@ -173,7 +173,7 @@ def _print_target(target: dict[str, str], out: Console) -> None:
         from hil_bench.loop.links.qemu import target_summary
 
         for line in target_summary(target):
-            out.print(escape(line), highlight=False)
+            out.print(escape(line), highlight=False, soft_wrap=True)
 
 
 def _cmd_check(args: argparse.Namespace) -> int:

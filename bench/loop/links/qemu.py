@@ -227,36 +227,42 @@ def _grouped(n: int | float) -> str:
 
 def target_summary(meta: dict[str, str]) -> list[str]:
     """The target's figures of a run as text lines, from the recording's ``target`` metadata
-    (``bench run --link pil-qemu`` prints them at the end)."""
+    (``bench run --link pil-qemu`` prints them at the end, ``bench check`` too)."""
+    try:
+        return _summary_lines(meta)
+    except (ValueError, TypeError) as exc:
+        return [f"target: its figures in the recording's metadata are not numbers ({exc})"]
+
+
+def _summary_lines(meta: dict[str, str]) -> list[str]:
     def num(key: str) -> int:
         return int(meta.get(key, "0") or 0)
 
-    lines = [f"target: {meta.get('elf') or ELF_NAME} on {QEMU} -machine {MACHINE} (STM32F405, "
-             f"Cortex-M4F at {num('clock_hz') / 1e6:g} MHz), {meta.get('state_name', '?')}"]
+    lines = [f"target: {meta.get('elf') or ELF_NAME} on {QEMU} {MACHINE} (STM32F405, Cortex-M4F, "
+             f"{num('clock_hz') / 1e6:g} MHz), {meta.get('state_name', '?')}"]
     if meta.get("isr_instructions_mean"):
-        lines.append(
-            f"  control ISR: {_grouped(float(meta['isr_instructions_mean']))} instructions mean, "
-            f"{_grouped(float(meta['isr_instructions_max']))} max, "
-            f"{_grouped(float(meta['isr_instructions_min']))} min over {_grouped(num('isr_count'))} "
-            f"ISRs (guest instructions counted by -icount shift={meta.get('icount_shift', '?')}, "
-            f"not core cycles: docs/ports.md)")
+        lines += [f"  control ISR: {_grouped(float(meta['isr_instructions_mean']))} instructions "
+                  f"mean, {_grouped(float(meta['isr_instructions_max']))} max, "
+                  f"{_grouped(float(meta['isr_instructions_min']))} min over "
+                  f"{_grouped(num('isr_count'))} ISRs",
+                  f"    (guest instructions, counted with -icount shift="
+                  f"{meta.get('icount_shift', '?')}; not core cycles: docs/ports.md)"]
     elif num("isr_count"):
-        lines.append(f"  control ISR: {_grouped(num('isr_count'))} ISRs; no instruction count "
+        lines.append(f"  control ISR: {_grouped(num('isr_count'))} ISRs, no instruction count "
                      f"(the emulator ran without -icount)")
     flash = (f"flash {_grouped(num('flash_used_bytes'))} B of {_grouped(num('flash_size_bytes'))} B"
-             if num("flash_size_bytes") else "flash: not reported (firmware before layout 3)")
-    ram = (f"RAM {_grouped(num('ram_used_bytes'))} B static (data, bss, this block) + "
-           f"{_grouped(num('stack_size_bytes'))} B stack of {_grouped(num('ram_size_bytes'))} B")
+             if num("flash_size_bytes") else "flash not reported (a firmware before stats layout 3)")
     lines.append(f"  stack: {_grouped(num('stack_used_bytes'))} B used of "
-                 f"{_grouped(num('stack_size_bytes'))} B (high-water mark); {flash}; {ram}")
+                 f"{_grouped(num('stack_size_bytes'))} B; {flash}; RAM "
+                 f"{_grouped(num('ram_used_bytes'))} B static + {_grouped(num('stack_size_bytes'))}"
+                 f" B stack" + (f" of {_grouped(num('ram_size_bytes'))} B" if num("ram_size_bytes")
+                                else ""))
     errors = sum(num(k) for k in ("crc_errors", "cobs_errors", "length_errors", "usart_overruns",
                                   "rx_ring_overflows", "tx_ring_overflows", "deframer_overruns"))
     cpu = (f"; the emulator used {float(meta['emulator_cpu_s']):.1f} s of CPU"
            if meta.get("emulator_cpu_s") else "")
     lines.append(f"  link: {_grouped(num('rx_bytes'))} octets in, {_grouped(num('tx_bytes'))} out, "
-                 f"{errors} errors on the target's side{cpu}")
-    if meta.get("fault_pc") not in (None, "0") and meta.get("state_name") == "HardFault":
-        lines.append(f"  HardFault at PC 0x{num('fault_pc'):08X} (CFSR 0x{num('fault_cfsr'):08X})")
+                 f"{errors} errors seen by the target{cpu}")
     return lines
 
 
