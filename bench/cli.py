@@ -142,6 +142,7 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     if result.error:
         err.print(f"[red]run ended early:[/red] {escape(result.error)}")
     if result.cycles_done == 0:
+        _print_target(result.target, out)
         return 130 if result.interrupted else 1   # nothing ran: nothing to check
     if result.interrupts_while_closing and not result.interrupted:
         err.print(f"interrupted while the recording was being finalised (it is complete): "
@@ -150,6 +151,7 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     try:
         report = presses.wait_for(check_recording, result.recording)
         print_report(report, out)
+        _print_target(result.target, out)
     except RecordingError as exc:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
@@ -162,6 +164,15 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     if result.error:
         return 1
     return 1 if (args.strict and not report.all_pass) else 0
+
+
+def _print_target(target: dict[str, str], out: Console) -> None:
+    """The target's own figures (``--link pil-qemu``; recorded as metadata ``target``)."""
+    if target:
+        from hil_bench.loop.links.qemu import target_summary
+
+        for line in target_summary(target):
+            out.print(escape(line), highlight=False, soft_wrap=True)
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -187,6 +198,9 @@ def _cmd_check(args: argparse.Namespace) -> int:
         err.print("interrupted by the user")
         return 130
     print_report(report)
+    from hil_bench.record.recording import read_header
+
+    _print_target(read_header(path).metadata.get("target", {}), Console())
     return 1 if (args.strict and not report.all_pass) else 0
 
 

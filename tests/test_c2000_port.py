@@ -1,7 +1,8 @@
-"""The C2000 (TMS320F28335) port skeleton (issue 21, item 4): its host build against the mock of
-TI's register headers runs its checks (tests/c/test_c2000_port.c, also a CTest), and its eCAN
-mailbox table is the DBC's message set, each message received or transmitted as the DBC's
-sender says."""
+"""The C2000 (TMS320F28335) port skeleton (issue 21 item 4, issue 29 item 3): its host build against
+the mock of TI's headers runs its checks (tests/c/test_c2000_port.c, also CTests), once for each
+link a build can choose (SCI-A with the COBS framing, eCAN-A: HIL_C2000_LINK), main.c's start-up
+included; the period comes from HELLO; and its eCAN mailbox table is the DBC's message set, each
+message received or transmitted as the DBC's sender says."""
 from __future__ import annotations
 
 import subprocess
@@ -11,24 +12,30 @@ import pytest
 
 from hil_bench.protocol import dbc
 
-EXE = Path(__file__).resolve().parents[1] / "build" / "bin" / "test_c2000_port"
+BIN = Path(__file__).resolve().parents[1] / "build" / "bin"
+BUILDS = {"SCI": BIN / "test_c2000_port", "CAN": BIN / "test_c2000_port_can"}
 
 
-@pytest.fixture(scope="module")
-def exe() -> Path:
-    if not EXE.exists():
-        pytest.fail(f"{EXE} not built: run `make build`")
-    return EXE
+@pytest.fixture(scope="module", params=sorted(BUILDS))
+def build(request) -> tuple[str, Path]:
+    exe = BUILDS[request.param]
+    if not exe.exists():
+        pytest.fail(f"{exe} not built: run `make build`")
+    return request.param, exe
 
 
-def test_the_host_build_passes_its_checks(exe):
+def test_each_link_build_passes_its_checks(build):
+    link, exe = build
     r = subprocess.run([str(exe)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "all checks passed" in r.stdout
+    chosen = subprocess.run([str(exe), "--link"], capture_output=True, text=True, check=True)
+    assert chosen.stdout.strip() == link
 
 
-def test_one_mailbox_per_dbc_message_in_the_senders_direction(exe):
-    out = subprocess.run([str(exe), "--table"], capture_output=True, text=True, check=True).stdout
+def test_one_mailbox_per_dbc_message_in_the_senders_direction(build):
+    out = subprocess.run([str(build[1]), "--table"], capture_output=True, text=True,
+                         check=True).stdout
     table = {int(fid, 16): way for _, fid, way in (line.split() for line in out.splitlines())}
     expected = {m.frame_id: ("receive" if m.senders == ["PLANT"] else "transmit")
                 for m in dbc.database().messages}

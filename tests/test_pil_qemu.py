@@ -129,9 +129,75 @@ def test_the_target_reports_its_own_figures(g2_runs):
     # the counter is right: the boot-time loop of 2 x 10000 instructions counts as that
     assert t["calibration"].startswith("20000 instructions counted for 20000 executed"), t
     assert 1000 < float(t["isr_instructions_mean"]) < 20000
+    # the footprint the firmware reports is its ELF's (the linker's symbols against its sections)
+    from hil_bench.perf.target import footprint
+
+    fp = footprint(firmware_elf())
+    assert int(t["flash_used_bytes"]) == fp["flash_bytes"]
+    assert int(t["flash_size_bytes"]) == 1 << 20 and int(t["ram_size_bytes"]) == 128 << 10
+    assert int(t["stack_size_bytes"]) == fp["stack_bytes"]
+    assert len(t["elf_sha256"]) == 64 and float(t["emulator_cpu_s"]) > 0
     from hil_bench.record.recording import load_recording
 
-    assert load_recording(path).metadata["target"]["isr_count"] == "10000"
+    meta = load_recording(path).metadata["target"]
+    assert meta["isr_count"] == "10000" and meta["flash_used_bytes"] == t["flash_used_bytes"]
+
+
+def test_the_docs_figures_are_the_targets(g2_runs):
+    """docs/ports.md's footprint block is what `python -m hil_bench.perf.target --write-docs`
+    makes of today's ELF, and its G2 row is this run's ISR count (the same cut: instructions under
+    -icount are the firmware's, up to a SysTick or a host heartbeat landing inside an ISR)."""
+    from hil_bench.perf import target as perf_target
+
+    assert perf_target.main(["--check-docs"]) == 0, "run: python -m hil_bench.perf.target --write-docs"
+    block = perf_target.generated_block(perf_target.DOC.read_text(), "target_isr")
+    row = next(line for line in block.splitlines() if "`gong_g2_500rpm`" in line)
+    documented = float(row.split("|")[2].replace(" ", ""))
+    measured = float(g2_runs["pil-qemu"][1].target["isr_instructions_mean"])
+    assert abs(documented - measured) <= 0.005 * measured, (documented, measured)
+
+
+def test_bench_run_prints_the_targets_figures(elf, tmp_path):
+    out = tmp_path / "g2.mcap"
+    r = subprocess.run([str(REPO / ".venv" / "bin" / "bench"), "run", "gong_g2_500rpm", "--link",
+                        "pil-qemu", "--set", "scenario.duration_s=0.05", "--set",
+                        "metrics.window_s=[0.04, 0.05]", "--out", str(out), "--no-progress"],
+                       capture_output=True, text=True, cwd=tmp_path)
+    assert out.exists(), r.stdout + r.stderr
+    text = r.stdout
+    target = text[text.index("target: hil_fw_cm4.elf"):]
+    assert re.search(r"control ISR: [\d ]+ instructions mean, [\d ]+ max, [\d ]+ min over 500 ISRs",
+                     target), target
+    assert re.search(r"stack: [\d ]+ B used of 8 192 B; flash [\d ]+ B of 1 048 576 B; RAM [\d ]+ B "
+                     r"static \+ 8 192 B stack of 131 072 B", target), target
+    check = subprocess.run([str(REPO / ".venv" / "bin" / "bench"), "check", str(out)],
+                           capture_output=True, text=True)
+    assert target.splitlines()[1] in check.stdout      # bench check prints them from the file
+
+
+def test_every_octet_value_crosses_the_link(elf):
+    """QEMU's multiplexer sits between the socket and USART1 (qemu.py): its escape character is
+    set beyond a byte, so Ctrl-A then `x` (quit) or `c` (switch to the monitor) in a frame are just
+    octets. HELLOs whose session number puts those pairs on the wire are each answered."""
+    from hil_bench.protocol.framing import encode_frame
+    from hil_bench.protocol.messages import MESSAGES
+
+    hello, ack = MESSAGES["HELLO"], MESSAGES["HELLO_ACK"]
+    q = QemuProcess(elf)
+    try:
+        deadline = time.monotonic() + 10
+        while not any(fid == MESSAGES["HEARTBEAT_CTRL"].frame_id for fid, _ in q.link.recv(0.1)):
+            assert time.monotonic() < deadline, "no HEARTBEAT_CTRL: the firmware did not start"
+        for session in (0x7801, 0x6301, 0x0101, 0x7878):     # 01 'x', 01 'c', 01 01, 'x' 'x'
+            payload = hello.pack(proto_version=1, mode=0, period_us=100.0, estimator=3, flags=0,
+                                 session=session)
+            assert bytes([session & 0xFF, session >> 8]) in encode_frame(hello.frame_id, payload)
+            q.link.send([(hello.frame_id, payload)])
+            frame = q.link.recv_until(lambda fid, p: fid == ack.frame_id, 5.0)
+            assert frame is not None and ack.unpack(frame[1])["session"] == session, hex(session)
+        assert q.alive()
+    finally:
+        q.stop()
 
 
 def test_the_emulator_is_reaped_after_the_run(g2_runs):
@@ -169,7 +235,8 @@ def test_real_time_on_the_emulator_is_refused(elf):
 
 
 def _block(**values) -> bytes:
-    words = {f: 0 for f in TargetStats.__dataclass_fields__ if f != "icount_shift"}
+    words = {f: 0 for f in TargetStats.__dataclass_fields__ if f not in TargetStats.NOT_IN_BLOCK}
+    assert len(words) == TargetStats.words()
     words.update({"magic": TargetStats.MAGIC, "version": TargetStats.VERSION, **values})
     return struct.pack(f"<{len(words)}I", *words.values())
 

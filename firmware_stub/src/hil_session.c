@@ -53,6 +53,8 @@ void hil_session_init(hil_session_t *s, const hil_port_t *port)
     s->modes = HIL_SESSION_MODES_DEFAULT;
     s->proto_minor = (uint16_t)HIL_PROTO_VERSION_MINOR;
     s->session_minor = (uint16_t)HIL_PROTO_VERSION_MINOR;
+    s->period_min_us = HIL_SESSION_PERIOD_MIN_US;
+    s->period_max_us = HIL_SESSION_PERIOD_MAX_US;
     s->aux_seq = 0u;
     s->aux_valid = 0;
     s->aux_flags = 0u;
@@ -86,11 +88,14 @@ void hil_session_restart(hil_session_t *s)
     const hil_port_t port = s->port;
     const uint16_t modes = s->modes;
     const uint16_t minor = s->proto_minor;
+    const float period_min_us = s->period_min_us, period_max_us = s->period_max_us;
     const uint32_t restarts = s->restarts + 1u;
     hil_session_init(s, &port);
     s->modes = modes;
     s->proto_minor = minor;
     s->session_minor = minor;
+    s->period_min_us = period_min_us;
+    s->period_max_us = period_max_us;
     s->restarts = restarts;
     hil_session_heartbeat(s, 0u);
 }
@@ -137,7 +142,7 @@ static void on_hello(hil_session_t *s, const hil_octet_t *data, uint16_t dlc)
         a.status = HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED;
     } else if (h.estimator == HIL_EST_ENCODER && (h.flags & HIL_HELLO_FLAG_ENCODER_VALID) == 0u) {
         a.status = HIL_HELLO_STATUS_ESTIMATOR_UNSUPPORTED; /* no angle will come (6.8) */
-    } else if (!(period_us >= 10.0f)) {
+    } else if (!(period_us >= s->period_min_us && period_us <= s->period_max_us)) {
         a.status = HIL_HELLO_STATUS_PERIOD_UNSUPPORTED;
     }
     if (a.status == HIL_HELLO_STATUS_OK) {

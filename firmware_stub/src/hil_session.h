@@ -63,6 +63,9 @@ typedef struct {
 
 /** HELLO modes this firmware runs (bit n = mode value n): both by default. */
 #define HIL_SESSION_MODES_DEFAULT ((uint16_t)((1u << HIL_MODE_LOCKSTEP) | (1u << HIL_MODE_REALTIME)))
+/** HELLO periods accepted by default: from 10 us to the wire's largest (HELLO.period_us raw 65535) */
+#define HIL_SESSION_PERIOD_MIN_US 10.0f
+#define HIL_SESSION_PERIOD_MAX_US 6553.5f
 
 typedef struct {
     hil_port_t port;
@@ -74,6 +77,10 @@ typedef struct {
     uint16_t modes;   /**< HELLO modes accepted (bit n = mode n); a port may narrow it after init */
     uint16_t proto_minor;   /**< this controller's minor protocol version; a port may lower it after init */
     uint16_t session_minor; /**< the minor version the session speaks (HELLO_ACK.proto_minor) */
+    /** HELLO periods accepted, [min, max] in us (PERIOD_UNSUPPORTED outside): a port narrows them
+     *  after init to what its timer and its control ISR make (port/c2000); kept across restarts */
+    float period_min_us;
+    float period_max_us;
     /* per-cycle auxiliary data latched before SENSE */
     uint16_t aux_seq;
     int aux_valid;
@@ -103,9 +110,9 @@ uint16_t hil_session_estimators_of_minor(uint16_t minor);
 void hil_session_init(hil_session_t *s, const hil_port_t *port);
 void hil_session_on_frame(hil_session_t *s, const hil_frame_t *f);
 /** Restart as from power-up (CMD RESTART; a port may call it for a reset line of its own): the
- *  session and the controller re-initialised, the port, the modes it allows and its protocol version kept, `restarts`
- *  + 1, and a HEARTBEAT_CTRL sent at once (counter 0, state IDLE, no errors: a port resets its
- *  link's error count with it). */
+ *  session and the controller re-initialised, the port, the modes and periods it allows and its
+ *  protocol version kept, `restarts` + 1, and a HEARTBEAT_CTRL sent at once (counter 0, state
+ *  IDLE, no errors: a port resets its link's error count with it). */
 void hil_session_restart(hil_session_t *s);
 /** Send HEARTBEAT_CTRL (the port calls it every 100 ms while no cycles flow). */
 void hil_session_heartbeat(hil_session_t *s, uint32_t link_rx_errors);

@@ -1,9 +1,10 @@
 /**
  * @file test_fw_session.c
  * @brief The portable HIL session against docs/protocol.md 1.1: the answer cache for repeated SENSE
- * (6.5), HELLO statuses MODE_UNSUPPORTED / ESTIMATOR_UNSUPPORTED (6.1, 6.8), the encoder-angle rule
- * (6.8), CMD seq gaps (6.3), CMD RESTART (6.3), whole-number parameters (6.2) and the minor version
- * a session speaks (6.1, 10). Driven frame by frame through a capturing port.
+ * (6.5), HELLO statuses MODE_UNSUPPORTED / ESTIMATOR_UNSUPPORTED / PERIOD_UNSUPPORTED (6.1, 6.8)
+ * with a port's narrower periods, the encoder-angle rule (6.8), CMD seq gaps (6.3), CMD RESTART
+ * (6.3), whole-number parameters (6.2) and the minor version a session speaks (6.1, 10). Driven
+ * frame by frame through a capturing port.
  */
 #include <math.h>
 #include <stdio.h>
@@ -55,7 +56,8 @@ static void deliver(hil_session_t *s, uint16_t id, const hil_octet_t *data, uint
     hil_session_on_frame(s, &f);
 }
 
-static uint16_t hello(hil_session_t *s, capture_t *cap, uint16_t mode, uint16_t estimator, uint16_t flags)
+static uint16_t hello_period(hil_session_t *s, capture_t *cap, uint16_t mode, uint16_t estimator,
+                             uint16_t flags, float period_us)
 {
     hil_hello_t h;
     hil_hello_ack_t a;
@@ -64,7 +66,7 @@ static uint16_t hello(hil_session_t *s, capture_t *cap, uint16_t mode, uint16_t 
     h.proto_version = HIL_PROTO_VERSION;
     h.proto_minor = HIL_PROTO_VERSION_MINOR;
     h.mode = mode;
-    h.period_us = hil_hello_period_us_encode(100.0f);
+    h.period_us = hil_hello_period_us_encode(period_us);
     h.estimator = estimator;
     h.flags = flags;
     h.session = 0x4242u;
@@ -76,6 +78,11 @@ static uint16_t hello(hil_session_t *s, capture_t *cap, uint16_t mode, uint16_t 
     }
     hil_hello_ack_unpack(&a, cap->data[k], 8u);
     return a.status;
+}
+
+static uint16_t hello(hil_session_t *s, capture_t *cap, uint16_t mode, uint16_t estimator, uint16_t flags)
+{
+    return hello_period(s, cap, mode, estimator, flags, 100.0f);
 }
 
 static int config(hil_session_t *s, capture_t *cap, unsigned id, float value)
@@ -260,6 +267,38 @@ static void test_hello_statuses(void)
     CHECK(hello(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_ENCODER, HIL_HELLO_FLAG_ENCODER_VALID) ==
           HIL_HELLO_STATUS_OK, "ENCODER with ENCODER_VALID");
     CHECK(hello(&s, &cap, 7u, 99u, 0u) == HIL_HELLO_STATUS_MODE_UNSUPPORTED, "mode is checked before the estimator");
+}
+
+/* 6.1: PERIOD_UNSUPPORTED outside the periods the drive runs; a port narrows them to its timer's
+ * (port/c2000: the ePWM's), the period of an accepted HELLO is the controller's Ts, and a restart
+ * keeps the port's limits. */
+static void test_a_port_narrows_the_periods(void)
+{
+    static hil_session_t s;
+    capture_t cap;
+    hil_port_t port;
+    memset(&cap, 0, sizeof cap);
+    port.ctx = &cap;
+    port.send = capture_send;
+    hil_session_init(&s, &port);
+    CHECK(hello_period(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u, 5.0f) ==
+              HIL_HELLO_STATUS_PERIOD_UNSUPPORTED, "below 10 us by default");
+    CHECK(hello_period(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u, 6553.5f) == HIL_HELLO_STATUS_OK,
+          "the wire's largest period by default");
+    s.period_min_us = 100.0f;
+    s.period_max_us = 1000.0f;
+    CHECK(hello_period(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u, 50.0f) ==
+              HIL_HELLO_STATUS_PERIOD_UNSUPPORTED, "below the port's minimum");
+    CHECK(hello_period(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u, 1000.1f) ==
+              HIL_HELLO_STATUS_PERIOD_UNSUPPORTED, "above the port's maximum");
+    CHECK(hello_period(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u, 250.0f) == HIL_HELLO_STATUS_OK &&
+              fabsf(s.ctrl.cfg.ts_s - 250.0e-6f) < 1e-9f, "accepted: Ts = 250 us");
+    CHECK(hello_period(&s, &cap, 7u, HIL_EST_SMO_SIGN, 0u, 50.0f) == HIL_HELLO_STATUS_MODE_UNSUPPORTED,
+          "the mode is checked before the period");
+    hil_session_restart(&s);
+    CHECK(s.period_min_us >= 100.0f && s.period_max_us <= 1000.0f, "a restart keeps the port's periods");
+    CHECK(hello_period(&s, &cap, HIL_MODE_LOCKSTEP, HIL_EST_SMO_SIGN, 0u, 50.0f) ==
+              HIL_HELLO_STATUS_PERIOD_UNSUPPORTED, "still refused after the restart");
 }
 
 /* 6.8: theta_enc counts only with THETA_ENC_VALID in the SENSE_AUX of the same seq. */
@@ -529,6 +568,7 @@ int main(void)
 {
     test_retry_is_answered_from_the_cache();
     test_hello_statuses();
+    test_a_port_narrows_the_periods();
     test_encoder_angle_rule();
     test_bus_and_encoder_reach_the_protection();
     test_cmd_seq_and_whole_parameters();

@@ -8,16 +8,25 @@ emulator as it owns the stub (``stub.py``):
 * it finds the ELF (``$HIL_QEMU_ELF``, else ``build/cortex_m/hil_fw_cm4.elf``, brought up to date
   with ``cmake --build`` when the cross compiler is installed);
 * starts ``qemu-system-arm -machine netduinoplus2 -nographic -S`` with USART1 on a character
-  device the bench opens (a Unix socket in a private temporary folder, QEMU listening), QMP on
-  the process's stdin/stdout and ``-icount shift=0``;
-* connects, waits until QMP's ``query-chardev`` shows QEMU has taken the connection, and only
-  then lets the CPU run (``cont``): nothing either side sends is lost. (Not ``-serial pty``:
-  QEMU's pty backend looks for a reader once a second and until then drops what the host writes;
-  measured here, 8 HELLOs of 8 sent 0.35 s after opening the pty were never read by the target.
-  A pty is fine by hand when the first frame comes a second later: docs/real-drive.md.)
-* at the end reads the target's own measurements (``target_stats.h``, at 0x20000000) through
-  QMP, closes the link, ``quit``\\ s QEMU, and kills and reaps it if it lingers; its stderr is
-  kept for the error messages, and a target that took a HardFault says where.
+  device the bench opens (a Unix socket in a private temporary folder, QEMU listening, behind
+  QEMU's multiplexer: ``mux=on``, below), the human monitor (HMP, ``qemu_monitor.py``) on the
+  process's stdin/stdout and ``-icount shift=0``;
+* connects, waits until ``info chardev`` shows QEMU has taken the connection, and only then lets
+  the CPU run (``cont``): nothing either side sends is lost. (Not ``-serial pty``: QEMU's pty
+  backend looks for a reader once a second and until then drops what the host writes; measured
+  here, 8 HELLOs of 8 sent 0.35 s after opening the pty were never read by the target. A pty is
+  fine by hand when the first frame comes a second later: docs/real-drive.md.)
+* at the end reads the target's own measurements (``target_stats.h``, at 0x20000000) with the
+  monitor's ``xp``, closes the link, ``quit``\\ s QEMU, and kills and reaps it if it lingers; its
+  stderr is kept for the error messages, and a target that took a HardFault says where.
+
+Speed (docs/performance.md, "The Cortex-M target"): QEMU's USART model takes one octet at a
+time, and only after the firmware read the last one from DR. Straight from the socket, each
+received octet waited for a turn of QEMU's main loop (a thread switch each way), and every read
+of the USART's SR or DR woke that loop. With ``mux=on`` the multiplexer reads ahead up to 32
+octets and hands the next one to the USART as soon as DR is read, in the CPU's thread, and the
+firmware reads every octet that is there in one interrupt (usart.c); with HMP no monitor thread
+wakes per register read (qemu_monitor.py).
 
 Emulated time: with ``-icount shift=0`` the virtual clock advances 1 ns per guest instruction
 (and with the host's clock while the CPU sleeps in WFI), so the SysTick ticks the firmware
@@ -28,9 +37,8 @@ from __future__ import annotations
 
 import collections
 import fcntl
-import json
+import hashlib
 import os
-import queue
 import shutil
 import socket
 import struct
@@ -42,6 +50,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from .base import LinkError, reap
+from .qemu_monitor import HumanMonitor
 from .serial_link import FdTransport, SerialLink
 
 REPO_ROOT = Path(__file__).resolve().parents[3]
@@ -54,7 +63,14 @@ ICOUNT_SHIFT = 0                 #: 2**shift ns of virtual time per guest instru
 CORE_CLOCK_HZ = 168_000_000      #: netduinoplus2's fixed SYSCLK (SysTick counts it)
 STATS_ADDR = 0x20000000          #: target_stats.h: the start of SRAM
 CHARDEV = "usart1"               #: QEMU's character device behind the machine's USART1
-QMP_TIMEOUT_S = 5.0
+#: ``mux=on`` puts QEMU's multiplexer between the socket and USART1 (``usart1`` the multiplexer,
+#: ``usart1-base`` the socket): it buffers up to 32 received octets and hands the next one to the
+#: USART as soon as the firmware has read the last, in the CPU's own thread. Without it each
+#: octet waits for a turn of QEMU's main loop after the firmware read the previous one.
+SOCKET_CHARDEV = f"{CHARDEV}-base"
+#: the multiplexer's escape character (default Ctrl-A, then ``x`` quits QEMU, ``c`` switches the
+#: input to the monitor): set beyond a byte, so that no octet of the binary link is taken for one
+NO_ESCAPE_CHAR = 256
 START_TIMEOUT_S = 10.0
 INSTALL_HINT = ("apt-get install qemu-system-arm gcc-arm-none-eabi libnewlib-arm-none-eabi, "
                 "then `make firmware-cm4`")
@@ -109,15 +125,25 @@ class TargetStats:
     calib_ticks: int
     calib_empty_ticks: int
     restarts: int        # controller restarts (CMD RESTART) the session took
+    flash_used_bytes: int   # the image in flash (vectors, code, constants, .data's copy)
+    flash_size_bytes: int
+    ram_size_bytes: int
     #: not in the block: QEMU's -icount shift when the ticks are instructions, else None
     icount_shift: int | None = None
+    #: not in the block: the image that ran (its file name and SHA-256)
+    elf: str = ""
+    elf_sha256: str = ""
+    #: not in the block: CPU seconds the emulator process used (user + system), None if unread
+    emulator_cpu_s: float | None = None
 
     MAGIC = 0x53484948
-    VERSION = 2
+    VERSION = 3
+    #: the fields after the block's words
+    NOT_IN_BLOCK = ("icount_shift", "elf", "elf_sha256", "emulator_cpu_s")
 
     @classmethod
     def words(cls) -> int:
-        return len(fields(cls)) - 1
+        return len(fields(cls)) - len(cls.NOT_IN_BLOCK)
 
     @classmethod
     def from_bytes(cls, data: bytes, icount_shift: int | None = None) -> "TargetStats":
@@ -172,7 +198,12 @@ class TargetStats:
 
     def as_metadata(self) -> dict[str, str]:
         """The recording's ``target`` metadata record (str -> str)."""
-        out = {f.name: str(getattr(self, f.name)) for f in fields(self) if f.name != "icount_shift"}
+        out = {f.name: str(getattr(self, f.name)) for f in fields(self)
+               if f.name not in self.NOT_IN_BLOCK}
+        if self.elf:
+            out["elf"], out["elf_sha256"] = self.elf, self.elf_sha256
+        if self.emulator_cpu_s is not None:
+            out["emulator_cpu_s"] = f"{self.emulator_cpu_s:.2f}"
         out["counter"] = COUNTER_KINDS.get(self.counter_kind, "?")
         out["state_name"] = TARGET_STATES.get(self.state, "?")
         out["clock"] = ", ".join(t for b, t in CLOCK_FLAGS.items() if self.clock_flags & b)
@@ -184,6 +215,55 @@ class TargetStats:
             out["calibration"] = (f"{measured:.0f} instructions counted for {executed} executed "
                                   f"(boot-time loop)")
         return out
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _grouped(n: int | float) -> str:
+    return f"{n:,.0f}".replace(",", " ")
+
+
+def target_summary(meta: dict[str, str]) -> list[str]:
+    """The target's figures of a run as text lines, from the recording's ``target`` metadata
+    (``bench run --link pil-qemu`` prints them at the end, ``bench check`` too)."""
+    try:
+        return _summary_lines(meta)
+    except (ValueError, TypeError) as exc:
+        return [f"target: its figures in the recording's metadata are not numbers ({exc})"]
+
+
+def _summary_lines(meta: dict[str, str]) -> list[str]:
+    def num(key: str) -> int:
+        return int(meta.get(key, "0") or 0)
+
+    lines = [f"target: {meta.get('elf') or ELF_NAME} on {QEMU} {MACHINE} (STM32F405, Cortex-M4F, "
+             f"{num('clock_hz') / 1e6:g} MHz), {meta.get('state_name', '?')}"]
+    if meta.get("isr_instructions_mean"):
+        lines += [f"  control ISR: {_grouped(float(meta['isr_instructions_mean']))} instructions "
+                  f"mean, {_grouped(float(meta['isr_instructions_max']))} max, "
+                  f"{_grouped(float(meta['isr_instructions_min']))} min over "
+                  f"{_grouped(num('isr_count'))} ISRs",
+                  f"    (guest instructions, counted with -icount shift="
+                  f"{meta.get('icount_shift', '?')}; not core cycles: docs/ports.md)"]
+    elif num("isr_count"):
+        lines.append(f"  control ISR: {_grouped(num('isr_count'))} ISRs, no instruction count "
+                     f"(the emulator ran without -icount)")
+    flash = (f"flash {_grouped(num('flash_used_bytes'))} B of {_grouped(num('flash_size_bytes'))} B"
+             if num("flash_size_bytes") else "flash not reported (a firmware before stats layout 3)")
+    lines.append(f"  stack: {_grouped(num('stack_used_bytes'))} B used of "
+                 f"{_grouped(num('stack_size_bytes'))} B; {flash}; RAM "
+                 f"{_grouped(num('ram_used_bytes'))} B static + {_grouped(num('stack_size_bytes'))}"
+                 f" B stack" + (f" of {_grouped(num('ram_size_bytes'))} B" if num("ram_size_bytes")
+                                else ""))
+    errors = sum(num(k) for k in ("crc_errors", "cobs_errors", "length_errors", "usart_overruns",
+                                  "rx_ring_overflows", "tx_ring_overflows", "deframer_overruns"))
+    cpu = (f"; the emulator used {float(meta['emulator_cpu_s']):.1f} s of CPU"
+           if meta.get("emulator_cpu_s") else "")
+    lines.append(f"  link: {_grouped(num('rx_bytes'))} octets in, {_grouped(num('tx_bytes'))} out, "
+                 f"{errors} errors seen by the target{cpu}")
+    return lines
 
 
 def qemu_path() -> str:
@@ -224,71 +304,6 @@ def firmware_elf(build: bool = True) -> Path:
     return elf
 
 
-class _Qmp:
-    """QMP on the emulator's stdin/stdout: one command at a time, events set aside."""
-
-    def __init__(self, proc: subprocess.Popen):
-        self.proc = proc
-        self.replies: queue.Queue = queue.Queue()
-        self.events: list[dict] = []
-        self.other_lines: collections.deque[str] = collections.deque(maxlen=20)
-        self._lock = threading.Lock()
-        self._reader = threading.Thread(target=self._read, daemon=True, name="qemu-qmp")
-        self._reader.start()
-
-    def _read(self) -> None:
-        for line in self.proc.stdout:
-            try:
-                msg = json.loads(line)
-            except ValueError:
-                self.other_lines.append(line.rstrip())   # "char device redirected to ..."
-                continue
-            if "event" in msg:
-                self.events.append(msg)
-            else:
-                self.replies.put(msg)
-        self.replies.put(None)   # end of stream: QEMU has gone
-
-    def greeting(self, timeout_s: float) -> dict:
-        return self._get(timeout_s, "the QMP greeting")
-
-    def _get(self, timeout_s: float, what: str) -> dict:
-        try:
-            msg = self.replies.get(timeout=timeout_s)
-        except queue.Empty:
-            raise LinkError(f"QEMU did not answer {what} within {timeout_s:g} s") from None
-        if msg is None:
-            self.replies.put(None)
-            raise LinkError(f"QEMU closed its QMP channel (waiting for {what})")
-        return msg
-
-    def command(self, name: str, timeout_s: float = QMP_TIMEOUT_S, **arguments) -> object:
-        with self._lock:
-            req = {"execute": name}
-            if arguments:
-                req["arguments"] = arguments
-            try:
-                self.proc.stdin.write(json.dumps(req) + "\n")
-                self.proc.stdin.flush()
-            except (BrokenPipeError, OSError, ValueError):
-                raise LinkError(f"QEMU is gone (QMP {name})") from None
-            msg = self._get(timeout_s, f"QMP {name}")
-        if "error" in msg:
-            raise LinkError(f"QMP {name}: {msg['error'].get('desc', msg['error'])}")
-        return msg.get("return")
-
-    def read_memory(self, addr: int, n_words: int) -> bytes:
-        """Guest physical memory, through the monitor's ``xp`` (no file involved)."""
-        text = self.command("human-monitor-command", **{"command-line": f"xp /{n_words}wx {addr:#x}"})
-        words: list[int] = []
-        for line in str(text).splitlines():
-            _, _, values = line.partition(":")
-            words += [int(v, 16) for v in values.split()]
-        if len(words) < n_words:
-            raise LinkError(f"QEMU read {len(words)} of {n_words} words at {addr:#x}: {text!r}")
-        return struct.pack(f"<{n_words}I", *words[:n_words])
-
-
 class QemuProcess:
     """A running QEMU with the firmware, and ``link``, the bench's end of its USART1."""
 
@@ -309,15 +324,17 @@ class QemuProcess:
         self._dir = tempfile.mkdtemp(prefix="hil-qemu-")
         self.socket_path = os.path.join(self._dir, "usart1.sock")
         args = [self.executable, "-machine", MACHINE, "-nographic", "-kernel", str(self.elf),
-                "-chardev", f"socket,id={CHARDEV},path={self.socket_path},server=on,wait=off",
-                "-serial", f"chardev:{CHARDEV}", "-monitor", "none", "-qmp", "stdio",
-                *(["-icount", f"shift={ICOUNT_SHIFT}"] if icount else []), "-S", *extra_args]
+                "-chardev", f"socket,id={CHARDEV},path={self.socket_path},server=on,wait=off,"
+                            f"mux=on", "-echr", str(NO_ESCAPE_CHAR),
+                "-serial", f"chardev:{CHARDEV}", "-monitor", "stdio",
+                *(["-icount", f"shift={ICOUNT_SHIFT}"] if icount else []), "-S",
+                "-name", "hil-target,debug-threads=on", *extra_args]
         self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, text=True, close_fds=True,
+                                     stderr=subprocess.PIPE, close_fds=True,
                                      start_new_session=True)   # Ctrl-C reaches the bench only
         self._stderr_reader = threading.Thread(target=self._drain_stderr, daemon=True)
         self._stderr_reader.start()
-        self.qmp = _Qmp(self.proc)
+        self.monitor = HumanMonitor(self.proc, f"{QEMU} (pid {self.proc.pid})")
         try:
             self._start()
         except LinkError as exc:
@@ -325,8 +342,7 @@ class QemuProcess:
             raise LinkError(f"{exc}; {self.death_message()}") from None
 
     def _start(self) -> None:
-        self.qmp.greeting(START_TIMEOUT_S)
-        self.qmp.command("qmp_capabilities")
+        self.monitor.greeting(START_TIMEOUT_S)
         self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         try:
             self._sock.connect(self.socket_path)
@@ -335,8 +351,7 @@ class QemuProcess:
                             f"{exc.strerror}") from None
         deadline = time.monotonic() + START_TIMEOUT_S
         while True:   # QEMU accepts in its main loop: until then it would drop the guest's octets
-            chardevs = self.qmp.command("query-chardev") or []
-            name = next((c["filename"] for c in chardevs if c.get("label") == CHARDEV), "")
+            name = self.monitor.chardev_filenames().get(SOCKET_CHARDEV, "")
             if name and not name.startswith("disconnected:"):
                 break
             if time.monotonic() > deadline:
@@ -347,16 +362,16 @@ class QemuProcess:
         self.link = SerialLink(FdTransport(self._sock.fileno(),
                                            f"USART1 of {self.elf.name} in {QEMU} (pid "
                                            f"{self.proc.pid}) on {self.socket_path}"))
-        self.qmp.command("cont")   # the CPU runs only now: the bench is listening
+        self.monitor.command("cont")   # the CPU runs only now: the bench is listening
 
     def _drain_stderr(self) -> None:
         for line in self.proc.stderr:
-            self.stderr_tail.append(line.rstrip())
+            self.stderr_tail.append(line.decode("utf-8", "replace").rstrip())
 
     # -- what the target says about itself --------------------------------------------------
     def read_stats(self) -> TargetStats:
         try:
-            data = self.qmp.read_memory(STATS_ADDR, TargetStats.words())
+            data = self.monitor.read_memory(STATS_ADDR, TargetStats.words())
             return TargetStats.from_bytes(data, ICOUNT_SHIFT if self.icount else None)
         except ValueError as exc:
             raise LinkError(str(exc)) from None
@@ -382,7 +397,7 @@ class QemuProcess:
     def death_message(self) -> str:
         code = self.proc.poll()
         self._stderr_reader.join(timeout=0.5)
-        tail = "\n    ".join(list(self.stderr_tail) + list(self.qmp.other_lines)) or "(no output)"
+        tail = "\n    ".join(list(self.stderr_tail) + list(self.monitor.other_lines)) or "(no output)"
         if code is None:
             fault = self._target_fault()
             if fault:
@@ -391,11 +406,23 @@ class QemuProcess:
         how = f"killed by signal {-code}" if code < 0 else f"exited with code {code}"
         return f"{QEMU} {how}; its last stderr lines:\n    {tail}"
 
+    def cpu_seconds(self) -> float | None:
+        """User + system CPU time of the emulator process so far (Linux /proc), None if gone."""
+        try:
+            with open(f"/proc/{self.proc.pid}/stat") as f:
+                after_name = f.read().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            return None
+        return (int(after_name[11]) + int(after_name[12])) / os.sysconf("SC_CLK_TCK")
+
     def stop(self, timeout_s: float = 2.0) -> int | None:
         """Read the target's statistics, close the link, quit QEMU (kill it if it lingers)."""
         if self.proc.poll() is None:
             try:
-                self.target_stats = self.read_stats()
+                st = self.read_stats()
+                st.elf, st.elf_sha256 = self.elf.name, _sha256(self.elf)
+                st.emulator_cpu_s = self.cpu_seconds()
+                self.target_stats = st
             except LinkError as exc:
                 self.stderr_tail.append(f"bench: target statistics not read: {exc}")
         self._close_socket()
@@ -413,7 +440,7 @@ class QemuProcess:
     def _end(self, timeout_s: float) -> int | None:
         if self.proc.poll() is None:
             try:
-                self.qmp.command("quit", timeout_s=timeout_s)
+                self.monitor.command("quit", timeout_s=timeout_s, expect_reply=False)
             except LinkError:
                 pass
         try:

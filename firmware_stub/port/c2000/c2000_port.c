@@ -1,8 +1,8 @@
 /**
  * @file c2000_port.c
- * @brief TMS320F28335 port skeleton: eCAN-A / SCI-A link, ePWM1-3 with shadowed compares, ADC SEQ1
- * started by ePWM1 SOCA; the control ISR runs on the ADC interrupt with the latest SENSE.
- * See c2000_port.h. Register and field names are TI's (DSP2833x headers).
+ * @brief TMS320F28335 port skeleton: eCAN-A / SCI-A link, ePWM1-3 with shadowed compares at the
+ * period HELLO gives, ADC SEQ1 started by ePWM1 SOCA; the control ISR runs on the ADC interrupt
+ * with the latest SENSE. See c2000_port.h. Register and field names are TI's (DSP2833x headers).
  */
 #include "c2000_port.h"
 
@@ -73,6 +73,29 @@ Uint16 hil_c2000_cmpa(float duty, Uint16 tbprd)
 {
     const float d = duty < 0.0f ? 0.0f : (duty > 1.0f ? 1.0f : duty);
     return (Uint16)(d * (float)tbprd + 0.5f);
+}
+
+#define CLKDIV_MAX 7u /* TBCTL.CLKDIV: /1 .. /128 */
+
+int hil_c2000_epwm_timebase(float period_s, Uint16 *tbprd, Uint16 *clkdiv)
+{
+    Uint16 k;
+    if (!(period_s > 0.0f)) {
+        return -1;
+    }
+    for (k = 0u; k <= CLKDIV_MAX; ++k) {
+        /* up-down: period = 2 TBPRD / TBCLK */
+        const float counts = period_s * ((float)HIL_C2000_SYSCLK_HZ / (float)(1u << k)) * 0.5f + 0.5f;
+        if (counts < 65536.0f) {
+            if (counts < 2.0f) {
+                return -1; /* below what the counter resolves */
+            }
+            *tbprd = (Uint16)counts;
+            *clkdiv = k;
+            return 0;
+        }
+    }
+    return -1;
 }
 
 static volatile struct MBOX *mbox(uint16_t n)
@@ -158,6 +181,8 @@ static void ecan_send(uint16_t id, const hil_octet_t *data, uint16_t dlc)
     HIL_C2000_W1S(ECanaRegs.CANTRS, ((uint32_t)1u << n)); /* transmission requested */
 }
 
+static void set_period(float period_s);
+
 static void dispatch(const hil_frame_t *f)
 {
     if (f->id == HIL_SENSE_FRAME_ID) {
@@ -165,6 +190,11 @@ static void dispatch(const hil_frame_t *f)
         g_have_sense = 1;
     } else {
         hil_session_on_frame(&g_session, f);
+        if (f->id == HIL_HELLO_FRAME_ID && g_session.hello_done) {
+            /* a session runs at the period it asked for: the session checked it against this
+             * port's limits (PERIOD_UNSUPPORTED outside), its Ts is the period */
+            set_period(g_session.ctrl.cfg.ts_s);
+        }
     }
 }
 
@@ -263,11 +293,12 @@ static void port_send(void *ctx, uint16_t id, const hil_octet_t *data, uint16_t 
 }
 
 /* ---- ePWM and ADC ------------------------------------------------------------------------- */
-static void epwm_init(volatile struct EPWM_REGS *p, Uint16 tbprd, int master)
+/* Frozen, outputs forced low: no period (and no control ISR) until a HELLO sets one. */
+static void epwm_init(volatile struct EPWM_REGS *p, int master)
 {
-    p->TBPRD = tbprd;          /* up-down: the period is 2 TBPRD TBCLK = SYSCLKOUT */
+    p->TBCTL.bit.CTRMODE = TB_FREEZE;
+    p->TBPRD = 0u;
     p->TBCTR = 0u;
-    p->TBCTL.bit.CTRMODE = TB_COUNT_UPDOWN;
     p->TBCTL.bit.PHSEN = (Uint16)(master ? 0u : 1u); /* ePWM2, 3 follow ePWM1's sync */
     p->TBCTL.bit.PRDLD = TB_SHADOW;
     p->TBCTL.bit.SYNCOSEL = (Uint16)(master ? 1u : 0u); /* master: sync out at CTR = 0 */
@@ -283,6 +314,44 @@ static void epwm_init(volatile struct EPWM_REGS *p, Uint16 tbprd, int master)
     p->AQCSFRC.all = 0x5u;        /* both outputs forced low until a duty arrives */
 }
 
+/* The time base of one ePWM: at once while frozen (a frozen counter never reaches the zero that
+ * loads the shadow), else through the shadow at the next counter zero (no shortened period). */
+static void epwm_timebase(volatile struct EPWM_REGS *p, Uint16 tbprd, Uint16 clkdiv)
+{
+    if (p->TBCTL.bit.CTRMODE == TB_FREEZE) {
+        p->TBCTL.bit.PRDLD = TB_IMMEDIATE;
+        p->TBPRD = tbprd;
+        p->TBCTL.bit.PRDLD = TB_SHADOW;
+    } else {
+        p->TBPRD = tbprd;
+    }
+    p->TBCTL.bit.CLKDIV = clkdiv;
+}
+
+static void set_period(float period_s)
+{
+    Uint16 tbprd, clkdiv;
+    if (hil_c2000_epwm_timebase(period_s, &tbprd, &clkdiv) != 0) {
+        return; /* not reached: the session accepts HIL_C2000_PERIOD_MIN_US..MAX_US only */
+    }
+    if (tbprd == g_tbprd && (uint32_t)clkdiv == g_stats.clkdiv && g_stats.period_ns != 0u) {
+        return; /* the same period again (a new session at the same rate) */
+    }
+    epwm_timebase(&EPwm1Regs, tbprd, clkdiv);
+    epwm_timebase(&EPwm2Regs, tbprd, clkdiv);
+    epwm_timebase(&EPwm3Regs, tbprd, clkdiv);
+    g_tbprd = tbprd;
+    g_stats.tbprd = tbprd;
+    g_stats.clkdiv = clkdiv;
+    g_stats.period_ns = (uint32_t)(2.0f * (float)tbprd * (float)(1u << clkdiv) *
+                                   (1.0e9f / (float)HIL_C2000_SYSCLK_HZ) + 0.5f);
+    g_stats.period_changes++;
+    /* the three counters start together (ePWM2, 3 synchronised to ePWM1 at its zero) */
+    EPwm1Regs.TBCTL.bit.CTRMODE = TB_COUNT_UPDOWN;
+    EPwm2Regs.TBCTL.bit.CTRMODE = TB_COUNT_UPDOWN;
+    EPwm3Regs.TBCTL.bit.CTRMODE = TB_COUNT_UPDOWN;
+}
+
 static void set_duty(volatile struct EPWM_REGS *p, float duty)
 {
     if (duty < 0.0f) {
@@ -293,14 +362,17 @@ static void set_duty(volatile struct EPWM_REGS *p, float duty)
     }
 }
 
-void hil_c2000_init(hil_c2000_link_t link, float period_s)
+void hil_c2000_init(hil_c2000_link_t link)
 {
     hil_port_t port;
     g_link = link;
-    g_tbprd = (Uint16)((float)HIL_C2000_SYSCLK_HZ * period_s * 0.5f + 0.5f);
-    epwm_init(&EPwm1Regs, g_tbprd, 1);
-    epwm_init(&EPwm2Regs, g_tbprd, 0);
-    epwm_init(&EPwm3Regs, g_tbprd, 0);
+    g_tbprd = 0u;
+    g_stats.period_ns = 0u;
+    g_stats.tbprd = 0u;
+    g_stats.clkdiv = 0u;
+    epwm_init(&EPwm1Regs, 1);
+    epwm_init(&EPwm2Regs, 0);
+    epwm_init(&EPwm3Regs, 0);
     /* ePWM1 starts the ADC's sequence 1 at counter zero: the phase currents sampled at the
      * period's start, the control ISR at its end of conversion */
     EPwm1Regs.ETSEL.bit.SOCASEL = ET_CTR_ZERO;
@@ -320,6 +392,10 @@ void hil_c2000_init(hil_c2000_link_t link, float period_s)
     port.ctx = 0;
     port.send = port_send;
     hil_session_init(&g_session, &port);
+    /* what the ePWM and the ISR make (never below the session's own floor, which the ePWM makes) */
+    g_session.period_min_us = HIL_C2000_PERIOD_MIN_US > HIL_SESSION_PERIOD_MIN_US ?
+                                  HIL_C2000_PERIOD_MIN_US : HIL_SESSION_PERIOD_MIN_US;
+    g_session.period_max_us = HIL_C2000_PERIOD_MAX_US;
 }
 
 void hil_c2000_poll(void)

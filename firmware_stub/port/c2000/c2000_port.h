@@ -5,9 +5,13 @@
  * sequence started by ePWM1's SOCA at counter zero, duties into the ePWM compare shadows, loaded
  * at the next counter zero (the bench's "next_period" duty-update model, docs/realtime.md).
  *
+ * The control period comes from HELLO.period_us: the ePWM time base is programmed when a HELLO is
+ * accepted, and a period outside HIL_C2000_PERIOD_MIN_US..MAX_US is refused (PERIOD_UNSUPPORTED).
+ *
  * Compiled and tested on the host against a small mock of TI's register headers
- * (mock/DSP2833x_Device.h; tests/c/test_c2000_port.c). NOT run on a C28x: docs/ports.md says how
- * to build it with TI's compiler and what that leaves to check on the part.
+ * (mock/DSP2833x_Device.h, mock/DSP2833x_Examples.h; tests/c/test_c2000_port.c, built once per
+ * link). NOT run on a C28x: docs/ports.md says how to build it with TI's compiler and what that
+ * leaves to check on the part.
  */
 #ifndef HIL_C2000_PORT_H
 #define HIL_C2000_PORT_H
@@ -36,7 +40,31 @@
 #define HIL_C2000_LSPCLK_HZ HIL_C2000_SYSCLK_HZ /* LOSPCP = 0: LSPCLK = SYSCLKOUT / 1 */
 #define HIL_C2000_SCI_MAX_ERROR_PPM 20000UL     /* 2 %: the design margin of an 8N1 link */
 
-typedef enum { HIL_C2000_LINK_CAN = 0, HIL_C2000_LINK_SCI = 1 } hil_c2000_link_t;
+/* The HIL link, chosen at build time: --define=HIL_C2000_LINK=HIL_C2000_LINK_CAN (cl2000; gcc:
+ * -DHIL_C2000_LINK=HIL_C2000_LINK_CAN) for eCAN-A, else SCI-A with the COBS/CRC framing. Both
+ * drivers are compiled; main.c sets up the chosen one's pins and hands it to hil_c2000_init. The
+ * host build makes and tests both (firmware_stub/port/c2000/c2000.cmake). */
+#define HIL_C2000_LINK_CAN 0
+#define HIL_C2000_LINK_SCI 1
+#ifndef HIL_C2000_LINK
+#define HIL_C2000_LINK HIL_C2000_LINK_SCI
+#endif
+#if HIL_C2000_LINK != HIL_C2000_LINK_CAN && HIL_C2000_LINK != HIL_C2000_LINK_SCI
+#error "HIL_C2000_LINK must be HIL_C2000_LINK_CAN or HIL_C2000_LINK_SCI"
+#endif
+typedef int hil_c2000_link_t;
+
+/* The control periods this port runs, from HELLO.period_us (PERIOD_UNSUPPORTED outside).
+ * Minimum: the period the port is written and budgeted for (10 kHz, the papers' rate). The
+ * portable control ISR takes 4 700 Cortex-M4F instructions on G2 (docs/ports.md); its C28x time is
+ * not measured here: measure it on the part (a GPIO toggled around hil_c2000_adc_isr, or TBCTR read
+ * at its end) and lower the minimum with -DHIL_C2000_PERIOD_MIN_US=... if the ISR and the link's
+ * traffic fit. Maximum: the wire's largest period (HELLO.period_us raw 65535 = 6553.5 us), which
+ * the ePWM makes with TBCLK = SYSCLKOUT / 8 (hil_c2000_epwm_timebase). */
+#ifndef HIL_C2000_PERIOD_MIN_US
+#define HIL_C2000_PERIOD_MIN_US 100.0f
+#endif
+#define HIL_C2000_PERIOD_MAX_US 6553.5f
 
 /** One eCAN-A mailbox of the HIL message set: its standard id and whether the drive receives it. */
 typedef struct {
@@ -46,6 +74,9 @@ typedef struct {
 
 typedef struct {
     uint32_t sci_baud, sci_brr;  /**< SCI-A: the baud rate chosen and BRR */
+    uint32_t period_ns;          /**< the control (PWM) period the ePWM makes; 0 before a HELLO */
+    uint32_t tbprd, clkdiv;      /**< its time base: TBPRD and TBCTL.CLKDIV (TBCLK = SYSCLKOUT / 2^clkdiv) */
+    uint32_t period_changes;     /**< accepted HELLOs that (re)programmed the ePWM */
     uint32_t isr_runs, isr_stale; /**< control ISRs; those with no new SENSE since the last */
     uint32_t rx_lost;            /**< eCAN: a mailbox overwritten before it was read (CANRML) */
     uint32_t tx_busy;            /**< eCAN: a frame dropped, its mailbox still transmitting */
@@ -63,8 +94,14 @@ uint32_t hil_c2000_sci_pick(uint32_t lspclk_hz, uint32_t *brr);
 /** ePWM compare value of a duty in [0, 1] for an up-down counter of period tbprd. */
 Uint16 hil_c2000_cmpa(float duty, Uint16 tbprd);
 
-/** Peripherals and the session: ePWM1-3 at the control period, ADC SEQ1 on SOCA, the link. */
-void hil_c2000_init(hil_c2000_link_t link, float period_s);
+/** The ePWM time base of an up-down count for a control period: TBPRD and the smallest CLKDIV
+ * (TBCLK = SYSCLKOUT / 2^clkdiv, HSPCLKDIV 1) with TBPRD = period * TBCLK / 2 <= 65535, rounded.
+ * 0, or -1 when no CLKDIV makes it. */
+int hil_c2000_epwm_timebase(float period_s, Uint16 *tbprd, Uint16 *clkdiv);
+
+/** Peripherals and the session: ePWM1-3 frozen with their outputs low until a HELLO gives the
+ * period (the session accepts HIL_C2000_PERIOD_MIN_US..MAX_US), ADC SEQ1 on SOCA, the link. */
+void hil_c2000_init(hil_c2000_link_t link);
 /** Main loop: received frames to the session (SENSE is latched for the control ISR). */
 void hil_c2000_poll(void);
 /** The control ISR (PIE group 1, ADCINT): the latest SENSE through the session, duties to the
@@ -72,6 +109,14 @@ void hil_c2000_poll(void);
 HIL_C2000_INTERRUPT void hil_c2000_adc_isr(void);
 /** Every 100 ms (CPU timer 0): HEARTBEAT_CTRL while no cycles flow. */
 void hil_c2000_tick_100ms(void);
+
+/** main.c: the start-up of the part (TI's InitSysCtrl: PLL to 150 MHz; LSPCLK = SYSCLKOUT; the
+ * chosen link's pins; PIE vectors for ADCINT and TINT0; ADC; CPU timer 0 at 100 ms; the port; the
+ * interrupts on). TI's main() calls it, then hil_c2000_poll() forever; the host test calls it
+ * against the mock. */
+void hil_c2000_start(void);
+/** main.c: CPU timer 0's interrupt (PIE 1.7): hil_c2000_tick_100ms. */
+HIL_C2000_INTERRUPT void hil_c2000_timer0_isr(void);
 
 hil_session_t *hil_c2000_session(void);
 const hil_c2000_stats_t *hil_c2000_stats(void);

@@ -43,7 +43,7 @@
 #define PRIO_SHIFT 4u /* the STM32F4 implements the top 4 priority bits */
 #define HIL_CALIB_LOOPS 10000u
 
-extern uint32_t _sstack, _estack, _ebss;
+extern uint32_t _sstack, _estack, _ebss, _sflash, _eflash, _flash_size, _ram_size;
 
 __attribute__((section(".hil_stats"), used)) volatile hil_target_stats_t g_hil_target_stats;
 
@@ -228,6 +228,9 @@ int main(void)
     st->isr_ticks_min = 0xFFFFFFFFu;
     st->stack_size_bytes = (uint32_t)((uintptr_t)&_estack - (uintptr_t)&_sstack);
     st->ram_used_bytes = (uint32_t)((uintptr_t)&_ebss - (uintptr_t)&g_hil_target_stats);
+    st->flash_used_bytes = (uint32_t)((uintptr_t)&_eflash - (uintptr_t)&_sflash);
+    st->flash_size_bytes = (uint32_t)(uintptr_t)&_flash_size; /* linker constants: their address */
+    st->ram_size_bytes = (uint32_t)(uintptr_t)&_ram_size;
     SCB_SHCSR |= SCB_SHCSR_FAULTS_EN;
 
     hil_clock_init(&clk);
@@ -280,8 +283,17 @@ int main(void)
             stack_high_water();
         }
         publish_stats();
-        if (hil_usart_rx_empty()) {
-            hil_wfi();
+        {
+            /* sleep only if nothing came: checked with interrupts masked, so an octet that
+             * arrives after the check still ends the WFI (a pending interrupt wakes the core
+             * through PRIMASK) and is taken once PRIMASK is restored. Unmasked, an interrupt
+             * taken between the check and the WFI would leave its octet in the ring until the
+             * next interrupt: the next octet or SysTick, up to 1 ms later. */
+            const uint32_t m = hil_primask_save();
+            if (hil_usart_rx_empty()) {
+                hil_wfi();
+            }
+            hil_primask_restore(m);
         }
     }
 }

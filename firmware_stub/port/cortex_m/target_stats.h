@@ -3,9 +3,9 @@
  * @brief What the target measures about itself, at a fixed address for a debugger to read.
  *
  * The block sits at the start of SRAM (0x20000000, section .hil_stats in stm32f405.ld). Under
- * QEMU the bench reads it through QMP (`pmemsave`) before it ends the emulator
+ * QEMU the bench reads it with the monitor's `xp` before it ends the emulator
  * (bench/loop/links/qemu.py: TargetStats mirrors this layout); on silicon read it with any
- * debugger, e.g. OpenOCD `mdw 0x20000000 40` or gdb `x/40wx 0x20000000`.
+ * debugger, e.g. OpenOCD `mdw 0x20000000 43` or gdb `x/43wx 0x20000000`.
  *
  * All fields are uint32_t, in this order; HIL_TARGET_STATS_VERSION changes with the layout.
  */
@@ -15,7 +15,7 @@
 #include <stdint.h>
 
 #define HIL_TARGET_STATS_MAGIC 0x53484948u /* "HILS" little-endian */
-#define HIL_TARGET_STATS_VERSION 2u
+#define HIL_TARGET_STATS_VERSION 3u
 #define HIL_STACK_PAINT 0xA5A5A5A5u /* every stack word at reset (startup.c) */
 
 /** What counts the ISR's cost (counter_kind). */
@@ -81,6 +81,11 @@ typedef struct {
     uint32_t calib_ticks;
     uint32_t calib_empty_ticks; /**< two counter reads with nothing between them */
     uint32_t restarts;          /**< hil_session_t.restarts: CMD RESTART (docs/protocol.md 6.3) */
+    /* the footprint, from the linker's symbols (stm32f405.ld); version 3 on */
+    uint32_t flash_used_bytes;  /**< the image in flash: vectors, code, constants, .data's copy */
+    uint32_t flash_size_bytes;  /**< the part's flash (LENGTH(FLASH)) */
+    uint32_t ram_size_bytes;    /**< the part's SRAM (LENGTH(RAM)); the stack is its top
+                                     stack_size_bytes */
 } hil_target_stats_t;
 
 #define HIL_TARGET_STATS_WORDS (sizeof(hil_target_stats_t) / 4u)

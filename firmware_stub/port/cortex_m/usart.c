@@ -12,6 +12,15 @@ static volatile uint_least8_t g_tx[HIL_USART_TX_RING];
 static volatile uint32_t g_tx_head, g_tx_tail; /* head: writers (PRIMASK held); tail: ISR */
 static volatile hil_usart_stats_t g_stats;
 static volatile int g_hold;
+/* CR1 as last written: the driver is CR1's only writer, so its reads come from here (on QEMU every
+ * register read of the USART is a trip through the emulator's device model) */
+static volatile uint32_t g_cr1;
+
+static void cr1_write(uint32_t cr1)
+{
+    g_cr1 = cr1;
+    USART1_CR1 = cr1;
+}
 
 uint32_t hil_usart_init(uint32_t pclk2_hz, uint32_t baud)
 {
@@ -24,11 +33,11 @@ uint32_t hil_usart_init(uint32_t pclk2_hz, uint32_t baud)
     GPIOA_OSPEEDR |= (0xFu << 18);
     GPIOA_PUPDR = (GPIOA_PUPDR & ~(0xFu << 18)) | (0x4u << 18);
     GPIOA_AFRH = (GPIOA_AFRH & ~(0xFFu << 4)) | (0x77u << 4);
-    USART1_CR1 = 0u;
+    cr1_write(0u);
     USART1_BRR = brr;
     USART1_CR2 = 0u; /* 1 stop bit */
     USART1_CR3 = 0u; /* no flow control */
-    USART1_CR1 = USART_CR1_UE | USART_CR1_TE | USART_CR1_RE | USART_CR1_RXNEIE;
+    cr1_write(USART_CR1_UE | USART_CR1_TE | USART_CR1_RE | USART_CR1_RXNEIE);
     return brr;
 }
 
@@ -48,17 +57,31 @@ int hil_usart_rx_empty(void)
     return g_rx_tail == g_rx_head;
 }
 
-/* Write while the data register is empty. On silicon that is one octet (TXE clears until the
- * shift register takes it) and the TXE interrupt sends the rest. QEMU 7.2's model raises its
- * interrupt for RXNE only (observed: CR1 = UE|TE|RE|RXNEIE|TXEIE with SR = TXE|TC pends nothing)
- * and keeps TXE set, so there the writer drains the ring itself, synchronously. Called with
- * PRIMASK held or from the USART interrupt. */
+/* Write while there is something to send and the data register is empty. On silicon that is one
+ * octet (TXE clears until the shift register takes it) and the TXE interrupt sends the rest.
+ * QEMU 7.2's model raises its interrupt for RXNE only (observed: CR1 = UE|TE|RE|RXNEIE|TXEIE with
+ * SR = TXE|TC pends nothing) and keeps TXE set, so there the writer drains the ring itself,
+ * synchronously. The ring is looked at before SR: no register read when there is nothing to send.
+ * Called with PRIMASK held or from the USART interrupt. */
 static void tx_pump(void)
 {
-    while ((USART1_SR & USART_SR_TXE) && g_tx_tail != g_tx_head) {
+    while (g_tx_tail != g_tx_head && (USART1_SR & USART_SR_TXE)) {
         USART1_DR = g_tx[g_tx_tail & (HIL_USART_TX_RING - 1u)];
         g_tx_tail = g_tx_tail + 1u;
         g_stats.tx_bytes++;
+    }
+}
+
+/* Pump, then leave the TXE interrupt on only while octets are left for it. */
+static void tx_start(void)
+{
+    tx_pump();
+    if (g_tx_tail != g_tx_head) {
+        if ((g_cr1 & USART_CR1_TXEIE) == 0u) {
+            cr1_write(g_cr1 | USART_CR1_TXEIE); /* the TXE interrupt carries on with the rest */
+        }
+    } else if (g_cr1 & USART_CR1_TXEIE) {
+        cr1_write(g_cr1 & ~USART_CR1_TXEIE);
     }
 }
 
@@ -78,8 +101,7 @@ int hil_usart_write(const uint_least8_t *octets, size_t n)
     }
     g_tx_head = head;
     if (!g_hold) {
-        tx_pump();
-        USART1_CR1 |= USART_CR1_TXEIE; /* the TXE interrupt carries on with the rest */
+        tx_start();
     }
     hil_primask_restore(m);
     return 0;
@@ -90,8 +112,7 @@ void hil_usart_hold(int hold)
     const uint32_t m = hil_primask_save();
     g_hold = hold;
     if (!hold && g_tx_tail != g_tx_head) {
-        tx_pump();
-        USART1_CR1 |= USART_CR1_TXEIE;
+        tx_start();
     }
     hil_primask_restore(m);
 }
@@ -104,11 +125,16 @@ const volatile hil_usart_stats_t *hil_usart_stats(void)
 void USART1_IRQHandler(void);
 void USART1_IRQHandler(void)
 {
-    const uint32_t sr = USART1_SR;
-    /* receive: reading SR then DR clears RXNE and ORE. One octet per interrupt (the F4 has no
-     * FIFO; a next octet interrupts again): every register read costs QEMU a wake-up of its I/O
-     * thread (stm32f2xx_usart.c: a read of SR or DR calls qemu_chr_fe_accept_input) */
-    if (sr & (USART_SR_RXNE | USART_SR_ORE)) {
+    /* receive: every octet the data register holds, read SR then DR (which clears RXNE and ORE),
+     * until SR says no more. On silicon at 3 Mbaud an octet takes 3.3 us, so this is mostly one;
+     * QEMU hands over the octets its character device has buffered one after the other as DR is
+     * read (`-chardev ...,mux=on`: bench/loop/links/qemu.py), and QEMU 7.2 lowers the interrupt
+     * line after a DR read even when the next octet came with it, so a handler that read one
+     * octet per entry would leave that one unread until the next interrupt. Every read of SR or
+     * DR wakes QEMU's main loop (stm32f2xx_usart.c: qemu_chr_fe_accept_input): two per octet,
+     * no more. */
+    uint32_t sr = USART1_SR;
+    while (sr & (USART_SR_RXNE | USART_SR_ORE)) {
         const uint32_t b = USART1_DR & 0xFFu;
         const uint32_t head = g_rx_head;
         if (sr & USART_SR_ORE) {
@@ -121,12 +147,10 @@ void USART1_IRQHandler(void)
         } else {
             g_stats.rx_ring_overflows++;
         }
+        sr = USART1_SR;
     }
-    /* transmit: one octet per TXE (no FIFO on the F4) */
-    if (USART1_CR1 & USART_CR1_TXEIE) {
-        tx_pump();
-        if (g_tx_tail == g_tx_head) {
-            USART1_CR1 &= ~USART_CR1_TXEIE;
-        }
+    /* transmit: what TXE lets through (no FIFO on the F4) */
+    if (g_cr1 & USART_CR1_TXEIE) {
+        tx_start();
     }
 }

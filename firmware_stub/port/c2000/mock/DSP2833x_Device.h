@@ -43,7 +43,9 @@ struct EPWM_REGS {
     union { Uint16 all; struct ETPS_BITS bit; } ETPS;
 };
 #define TB_COUNT_UPDOWN 2u
+#define TB_FREEZE 3u
 #define TB_SHADOW 0u
+#define TB_IMMEDIATE 1u
 #define CC_SHADOW 0u
 #define CC_CTR_ZERO 0u
 #define AQ_CLEAR 1u
@@ -112,9 +114,28 @@ struct MBOX {
 /* as TI's: 32 named mailboxes, contiguous (the port indexes them from &MBOX0) */
 struct ECAN_MBOXES { struct MBOX MBOX0, MBOX1, MBOX2, MBOX3, MBOX4, MBOX5, MBOX6, MBOX7, MBOX8, MBOX9, MBOX10, MBOX11, MBOX12, MBOX13, MBOX14, MBOX15, MBOX16, MBOX17, MBOX18, MBOX19, MBOX20, MBOX21, MBOX22, MBOX23, MBOX24, MBOX25, MBOX26, MBOX27, MBOX28, MBOX29, MBOX30, MBOX31; };
 
-/* ---- PIE ---------------------------------------------------------------------------------- */
-struct PIE_CTRL_REGS { union { Uint16 all; } PIEACK; };
+/* ---- PIE (SPRUFB0), CPU interrupts ----------------------------------------------------------- */
+struct PIEIER_BITS { Uint16 INTx1, INTx2, INTx3, INTx4, INTx5, INTx6, INTx7, INTx8; };
+struct PIE_CTRL_REGS {
+    union { Uint16 all; } PIEACK;
+    union { Uint16 all; struct PIEIER_BITS bit; } PIEIER1;
+};
 #define PIEACK_GROUP1 0x0001u
+#define M_INT1 0x0001u
+typedef void (*PINT)(void);
+struct PIE_VECT_TABLE { PINT ADCINT; PINT TINT0; }; /* the two vectors the port sets */
+/* the CPU's interrupt registers and its INTM / DBGM bits (cregister and asm on the C28x) */
+extern volatile Uint16 IER, IFR;
+extern int hil_mock_intm, hil_mock_dbgm;
+#define EINT (hil_mock_intm = 0)
+#define DINT (hil_mock_intm = 1)
+#define ERTM (hil_mock_dbgm = 0)
+
+/* ---- system control, CPU timer 0 (SPRUFB0) -------------------------------------------------- */
+struct SYS_CTRL_REGS { union { Uint16 all; } LOSPCP; };
+struct CPUTIMER_REGS { union { Uint32 all; } TIM; union { Uint32 all; } PRD; union { Uint16 all; } TCR; };
+struct CPUTIMER_VARS { volatile struct CPUTIMER_REGS *RegsAddr; Uint32 InterruptCount;
+                       float CPUFreqInMHz; float PeriodInUSec; };
 
 extern volatile struct EPWM_REGS EPwm1Regs, EPwm2Regs, EPwm3Regs;
 extern volatile struct ADC_REGS AdcRegs;
@@ -122,6 +143,10 @@ extern volatile struct SCI_REGS SciaRegs;
 extern volatile struct ECAN_REGS ECanaRegs;
 extern volatile struct ECAN_MBOXES ECanaMboxes;
 extern volatile struct PIE_CTRL_REGS PieCtrlRegs;
+extern struct PIE_VECT_TABLE PieVectTable;
+extern volatile struct SYS_CTRL_REGS SysCtrlRegs;
+extern volatile struct CPUTIMER_REGS CpuTimer0Regs;
+extern struct CPUTIMER_VARS CpuTimer0;
 
 /* what the eCAN does with a written 1: set (CANTRS) or clear (CANRMP, CANTA) that bit only */
 #define HIL_C2000_W1S(reg, bits) ((reg).all |= (bits))
