@@ -233,7 +233,7 @@ def test_load_recording_refuses_a_channel_the_file_does_not_have(short_run):
 
 def test_the_result_names_the_controller_that_answered(short_run):
     """From its HELLO_ACK as recorded, not the link spec: the bundled stub is fw 0x0100."""
-    assert short_run.controller.startswith("fw 0x0100 (protocol 1, estimators 0x")
+    assert short_run.controller.startswith("fw 0x0100 (protocol 1.1, estimators 0x")
     assert "hil_stub " in short_run.controller and short_run.run.link == "stub"
     assert hil_bench.check(short_run.recording).controller == short_run.controller
     assert f"controller: {short_run.controller}" in short_run.summary()

@@ -128,7 +128,7 @@ def test_piped_tables_do_not_wrap(g2_window_run):
     rows = [ln for ln in r.stdout.splitlines() if ln.startswith("│ G2")]
     assert len(rows) == 5, r.stdout                      # one line per quantity: none wrapped
     assert max(len(ln) for ln in r.stdout.splitlines()) > 80
-    assert "controller: fw 0x0100 (protocol 1" in r.stdout
+    assert "controller: fw 0x0100 (protocol 1.1, " in r.stdout
 
 
 def test_check_json(g2_window_run):

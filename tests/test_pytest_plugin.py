@@ -82,7 +82,7 @@ def test_measured_values_are_junit_properties(downstream):
     assert props["gong_g2_500rpm/G2.sf/verdict"] == "INVALID"
     # the controller that answered (its HELLO_ACK as recorded), not the link string
     controller = props["gong_g2_500rpm/controller"]
-    assert controller.startswith("fw 0x0100 (protocol 1, estimators 0x") and "hil_stub" in controller
+    assert controller.startswith("fw 0x0100 (protocol 1.1, estimators 0x") and "hil_stub" in controller
     assert props["gong_g2_500rpm/G2.sf/paper"] == "7.5" and props["gong_g2_500rpm/G2.sf/unit"] == "rpm"
     assert props["gong_g2_500rpm/integrity"] == "ok"
     assert Path(props["gong_g2_500rpm/recording"]).parent == recordings
