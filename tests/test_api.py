@@ -209,6 +209,8 @@ def test_a_run_that_records_nothing_raises_run_failed(monkeypatch, tmp_path):
     (lambda: hil_bench.check(None), "ArgumentError", "check(path): a file path"),
     (lambda: hil_bench.check("no/such.mcap"), "NoSuchFile", "no such recording"),
     (lambda: hil_bench.load_recording(None), "ArgumentError", "load_recording(path): a file path"),
+    (lambda: hil_bench.signals.settles(None, 1.0, within_s=1.0, band=0.1), "ArgumentError",
+     "signals.settles: give a pandas Series indexed by time"),
 ])
 def test_every_bad_argument_is_the_benchs_own_error(call, error, words):
     """Before: hil_bench.run(None) was a bare TypeError from inside pathlib, run(123) an
