@@ -11,9 +11,9 @@ from rich.console import Console
 from rich.markup import escape
 
 from hil_bench.cluster.options import positive_int
-from hil_bench.record.live_cli import add_live_hand_options, live_options, said_listening
 from hil_bench.console import console
 from hil_bench.errors import BenchError
+from hil_bench.record.live_cli import add_live_hand_options, live_options, said_listening
 
 
 class _PressOnce:
