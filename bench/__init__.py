@@ -40,10 +40,14 @@ if TYPE_CHECKING:
         SessionTimeout,
     )
     from hil_bench.api import (
+        ArgumentError,
+        BenchError,
         ClaimsNotReproduced,
         ClaimTable,
         ClaimVerdict,
         Integrity,
+        NoSuchFile,
+        OutputIsInput,
         RecordingData,
         Result,
         RunFailed,
@@ -55,7 +59,8 @@ if TYPE_CHECKING:
 
 #: the API's names, each imported from hil_bench.api on first use
 _API = ("run", "check", "load_recording", "Result", "RunInfo", "ClaimVerdict", "ClaimTable",
-        "Integrity", "RecordingData", "ClaimsNotReproduced", "RunFailed")
+        "Integrity", "RecordingData", "ClaimsNotReproduced", "RunFailed", "BenchError",
+        "ArgumentError", "NoSuchFile", "OutputIsInput")
 #: scripted tests' names, from hil_bench.session on first use; and the signal checks' module
 _SESSION = ("Session", "SessionError", "SessionTimeout", "InputRefused", "ConditionNotMet")
 __all__ = [*_API, *_SESSION, "signals", "__version__"]

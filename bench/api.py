@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hil_bench.errors import ArgumentError, BenchError, NoSuchFile, OutputIsInput, did_you_mean
+
 if TYPE_CHECKING:
     import pandas
 
@@ -26,17 +28,18 @@ if TYPE_CHECKING:
     from hil_bench.scenario import Scenario
 
 __all__ = ["run", "check", "load_recording", "Result", "RunInfo", "ClaimVerdict", "ClaimTable",
-           "Integrity", "RecordingData", "ClaimsNotReproduced", "RunFailed"]
+           "Integrity", "RecordingData", "ClaimsNotReproduced", "RunFailed", "BenchError",
+           "ArgumentError", "NoSuchFile", "OutputIsInput"]
 
 #: verdicts that count as reproduced (COMPARED: a figure the paper gives without a rule)
 PASSING = ("PASS", "COMPARED")
 
 
-class RunFailed(RuntimeError):
+class RunFailed(BenchError, RuntimeError):
     """The run recorded no cycle: there is nothing to check (the message says why)."""
 
 
-class ClaimsNotReproduced(AssertionError):
+class ClaimsNotReproduced(BenchError, AssertionError):
     """``Result.assert_claims``: a claim did not reproduce or the run is not intact; the message
     is the paper-vs-measured table with the integrity problems and the recording's path."""
 
@@ -89,7 +92,7 @@ class RunInfo:
     cycles_planned: int
     wall_s: float
     mode: str                           #: lockstep or realtime
-    link: str                           #: the link spec it ran on
+    link: str                           #: the link spec it ran on (what was asked for)
     error: str | None                   #: why it ended early, if it did
     interrupted: bool
     timing: Mapping[str, float]         #: cycle time and, in real time, jitter and misses
@@ -107,6 +110,9 @@ class Result:
     faults: list[FaultOutcome] = field(default_factory=list)   #: one per ``[[faults]]`` entry
     run: RunInfo | None = None
     report: CheckReport | None = field(default=None, repr=False)   #: everything bench check has
+    #: the controller that answered, as recorded from its HELLO_ACK (firmware version, protocol,
+    #: estimators) with the link and the process behind it (hil_bench.record.controller_id)
+    controller: str = ""
 
     @property
     def passed(self) -> bool:
@@ -127,6 +133,8 @@ class Result:
     def summary(self) -> str:
         """The claims table, the integrity problems and the recording's path, as text."""
         lines = [f"{self.scenario}: recording {self.recording}"]
+        if self.controller:
+            lines.append(f"controller: {self.controller}")
         if self.run is not None and self.run.error:
             lines.append(f"run ended early: {self.run.error}")
         integ = self.integrity
@@ -142,6 +150,11 @@ class Result:
         """Raise :class:`ClaimsNotReproduced` (an AssertionError) with :meth:`summary` unless
         every claim quantity (of the claims ``only`` names, if given; diagnostics aside)
         reproduced on an intact run that ran to its end."""
+        __tracebackhide__ = True   # a failure points at the test that asserted, not here
+        if only is not None and not isinstance(only, str) and not (
+                isinstance(only, (list, tuple, set)) and all(isinstance(c, str) for c in only)):
+            raise ArgumentError(f"assert_claims(only={only!r}): a claim id or a list of them, "
+                                f"e.g. 'G2' or ['G2', 'G3']")
         wanted = [only] if isinstance(only, str) else only
         if wanted is not None:
             unknown = sorted(set(wanted) - {c.claim for c in self.claims})
@@ -158,6 +171,33 @@ class Result:
         bad = [f"{c.quantity} {c.verdict}" for c in rows if not c.passed]
         head = "; ".join(bad) or ("run not intact" if not self.integrity.ok else "run ended early")
         raise ClaimsNotReproduced(f"claims not reproduced: {head}\n{self.summary()}")
+
+    def as_dict(self) -> dict[str, Any]:
+        """Everything above as plain JSON-able values (``bench check --json``): non-finite
+        numbers as None, paths as strings."""
+        import dataclasses
+        import math
+
+        def plain(v):
+            if isinstance(v, float) or type(v).__name__ in ("float64", "float32"):
+                return float(v) if math.isfinite(float(v)) else None
+            if type(v).__name__ in ("int64", "int32", "uint64", "uint32", "bool_"):
+                return v.item()
+            if isinstance(v, Path):
+                return str(v)
+            if dataclasses.is_dataclass(v) and not isinstance(v, type):
+                return {f.name: plain(getattr(v, f.name)) for f in dataclasses.fields(v)}
+            if isinstance(v, Mapping):
+                return {str(k): plain(x) for k, x in v.items()}
+            if isinstance(v, (list, tuple, set)):
+                return [plain(x) for x in v]
+            return v
+
+        return {"scenario": self.scenario, "recording": str(self.recording),
+                "controller": self.controller, "passed": self.passed,
+                "integrity": plain(self.integrity), "metrics": plain(self.metrics),
+                "claims": [dict(plain(c), passed=c.passed) for c in self.claims],
+                "faults": plain(self.faults), "run": plain(self.run)}
 
 
 def format_claims(rows: list[ClaimVerdict]) -> str:
@@ -208,47 +248,106 @@ def _integrity(report: CheckReport) -> Integrity:
 
 
 def _result(report: CheckReport, run_info: RunInfo | None) -> Result:
+    from hil_bench.record.controller_id import describe
+
     return Result(scenario=report.scenario.name, recording=Path(report.recording.path),
                   metrics=dict(report.summary), claims=_verdicts(report),
                   integrity=_integrity(report), faults=list(report.faults), run=run_info,
-                  report=report)
+                  report=report, controller=describe(report.recording.metadata))
+
+
+def check_result(report: CheckReport) -> Result:
+    """The :class:`Result` of a ``bench check`` report (hil_bench.papers.check.check_recording)."""
+    return _result(report, None)
+
+
+def _path(value: object, name: str) -> Path:
+    """A path argument: a non-empty str or os.PathLike, else ArgumentError naming it."""
+    import os
+
+    if isinstance(value, (str, os.PathLike)) and str(os.fspath(value)).strip():
+        return Path(value)
+    raise ArgumentError(f"{name}: a file path (str or pathlib.Path), got {value!r}"
+                        + (f" ({type(value).__name__})" if value is not None else ""))
+
+
+def _flag(value: object, name: str) -> bool:
+    if isinstance(value, bool):
+        return value
+    raise ArgumentError(f"{name}: True or False, got {value!r} ({type(value).__name__})")
 
 
 def check(path: str | Path) -> Result:
     """``bench check``: metrics, claim verdicts and integrity recomputed from the recording alone.
 
-    Raises FileNotFoundError, or hil_bench.record.recording.RecordingError (a ValueError) for a
-    file that is not a readable recording of this bench."""
+    Raises NoSuchFile (a FileNotFoundError) for a path with no file, RecordingError (a
+    ValueError) for a file that is not a readable recording of this bench, ArgumentError (a
+    TypeError) for a path that is no path: all BenchErrors."""
     from hil_bench.installation import require_modules
 
+    path = _path(path, "check(path)")
     require_modules()
     from hil_bench.papers.check import check_recording
 
-    path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such recording")
+        raise NoSuchFile(f"{path}: no such recording" + (" (a directory)" if path.is_dir() else ""))
     return _result(check_recording(path), None)
+
+
+_TOML_SCALARS = (bool, int, float, str)
+
+
+def _overrides(overrides: object) -> list[tuple[str, Any]]:
+    """``{"dotted.key": value}`` checked: keys non-empty dotted strings, values TOML values
+    (bool, int, float, str, or lists of those); else ArgumentError naming the entry."""
+    if overrides is None:
+        return []
+    if not isinstance(overrides, Mapping):
+        raise ArgumentError(f"overrides: a mapping of dotted keys to values (scenario keys), e.g. "
+                            f"{{'plant.inverter_nonlinear': True}}; got {overrides!r} "
+                            f"({type(overrides).__name__})")
+
+    def toml_value(v: object) -> bool:
+        if isinstance(v, (list, tuple)):
+            return all(toml_value(x) for x in v)
+        return isinstance(v, _TOML_SCALARS)
+
+    out = []
+    for key, value in overrides.items():
+        if not isinstance(key, str) or not key.strip() or any(not p.strip() for p in key.split(".")):
+            raise ArgumentError(f"overrides: the key {key!r} is not a dotted scenario key (a "
+                                f"string such as 'controller.speed_ref_rpm')")
+        if not toml_value(value):
+            raise ArgumentError(f"overrides[{key!r}] = {value!r}: a scenario value is a bool, "
+                                f"number, string or a list of those, not {type(value).__name__}")
+        out.append((key, list(value) if isinstance(value, tuple) else value))
+    return out
 
 
 def _scenario(scenario: str | Path | Scenario, overrides: Mapping[str, Any] | None,
               name: str | None) -> Scenario:
+    import os
+
     from hil_bench.scenario import Scenario, ScenarioError, derive_scenario, load_scenario
 
+    pairs = _overrides(overrides)
+    if name is not None and (not isinstance(name, str) or not name.strip()):
+        raise ArgumentError(f"name: the derived scenario's name, a string; got {name!r}")
     if isinstance(scenario, Scenario):
-        if not overrides and name is None:
+        if not pairs and name is None:
             return scenario
         if scenario.path is None or not Path(scenario.path).is_file():
             raise ScenarioError(f"{scenario.name}: overrides need a scenario file (give its "
                                 f"name or path instead of a Scenario read from elsewhere)")
         scenario = scenario.path
-    if not overrides and name is None:
+    elif not isinstance(scenario, (str, os.PathLike)) or not str(os.fspath(scenario)).strip():
+        raise ArgumentError(f"scenario: a bundled scenario's name (e.g. 'gong_g2_500rpm'), a "
+                            f"scenario file or a hil_bench.scenario.Scenario; got {scenario!r}"
+                            + (f" ({type(scenario).__name__})" if scenario is not None else ""))
+    if not pairs and name is None:
         return load_scenario(scenario)
-    if overrides is not None and not isinstance(overrides, Mapping):
-        raise TypeError("overrides: a mapping of dotted keys to values, e.g. "
-                        "{'plant.inverter_nonlinear': True}")
     base = load_scenario(scenario)
-    return derive_scenario(scenario, name or base.name, list((overrides or {}).items()),
-                           note="hil_bench.run overrides")
+    return derive_scenario(scenario, name or base.name, pairs, note="hil_bench.run overrides")
 
 
 def run(scenario: str | Path | Scenario, *, link: str = "stub",
@@ -275,12 +374,26 @@ def run(scenario: str | Path | Scenario, *, link: str = "stub",
     """
     from hil_bench.installation import require_modules
 
+    if not isinstance(link, str):
+        raise ArgumentError(f"link: a link spec string such as 'stub', 'sil' or "
+                            f"'serial:/dev/ttyUSB0@3000000'; got {link!r}")
+    out_path = None if out is None else _path(out, "out")
+    for flag, value in (("allow_slow_link", allow_slow_link), ("force", force),
+                        ("progress", progress)):
+        _flag(value, flag)
+    if realtime is not None:
+        _flag(realtime, "realtime")
+    if cpu is not None and (isinstance(cpu, bool) or not isinstance(cpu, int) or cpu < 0):
+        raise ArgumentError(f"cpu: a CPU number (int >= 0) or None, got {cpu!r}")
+    from hil_bench.loop.links import check_link_spec
+
+    check_link_spec(link, option="link")   # LinkError with "did you mean" before anything runs
     require_modules()          # before importing what needs them: the message says what to run
     from hil_bench.loop.runner import run_scenario
     from hil_bench.papers.check import check_recording
 
     scn = _scenario(scenario, overrides, name)
-    done = run_scenario(scn, link_spec=link, out_path=None if out is None else Path(out),
+    done = run_scenario(scn, link_spec=link, out_path=out_path,
                         progress=progress, allow_slow_link=allow_slow_link, force=force,
                         realtime=realtime, cpu=cpu)
     info = RunInfo(cycles_done=done.cycles_done, cycles_planned=done.cycles_planned,
@@ -343,20 +456,39 @@ class RecordingData(Mapping):
 def load_recording(path: str | Path, channels: list[str] | None = None) -> RecordingData:
     """Every channel of a recording (or those ``channels`` names; ``"/reference/*"``: every
     reference estimator) as pandas DataFrames indexed by ``t_s``, for notebooks
-    (:class:`RecordingData`). The whole selection is held in memory (a 1.5 s run at 10 kHz:
-    about 40 MB with its decoded frames); ``bench check`` reads large files in bounded memory
-    instead. A damaged file reads up to the damage (``damage`` says what was lost)."""
+    (:class:`RecordingData`); a channel the file does not have is an ArgumentError naming those
+    it has. The whole selection is held in memory (a 1.5 s run at 10 kHz: about 40 MB with its
+    decoded frames); ``bench check`` reads large files in bounded memory instead. A damaged file
+    reads up to the damage (``damage`` says what was lost)."""
     from hil_bench.installation import require_modules
 
+    path = _path(path, "load_recording(path)")
+    if isinstance(channels, str):
+        channels = [channels]
+    if channels is not None:
+        try:
+            channels = list(channels)
+        except TypeError:
+            channels = [channels]
+        if not all(isinstance(c, str) and c for c in channels):
+            raise ArgumentError(f"channels: topic names such as '/plant/state' (or "
+                                f"'/reference/*'), got {channels!r}")
     require_modules()
     from hil_bench.record.recording import load_recording as read
     from hil_bench.record.tables import channel_frame, require
 
     require("pandas", "hil_bench.load_recording")
-    path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such recording")
+        raise NoSuchFile(f"{path}: no such recording" + (" (a directory)" if path.is_dir() else ""))
     rec = read(path, topics=channels)
+    if channels is not None:
+        have = sorted(rec.counts)
+        for topic in channels:
+            found = (topic in rec.counts or topic == "/reference/*" and
+                     any(t.startswith("/reference/") for t in have))
+            if not found:
+                raise ArgumentError(f"{path}: no channel {topic!r}{did_you_mean(topic, have)} "
+                                    f"(has: {', '.join(have) or 'none'})")
     frames = {topic: channel_frame(topic, cols) for topic, cols in rec.topics.items()}
     found = rec.attachment_text("scenario/")
     return RecordingData(path=path, channels=frames, metadata=rec.metadata,

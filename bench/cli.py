@@ -11,6 +11,8 @@ from rich.console import Console
 from rich.markup import escape
 
 from hil_bench.cluster.options import positive_int
+from hil_bench.console import console
+from hil_bench.errors import BenchError
 from hil_bench.record.live_cli import add_live_hand_options, live_options, said_listening
 
 
@@ -92,8 +94,8 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     from hil_bench.record.recording import RecordingError
     from hil_bench.scenario import ScenarioError, derive_scenario, load_scenario
 
-    out = Console()
-    err = Console(stderr=True)
+    out = console()
+    err = console(stderr=True)
     try:
         live = live_options(args, err)
     except ValueError as exc:
@@ -152,6 +154,9 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
         report = presses.wait_for(check_recording, result.recording)
         print_report(report, out)
         _print_target(result.target, out)
+        note = _window_note(args.set, report)
+        if note:
+            err.print(f"[yellow]note:[/yellow] {escape(note)}")
     except RecordingError as exc:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
@@ -175,11 +180,33 @@ def _print_target(target: dict[str, str], out: Console) -> None:
             out.print(escape(line), highlight=False, soft_wrap=True)
 
 
+def _window_note(overrides, report) -> str | None:
+    """``--set metrics.window_s=...``: which figures the new window moved and which claim
+    quantities kept a window of their own (bench/claims/*.toml ``window_s``)."""
+    if not any(k == "metrics.window_s" or k.startswith("metrics.window_s[") for k, _ in overrides):
+        return None
+    w0, w1 = report.context.window_s
+    own = [(r.quantity.key, r.quantity.window_s) for r in report.results
+           if r.quantity.window_s is not None]
+    text = f"--set metrics.window_s: the metrics above are over {w0:g}..{w1:g} s"
+    if own:
+        by_window: dict[tuple[float, float], list[str]] = {}
+        for key, window in own:
+            by_window.setdefault(tuple(window), []).append(key)
+        kept = "; ".join(f"{', '.join(keys)} {'keeps its' if len(keys) == 1 else 'keep their'} "
+                         f"claim's own window {a:g}..{b:g} s" for (a, b), keys in by_window.items())
+        return f"{text}; {kept} (bench claims lists each claim's window)"
+    if report.results:
+        return (text + ", and so are the claims; a claim's verdict also checks that the window "
+                       "is its paper's set-up (INVALID when it is not)")
+    return text
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
     from hil_bench.papers.check import check_recording, print_report
     from hil_bench.record.recording import RecordingError
 
-    err = Console(stderr=True)
+    err = console(stderr=True)
     path = Path(args.recording)
     if not path.exists():
         err.print(f"[red]error:[/red] {escape(str(path))}: no such file")
@@ -197,20 +224,29 @@ def _cmd_check(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         err.print("interrupted by the user")
         return 130
-    print_report(report)
+    if args.json:
+        import json
+
+        from hil_bench.api import check_result
+
+        print(json.dumps(check_result(report).as_dict(), indent=2))
+        return 1 if (args.strict and not report.all_pass) else 0
+    out = console()
+    print_report(report, out)
     from hil_bench.record.recording import read_header
 
-    _print_target(read_header(path).metadata.get("target", {}), Console())
+    _print_target(read_header(path).metadata.get("target", {}), out)
     return 1 if (args.strict and not report.all_pass) else 0
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
+    from hil_bench.errors import OutputIsInput
     from hil_bench.record.recover import RecoverError, recover
 
     try:
         report = recover(args.recording, args.out, force=args.force)
-    except RecoverError as exc:
-        Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
+    except (RecoverError, OutputIsInput) as exc:
+        console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     print(report.text())
     return 0
@@ -219,7 +255,7 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     from hil_bench.record.export import ExportError, export
 
-    err = Console(stderr=True, soft_wrap=True)
+    err = console(stderr=True)
     chosen = [c.strip() for part in args.channels for c in part.split(",") if c.strip()]
     try:
         done = export(args.recording, args.out, args.format, channels=chosen or None,
@@ -247,7 +283,7 @@ def _cmd_layout(args: argparse.Namespace) -> int:
     from hil_bench.record.layout import make_layout
     from hil_bench.scenario import ScenarioError, load_scenario
 
-    err = Console(stderr=True)
+    err = console(stderr=True)
     try:
         scn = load_scenario(args.scenario)
     except ScenarioError as exc:
@@ -259,9 +295,17 @@ def _cmd_layout(args: argparse.Namespace) -> int:
     if args.out is None:
         print(text, end="")
         return 0
+    from hil_bench.errors import OutputIsInput
+    from hil_bench.record.atomic import refuse_output_is_input, write_text_aside
+
     try:
-        with open(args.out, "w" if args.force else "x") as f:
-            f.write(text)
+        refuse_output_is_input([args.out], [("scenario file", scn.path)])
+        if args.out.is_dir():
+            raise IsADirectoryError(21, "is a directory")
+        write_text_aside(args.out, text, replace=args.force)   # never half a layout
+    except OutputIsInput as exc:
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
+        return 2
     except FileExistsError:
         err.print(f"[red]error:[/red] {escape(str(args.out))} exists; --force replaces it")
         return 2
@@ -295,19 +339,26 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     import time
 
     from hil_bench.faults.campaign import CampaignError, load_campaign, run_campaign, write_report
+    from hil_bench.loop.links import check_link_spec
+    from hil_bench.record.atomic import refuse_output_is_input
 
-    err = Console(stderr=True)
+    err = console(stderr=True)
     try:
         camp = load_campaign(args.campaign)
     except CampaignError as exc:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     out_dir = Path(args.out) if args.out else Path("reports") / "campaigns" / camp.name
+    refuse_output_is_input([out_dir, out_dir / "results.md", out_dir / "results.csv",
+                            out_dir / "recordings"],
+                           [("campaign file", camp.path), ("base scenario", camp.base_path)])
+    if args.link is not None:
+        check_link_spec(args.link)
     t0 = time.monotonic()
     results = run_campaign(camp, out_dir, jobs=args.jobs, link=args.link, keep_all=args.keep_all,
-                           console=err, scheduler=args.scheduler)
+                           console=err, scheduler=args.scheduler, progress=not args.no_progress)
     md = write_report(camp, results, out_dir, time.monotonic() - t0)
-    out = Console()
+    out = console()
     for r in results:
         colour = {"PASS": "green", "FAIL": "red"}.get(r.verdict, "yellow")
         faults = ", ".join((f"{o.kind} detected after {o.detection_s * 1e3:.1f} ms by "
@@ -324,24 +375,68 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from hil_bench.sweep.cli import main as sweep_main
 
+    if args.out:   # never the sweep file itself (nor a link to it), whatever the folder holds
+        from hil_bench.record.atomic import refuse_output_is_input
+
+        refuse_output_is_input([Path(args.out)], [("sweep file", Path(args.sweep))])
     return sweep_main(args)
+
+
+def _claim_ids(text: str) -> list[str] | None:
+    """``--only G2,g3`` -> ["G2", "G3"]; an unknown id is a BenchError with "did you mean"."""
+    from hil_bench.claims.registry import CLAIMS
+    from hil_bench.errors import ArgumentError, did_you_mean
+
+    if not text:
+        return None
+    ids = [c.strip().upper() for c in text.split(",") if c.strip()]
+    bad = [cid for cid in ids if cid not in CLAIMS]
+    if bad:
+        raise ArgumentError(f"--only {text}: unknown claim(s) {', '.join(bad)}"
+                            f"{did_you_mean(bad[0], CLAIMS)} (claims: {', '.join(CLAIMS)}; "
+                            f"`bench claims` lists them)")
+    return ids or None
+
+
+def _claims_out_checked(out: Path) -> None:
+    """The report folder is not one of the claims' own inputs (the registry, the scenarios)."""
+    from hil_bench.claims import registry
+    from hil_bench.record.atomic import refuse_output_is_input
+    from hil_bench.scenario import SCENARIO_DIR
+
+    reg_dir = Path(registry.__file__).resolve().parent
+    inputs = [("claims registry folder", reg_dir), ("bundled scenarios folder", SCENARIO_DIR)]
+    inputs += [("claims registry file", p) for p in reg_dir.glob("*.toml")]
+    inputs += [("bundled scenario", p) for p in SCENARIO_DIR.glob("*.toml")]
+    refuse_output_is_input([out, out / "report.md", out / "report.html", out / "recordings"],
+                           inputs)
 
 
 def _cmd_claims(args: argparse.Namespace) -> int:
     from hil_bench.claims.model import METRIC_DEFINITIONS
     from hil_bench.claims.registry import CLAIMS
 
+    only = _claim_ids(args.only)
+    if args.run:
+        _claims_out_checked(Path(args.out))
+    # --no-progress: a console that is not a terminal shows no progress bar (hil_bench.cluster)
+    progress_console = console(stderr=True)
+    if args.no_progress:
+        from rich.console import Console
+
+        progress_console = Console(stderr=True, force_terminal=False, force_interactive=False,
+                                   width=progress_console.width, soft_wrap=True)
+
     if args.run and args.link != "stub":
         from hil_bench.papers.rungs import run_rungs
 
-        only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
             rg = run_rungs(args.out, args.link, only=only, jobs=args.jobs, reuse=args.reuse,
-                           scheduler=args.scheduler)
+                           scheduler=args.scheduler, console=progress_console)
         except ValueError as exc:
-            Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
+            console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
             return 2
-        out = Console()
+        out = console()
         for a, b in rg.pairs():
             same = b is not None and a.verdict == b.verdict
             out.print(escape(f"{a.claim:3s} {a.key:24s} stub {a.verdict:17s} {args.link} "
@@ -351,19 +446,19 @@ def _cmd_claims(args: argparse.Namespace) -> int:
     if args.run:
         from hil_bench.papers.report import run_report
 
-        only = [c.strip().upper() for c in args.only.split(",")] if args.only else None
         try:
             import shlex
             rep = run_report(args.out, only=only, jobs=args.jobs,
                              beyond=False if args.no_beyond else (args.beyond or not only),
                              reuse=args.reuse, beyond_quick=args.quick, scheduler=args.scheduler,
                              residual=not args.no_residual, bandwidth=not args.no_bandwidth,
-                             command=".venv/bin/bench " + shlex.join(args.argv))
+                             command=".venv/bin/bench " + shlex.join(args.argv),
+                             console=progress_console)
         except ValueError as exc:
-            Console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
+            console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
             return 2
         from hil_bench.papers.report import claim_summary
-        out = Console()
+        out = console()
         for c in rep.claims:
             verdict, _paper, _measured, reason = claim_summary(
                 c, [r for r in rep.rows if r.claim == c.id])
@@ -381,6 +476,8 @@ def _cmd_claims(args: argparse.Namespace) -> int:
                          f"({rep.wall_s:.0f} s)"))
         return 0
     for c in CLAIMS.values():
+        if only and c.id not in only:
+            continue
         print(f"{c.id}  {c.paper}: {c.text}")
         for q in c.quantities:
             unit = q.unit
@@ -495,6 +592,9 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("recording", type=Path)
     c.add_argument("--strict", action="store_true",
                    help="exit 1 if any paper claim does not reproduce")
+    c.add_argument("--json", action="store_true",
+                   help="print the check as JSON (hil_bench.Result.as_dict: scenario, recording, "
+                        "controller, integrity, metrics, claims, faults, passed) instead of tables")
     c.set_defaults(func=_cmd_check)
 
     v = sub.add_parser("recover", help="copy every intact chunk of a damaged recording into a new file")
@@ -528,7 +628,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     g = sub.add_parser("campaign", help="run a fault campaign: one run per fault, a table of "
                                         "detection and reaction against the file's limits")
-    g.add_argument("campaign", help="campaign TOML (e.g. bench/campaigns/g2_protection.toml)")
+    g.add_argument("campaign", help="a bundled campaign's name (g2_protection) or a campaign "
+                                    "TOML file")
     g.add_argument("--out", help="report folder (default reports/campaigns/<name>)")
     g.add_argument("--jobs", type=positive_int, default=None,
                    help="local Dask cluster: worker processes (default: one per core)")
@@ -537,6 +638,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--link", default=None, help="link of every run (default: the file's, or stub)")
     g.add_argument("--keep-all", action="store_true",
                    help="keep every run's recording (default: only the runs that did not PASS)")
+    g.add_argument("--no-progress", action="store_true", help="no progress bar")
     g.set_defaults(func=_cmd_campaign)
     w = sub.add_parser("sweep", help="run a base scenario over axes of its keys on a Dask cluster "
                                      "(local by default): one Parquet table, plots")
@@ -585,6 +687,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "0.5 .. 2 x; bench/papers/bandwidth.py)")
     k.add_argument("--reuse", action="store_true",
                    help="reuse recordings already in <out>/recordings (development)")
+    k.add_argument("--no-progress", action="store_true", help="no progress bar")
     k.set_defaults(func=_cmd_claims)
 
     try:
@@ -601,6 +704,14 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _native_missing_exit(exc: ImportError) -> int:
+    from hil_bench.installation import how_to_build
+
+    console(stderr=True).print(f"[red]error:[/red] hil-bench's compiled C is missing "
+                               f"({exc.name or exc}): {how_to_build()}", highlight=False)
+    return 2
+
+
 def _native_missing(exc: ImportError):
     def fail(args: argparse.Namespace) -> int:
         raise exc
@@ -610,23 +721,40 @@ def _native_missing(exc: ImportError):
 def main(argv: list[str] | None = None) -> int:
     import signal
 
-    args = build_parser().parse_args(argv)
+    try:
+        # (the parser itself may need the compiled C: the live view's options, replay's modes)
+        parser = build_parser()
+    except ImportError as exc:
+        from hil_bench.installation import is_native_import_error
+
+        if not is_native_import_error(exc):
+            raise
+        return _native_missing_exit(exc)
+    args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)   # the exact command (reports)
     try:
         rc = args.func(args)
     except KeyboardInterrupt:
         # a run's recording is finalised by the runner whatever is pressed (DeferredInterrupts);
         # anywhere else a Ctrl-C ends the command, without a traceback
-        Console(stderr=True).print("interrupted by the user")
+        console(stderr=True).print("interrupted by the user")
         rc = 130
+    except BenchError as exc:
+        # every error the bench raises on purpose is one line (a command that did not catch its
+        # own: never a traceback)
+        if isinstance(exc, ImportError):
+            from hil_bench.installation import is_native_import_error
+
+            if is_native_import_error(exc):
+                return _native_missing_exit(exc)
+        console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
+        rc = 2
     except ImportError as exc:
-        from hil_bench.installation import how_to_build, is_native_import_error
+        from hil_bench.installation import is_native_import_error
 
         if not is_native_import_error(exc):
             raise
-        Console(stderr=True).print(f"[red]error:[/red] hil-bench's compiled C is missing "
-                                   f"({exc.name or exc}): {how_to_build()}", highlight=False)
-        return 2
+        return _native_missing_exit(exc)
     if rc == 130:
         # the command ends because the user interrupted it: a further Ctrl-C (the user pressing
         # again) must not turn the exit into a KeyboardInterrupt at interpreter shutdown

@@ -14,6 +14,8 @@ import importlib.util
 import os
 from pathlib import Path
 
+from hil_bench.errors import BenchError
+
 #: the extension modules (built from plant_rt/_build_cffi.py and firmware_stub/_build_cffi.py)
 MODULES = ("hil_bench.plant_rt._plant_c", "hil_bench.firmware_stub._fw_c")
 
@@ -31,7 +33,7 @@ def version() -> str:
         return "unknown"
 
 
-class NativeMissing(ImportError):
+class NativeMissing(BenchError, ImportError):
     """A compiled part of hil_bench is not there; the message says what to run."""
 
 

@@ -16,8 +16,12 @@ $HIL_STUB), ``--hil-recordings DIR`` (default: ``hil-recordings/`` in pytest's t
 folder). Fixtures: ``hil_link`` (the link spec, session-wide) and ``hil_run`` (a function that
 runs a scenario on it and returns a :class:`hil_bench.Result`). Every run's measured values go
 into the JUnit XML as properties (``<scenario>/<quantity>/measured``, ``.../verdict``, ...: the
-test's user_properties, as record_property does), and a failed test's report names its
-recordings.
+test's user_properties, as record_property does), with ``<scenario>/controller``: the
+controller that answered, from its HELLO_ACK as recorded, not the link spec; a failed test's
+report names its recordings. A link spec given but empty (``--hil-link "$HIL_LINK"`` with the
+variable unset) or unknown is a usage error, never a silent run on the stub. Marker
+``@pytest.mark.hil_drive``: the test runs only when the link is a real drive (``serial:...``,
+``can...``), and is skipped on the bundled stub, SIL and pil-qemu.
 """
 from __future__ import annotations
 
@@ -42,7 +46,14 @@ class HilLink:
     @property
     def is_stub(self) -> bool:
         """The bundled firmware stub (on any of its links), not a real drive."""
-        return self.spec == "stub" or self.spec.startswith(("stub-", "stub@", "stub,"))
+        return self.spec == "stub" or self.spec.startswith("stub-")
+
+    @property
+    def is_drive(self) -> bool:
+        """A controller the bench did not start, on a serial port or a CAN interface (a real
+        drive); not the bundled stub, SIL or the firmware under QEMU (pil-qemu)."""
+        kind = re.split(r"[:@,]", self.spec, maxsplit=1)[0]
+        return kind in ("serial", "can")
 
     def __str__(self) -> str:
         return self.spec
@@ -59,18 +70,50 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                          "one hil-bench ships)")
     group.addoption("--hil-recordings", default=None, metavar="DIR",
                     help="where runs record (default: hil-recordings/ in pytest's basetemp)")
-    parser.addini("hil_link", "default of --hil-link", default="stub")
+    # "" (unset): --hil-link's own default, stub
+    parser.addini("hil_link", "default of --hil-link (unset: stub)", default="")
+
+
+MARKER = ("hil_drive: the test needs a real drive (--hil-link serial:... or can...); skipped on "
+          "the bundled stub, SIL and pil-qemu")
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", MARKER)
     stub = config.getoption("--hil-stub")
     if stub:
         # read by the stub launcher (hil_bench.installation.find_executable) in this process
         os.environ["HIL_STUB"] = str(Path(stub).resolve())
+    if _uses_link(config):
+        from hil_bench.loop.links import LinkError, check_link_spec
+
+        given = config.getoption("--hil-link")
+        try:   # an empty or unknown link is one clear error, before any test runs
+            check_link_spec(_link(config).spec,
+                            option="--hil-link" if given is not None else "ini hil_link")
+        except LinkError as exc:
+            raise pytest.UsageError(str(exc)) from None
+
+
+def _uses_link(config: pytest.Config) -> bool:
+    """The session names a link (the option, even empty, or the ini value)."""
+    return config.getoption("--hil-link") is not None or bool(config.getini("hil_link"))
 
 
 def _link(config: pytest.Config) -> HilLink:
-    return HilLink(config.getoption("--hil-link") or config.getini("hil_link") or "stub")
+    given = config.getoption("--hil-link")
+    if given is not None:
+        return HilLink(given)          # as given: an empty one is refused, not read as stub
+    return HilLink(config.getini("hil_link") or "stub")
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    if item.get_closest_marker("hil_drive") is None:
+        return
+    link = _link(item.config)
+    if not link.is_drive:
+        pytest.skip(f"needs a real drive (--hil-link serial:<port> or can:...); this session's "
+                    f"link is {link.spec} (bundled)")
 
 
 def pytest_report_header(config: pytest.Config) -> list[str] | None:
@@ -92,8 +135,8 @@ def pytest_report_header(config: pytest.Config) -> list[str] | None:
 
 def _uses_hil(config: pytest.Config) -> bool:
     """Only sessions that ask for it get the header (every session loads the plugin)."""
-    return any(config.getoption(o) for o in ("--hil-link", "--hil-stub", "--hil-recordings")) \
-        or bool(config.inicfg.get("hil_link"))
+    return _uses_link(config) or any(config.getoption(o) for o in ("--hil-stub",
+                                                                   "--hil-recordings"))
 
 
 @pytest.fixture(scope="session")
@@ -187,6 +230,8 @@ def _record(user_properties: list, result: Any) -> None:
 
     pre = result.scenario
     record_property(f"{pre}/recording", str(result.recording))
+    # who answered (its HELLO_ACK, as recorded), not the link string the run was given
+    record_property(f"{pre}/controller", getattr(result, "controller", "") or "none answered")
     record_property(f"{pre}/integrity", "ok" if result.integrity.ok
                     else "; ".join(result.integrity.problems) or "not ok")
     if result.run is not None and result.run.error:

@@ -34,6 +34,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hil_bench.errors import ArgumentError, BenchError
+
 if TYPE_CHECKING:
     import pandas
 
@@ -56,7 +58,7 @@ FIRST_GUESS_OCTETS_PER_CYCLE = 4096
 TELEMETRY_RENAMES = {"e_alpha_v": "e_alpha_hat_v", "e_beta_v": "e_beta_hat_v"}
 
 
-class SessionError(RuntimeError):
+class SessionError(BenchError, RuntimeError):
     """The run cannot do what the script asked (the message says what, where and why)."""
 
 
@@ -68,7 +70,7 @@ class InputRefused(SessionError):
     """The engine or the plant refused an input (recorded as ``script_refused`` on /events)."""
 
 
-class ConditionNotMet(AssertionError):
+class ConditionNotMet(BenchError, AssertionError):
     """``run_until``: the condition was not met within its time-out of simulated time."""
 
 
@@ -198,7 +200,7 @@ class Session:
     def step(self, cycles: int) -> None:
         """Run ``cycles`` control periods and hold again."""
         if isinstance(cycles, bool) or not isinstance(cycles, int) or cycles < 0:
-            raise ValueError(f"step: cycles is a whole number >= 0, got {cycles!r}")
+            raise ArgumentError(f"step: cycles is a whole number >= 0, got {cycles!r}")
         self._step(cycles, f"step({cycles})", f"script: step {cycles} cycles to cycle "
                                               f"{self.cycle + cycles}")
 
@@ -236,7 +238,7 @@ class Session:
         self._usable("run_until")
         timeout_s = _positive("timeout_s", timeout_s)
         if not (isinstance(hold_for_s, (int, float)) and hold_for_s >= 0):
-            raise ValueError(f"run_until: hold_for_s is a time >= 0 [s], got {hold_for_s!r}")
+            raise ArgumentError(f"run_until: hold_for_s is a time >= 0 [s], got {hold_for_s!r}")
         every = self.every_s if every_s is None else _positive("every_s", every_s)
         what = condition if isinstance(condition, str) else getattr(condition, "__name__",
                                                                     "condition")
@@ -245,7 +247,7 @@ class Session:
         elif callable(condition):
             expression = None
         else:
-            raise TypeError(f"run_until: the condition is an expression (str) or a callable, "
+            raise ArgumentError(f"run_until: the condition is an expression (str) or a callable, "
                             f"got {type(condition).__name__}")
         chunk = max(1, int(round(every / self.ts_s)))
         t0 = self.t_s
@@ -323,7 +325,7 @@ class Session:
         from hil_bench.loop.mailbox import CONTROL_MODE
 
         if mode not in ("speed", "current"):
-            raise ValueError(f"set_control_mode: 'speed' or 'current', got {mode!r}")
+            raise ArgumentError(f"set_control_mode: 'speed' or 'current', got {mode!r}")
         self._input(CONTROL_MODE, 1.0 if mode == "current" else 0.0,
                     f"script: control mode {mode}")
 
@@ -363,7 +365,7 @@ class Session:
         self._fault_kind("fault_off", kind)
         phases = {"a": 0, "b": 1, "c": 2}
         if phase is not None and str(phase).lower() not in phases:
-            raise ValueError(f"fault_off: phase is 'a', 'b' or 'c', got {phase!r}")
+            raise ArgumentError(f"fault_off: phase is 'a', 'b' or 'c', got {phase!r}")
         p = -1 if phase is None else phases[str(phase).lower()]
         self._input(FAULT_OFF, 0.0, f"script: fault off: {kind}"
                     + (f" phase {str(phase).lower()}" if phase is not None else ""),
@@ -379,7 +381,7 @@ class Session:
             import difflib
 
             near = difflib.get_close_matches(str(name), list(Param.__members__), n=1)
-            raise ValueError(f"set_param: no CONFIG parameter {name!r}"
+            raise ArgumentError(f"set_param: no CONFIG parameter {name!r}"
                              + (f" (did you mean {near[0]}?)" if near else "")
                              + " (docs/protocol.md 6.2, the Param table)")
         value = _finite("set_param", value)
@@ -455,7 +457,7 @@ class Session:
     def _cycles(self, what: str, duration_s: float) -> int:
         duration_s = _finite(what, duration_s)
         if duration_s < 0:
-            raise ValueError(f"{what}: a duration >= 0 [s], got {duration_s!r}")
+            raise ArgumentError(f"{what}: a duration >= 0 [s], got {duration_s!r}")
         return int(round(duration_s / self.ts_s))
 
     def _check_target(self, target: int, what: str) -> None:
@@ -593,14 +595,14 @@ class Session:
         if kind in PLANT_KINDS:
             return
         if kind in ALL_KINDS:
-            raise ValueError(f"{what}: {kind} is a link or controller fault: the engine sets "
+            raise ArgumentError(f"{what}: {kind} is a link or controller fault: the engine sets "
                              f"those up before the run ([[faults]] of the scenario, "
                              f"docs/faults.md); a script switches plant faults: "
                              f"{', '.join(PLANT_KINDS)}")
         import difflib
 
         near = difflib.get_close_matches(str(kind), list(PLANT_KINDS), n=1)
-        raise ValueError(f"{what}: unknown plant fault {kind!r}"
+        raise ArgumentError(f"{what}: unknown plant fault {kind!r}"
                          + (f" (did you mean {near[0]}?)" if near else "")
                          + f"; plant faults: {', '.join(PLANT_KINDS)}")
 
@@ -611,7 +613,7 @@ class Session:
         self._fault_kind(what, kind)
         for key in ("t_s", "until_s", "detect_within_s", "kind", "label"):
             if key in fields:
-                raise ValueError(f"{what}: {key} is not for a script (the fault acts from the "
+                raise ArgumentError(f"{what}: {key} is not for a script (the fault acts from the "
                                  f"cycle the run holds before until fault_off)")
         f = Fields(f"Session.{what}({kind!r})", {"kind": kind, "t_s": 0.0, **fields}, "")
         spec = _one(f, 0, math.inf)
@@ -723,13 +725,13 @@ class _WindowBlock:
 
 def _positive(name: str, v: Any) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 or not math.isfinite(v):
-        raise ValueError(f"{name}: a time > 0 [s], got {v!r}")
+        raise ArgumentError(f"{name}: a time > 0 [s], got {v!r}")
     return float(v)
 
 
 def _finite(name: str, v: Any) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise ValueError(f"{name}: a finite number, got {v!r}")
+        raise ArgumentError(f"{name}: a finite number, got {v!r}")
     return float(v)
 
 
@@ -881,25 +883,25 @@ class _Expression:
         try:
             tree = ast.parse(text.strip(), mode="eval")
         except SyntaxError as exc:
-            raise ValueError(f"run_until({text!r}): not an expression: {exc.msg}") from None
+            raise ArgumentError(f"run_until({text!r}): not an expression: {exc.msg}") from None
         known = set(_names_in(" ".join(_ALL_COLUMNS()))) | {"t_s"}
         names = []
         for node in ast.walk(tree):
             kind = type(node).__name__
             if kind not in self._NODES:
-                raise ValueError(f"run_until({text!r}): {kind} is not allowed in a condition "
+                raise ArgumentError(f"run_until({text!r}): {kind} is not allowed in a condition "
                                  f"(columns, numbers, strings, comparisons, arithmetic, and/or/"
                                  f"not, {', '.join(self.FUNCTIONS)})")
             if kind == "Call" and not (isinstance(node.func, ast.Name) and
                                        node.func.id in self.FUNCTIONS and not node.keywords):
-                raise ValueError(f"run_until({text!r}): only the functions "
+                raise ArgumentError(f"run_until({text!r}): only the functions "
                                  f"{', '.join(self.FUNCTIONS)} can be called")
             if kind == "Name" and node.id not in self.FUNCTIONS and node.id not in self.CONSTANTS:
                 if node.id not in known:
                     import difflib
 
                     near = difflib.get_close_matches(node.id, sorted(known), n=1)
-                    raise ValueError(f"run_until({text!r}): no column {node.id!r}"
+                    raise ArgumentError(f"run_until({text!r}): no column {node.id!r}"
                                      + (f" (did you mean {near[0]}?)" if near else "")
                                      + "; the columns are /plant/state's and "
                                        "/controller/telemetry's (docs/api.md)")

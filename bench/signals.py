@@ -31,11 +31,13 @@ from typing import Any, Callable
 
 import numpy as np
 
+from hil_bench.errors import ArgumentError, BenchError
+
 __all__ = ["SignalCheckFailed", "settles", "overshoot", "rise_time", "stays_within",
            "stays_near", "follows", "follows_ramp", "frequency"]
 
 
-class SignalCheckFailed(AssertionError):
+class SignalCheckFailed(BenchError, AssertionError):
     """A signal check failed. ``measured``: the figure measured (NaN if none); ``t_s``: where
     [s]; ``by``: how far beyond the limit (in the check's unit)."""
 
@@ -61,7 +63,7 @@ def _signal(y: Any, t: Any, start_s: float | None, end_s: float | None,
     if t is None:
         index = getattr(y, "index", None)
         if index is None or hasattr(y, "columns"):
-            raise TypeError(f"signals.{what}: give a pandas Series indexed by time [s], or an "
+            raise ArgumentError(f"signals.{what}: give a pandas Series indexed by time [s], or an "
                             f"array with t= its times [s]"
                             + (" (a DataFrame: pick a column, e.g. w.speed_rpm)"
                                if hasattr(y, "columns") else ""))
@@ -72,10 +74,10 @@ def _signal(y: Any, t: Any, start_s: float | None, end_s: float | None,
         tt = np.asarray(t, dtype=float)
     yy = np.asarray(y, dtype=float)
     if yy.ndim != 1 or tt.shape != yy.shape:
-        raise ValueError(f"signals.{what}: {name} has {yy.shape} values and {tt.shape} times "
+        raise ArgumentError(f"signals.{what}: {name} has {yy.shape} values and {tt.shape} times "
                          f"(one time per sample)")
     if len(tt) > 1 and not np.all(np.diff(tt) > 0):
-        raise ValueError(f"signals.{what}: the times of {name} do not increase")
+        raise ArgumentError(f"signals.{what}: the times of {name} do not increase")
     keep = np.isfinite(yy)
     if start_s is not None:
         keep &= tt >= start_s - 1e-12
@@ -83,7 +85,7 @@ def _signal(y: Any, t: Any, start_s: float | None, end_s: float | None,
         keep &= tt <= end_s + 1e-12
     if keep.sum() < 2:
         span = f" in [{start_s}, {end_s}] s" if (start_s, end_s) != (None, None) else ""
-        raise ValueError(f"signals.{what}: {name} has {int(keep.sum())} finite samples{span}; "
+        raise ArgumentError(f"signals.{what}: {name} has {int(keep.sum())} finite samples{span}; "
                          f"a check needs at least 2")
     return _Signal(name, tt[keep], yy[keep])
 
@@ -112,11 +114,11 @@ def settles(y: Any, target: float, *, within_s: float, band: float | None = None
     s = _signal(y, t, start_s, None, "settles")
     t0 = float(s.t[0]) if start_s is None else float(start_s)
     if (band is None) == (band_pct is None):
-        raise ValueError("signals.settles: give band (absolute) or band_pct (of the step)")
+        raise ArgumentError("signals.settles: give band (absolute) or band_pct (of the step)")
     if band is None:
         band = abs(target - s.y[0]) * band_pct / 100.0
     if not band > 0:
-        raise ValueError(f"signals.settles: the band is > 0, got {band!r}")
+        raise ArgumentError(f"signals.settles: the band is > 0, got {band!r}")
     err = np.abs(s.y - target)
     out = np.flatnonzero(err > band)
     if out.size == 0:
@@ -156,7 +158,7 @@ def overshoot(y: Any, target: float, *, below_pct: float | None = None,
     y0 = float(s.y[0]) if initial is None else float(initial)
     step = target - y0
     if step == 0:
-        raise ValueError(f"signals.overshoot: no step (target {_fmt(target)} = initial)")
+        raise ArgumentError(f"signals.overshoot: no step (target {_fmt(target)} = initial)")
     beyond = (s.y - target) * math.copysign(1.0, step)
     i = int(np.argmax(beyond))
     pct = max(float(beyond[i]), 0.0) / abs(step) * 100.0
@@ -180,10 +182,10 @@ def rise_time(y: Any, initial: float, final: float, *, within_s: float | None = 
     s = _signal(y, t, start_s, None, "rise_time")
     lo_f, hi_f = levels
     if not 0.0 <= lo_f < hi_f <= 1.0:
-        raise ValueError(f"signals.rise_time: levels are 0 <= low < high <= 1, got {levels!r}")
+        raise ArgumentError(f"signals.rise_time: levels are 0 <= low < high <= 1, got {levels!r}")
     step = final - initial
     if step == 0:
-        raise ValueError("signals.rise_time: no step (final = initial)")
+        raise ArgumentError("signals.rise_time: no step (final = initial)")
     word = "rises" if step > 0 else "falls"
     sign = math.copysign(1.0, step)
     progress = (s.y - initial) * sign                   # > 0 towards final
@@ -229,11 +231,11 @@ def stays_within(y: Any, low: float | None = None, high: float | None = None, *,
     __tracebackhide__ = True
     s = _signal(y, t, start_s, end_s, "stays_within")
     if low is None and high is None:
-        raise ValueError("signals.stays_within: give low, high or both")
+        raise ArgumentError("signals.stays_within: give low, high or both")
     lo = -math.inf if low is None else float(low)
     hi = math.inf if high is None else float(high)
     if not lo <= hi:
-        raise ValueError(f"signals.stays_within: low {lo:g} > high {hi:g}")
+        raise ArgumentError(f"signals.stays_within: low {lo:g} > high {hi:g}")
     beyond = np.maximum(s.y - hi, lo - s.y)
     if (beyond > 0).any():
         i = int(np.argmax(beyond))
@@ -266,7 +268,7 @@ def follows(y: Any, reference: Any, tolerance: float, *, start_s: float | None =
         rt = np.asarray(getattr(reference, "index", None), dtype=float)
         ry = np.asarray(reference, dtype=float)
         if rt.shape != ry.shape:
-            raise TypeError("signals.follows: the reference is a function of time or a Series "
+            raise ArgumentError("signals.follows: the reference is a function of time or a Series "
                             "indexed by time [s]")
         ref = lambda tt: np.interp(tt, rt, ry)   # noqa: E731
     return _follows(y, ref, tolerance, start_s, end_s, t, "follows", "the reference")
@@ -295,7 +297,7 @@ def _follows(y, ref: Callable, tolerance: float, start_s, end_s, t, what: str, a
     if name is not None:
         s = _Signal(name, s.t, s.y)
     if not tolerance > 0:
-        raise ValueError(f"signals.{what}: the tolerance is > 0, got {tolerance!r}")
+        raise ArgumentError(f"signals.{what}: the tolerance is > 0, got {tolerance!r}")
     r = np.asarray(ref(s.t), dtype=float)
     dev = s.y - r
     err = np.abs(dev)
@@ -326,7 +328,7 @@ def _dominant_frequency(s: _Signal) -> float:
     dt = np.diff(s.t)
     step = float(np.median(dt))
     if n < 8 or np.max(np.abs(dt - step)) > 1e-6 * step + 1e-12:
-        raise ValueError(f"signals.frequency: {s.name} needs at least 8 uniformly spaced samples "
+        raise ArgumentError(f"signals.frequency: {s.name} needs at least 8 uniformly spaced samples "
                          f"(a gap or a decimated stretch: pick a window without one)")
     v = s.y - s.y.mean()
     if not np.any(v):
@@ -366,7 +368,7 @@ def frequency(y: Any, *, expected_hz: float | None = None, tolerance_hz: float |
     f_hz = _dominant_frequency(s)
     if expected_hz is not None:
         if tolerance_hz is None and rel_tol is None:
-            raise ValueError("signals.frequency: with expected_hz give tolerance_hz or rel_tol")
+            raise ArgumentError("signals.frequency: with expected_hz give tolerance_hz or rel_tol")
         tol = min(x for x in (tolerance_hz, None if rel_tol is None else rel_tol * expected_hz)
                   if x is not None)
         off = f_hz - expected_hz

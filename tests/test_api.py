@@ -189,3 +189,53 @@ def test_a_run_that_records_nothing_raises_run_failed(monkeypatch, tmp_path):
     with pytest.raises(hil_bench.RunFailed, match=r"no cycle ran \(.*peer closed the link") as info:
         hil_bench.run("gong_g2_500rpm", out=tmp_path / "x.mcap")
     assert str(tmp_path / "x.mcap") in str(info.value)  # the attempt's recording is kept
+
+
+@pytest.mark.parametrize("call, error, words", [
+    (lambda: hil_bench.run(None), "ArgumentError", "scenario: a bundled scenario's name"),
+    (lambda: hil_bench.run(123), "ArgumentError", "got 123 (int)"),
+    (lambda: hil_bench.run(""), "ArgumentError", "got ''"),
+    (lambda: hil_bench.run("gong_g2_500rpm", link=None), "ArgumentError", "link: a link spec"),
+    (lambda: hil_bench.run("gong_g2_500rpm", link=""), "LinkError", "link is empty"),
+    (lambda: hil_bench.run("gong_g2_500rpm", link="stub:foo"), "LinkError", "did you mean 'stub'"),
+    (lambda: hil_bench.run("gong_g2_500rpm", overrides={1: 2}), "ArgumentError",
+     "the key 1 is not a dotted scenario key"),
+    (lambda: hil_bench.run("gong_g2_500rpm", overrides={"plant.t_delay_s": object()}),
+     "ArgumentError", "a scenario value is a bool, number, string or a list"),
+    (lambda: hil_bench.run("gong_g2_500rpm", out=3), "ArgumentError", "out: a file path"),
+    (lambda: hil_bench.run("gong_g2_500rpm", force="yes"), "ArgumentError", "force: True or False"),
+    (lambda: hil_bench.run("gong_g2_500rpm", cpu="0"), "ArgumentError", "cpu: a CPU number"),
+    (lambda: hil_bench.run("gong_g2_500rmp"), "ScenarioError", "did you mean 'gong_g2_500rpm'"),
+    (lambda: hil_bench.check(None), "ArgumentError", "check(path): a file path"),
+    (lambda: hil_bench.check("no/such.mcap"), "NoSuchFile", "no such recording"),
+    (lambda: hil_bench.load_recording(None), "ArgumentError", "load_recording(path): a file path"),
+    (lambda: hil_bench.signals.settles(None, 1.0, within_s=1.0, band=0.1), "ArgumentError",
+     "signals.settles: give a pandas Series indexed by time"),
+])
+def test_every_bad_argument_is_the_benchs_own_error(call, error, words):
+    """Before: hil_bench.run(None) was a bare TypeError from inside pathlib, run(123) an
+    AttributeError, overrides={1: 2} an AttributeError from the TOML writer, check(None) a
+    TypeError: every one is now a BenchError of the documented kind, with its words."""
+    with pytest.raises(hil_bench.BenchError) as info:
+        call()
+    assert type(info.value).__name__ == error and words in str(info.value), str(info.value)
+    if error == "ArgumentError":            # still catchable as what it always was
+        assert isinstance(info.value, TypeError) and isinstance(info.value, ValueError)
+
+
+def test_load_recording_refuses_a_channel_the_file_does_not_have(short_run):
+    """Before: channels=["/nope"] returned no frame and no word."""
+    with pytest.raises(hil_bench.ArgumentError, match=r"no channel '/nope'.*has: /controller/"):
+        hil_bench.load_recording(short_run.recording, channels=["/nope"])
+    with pytest.raises(hil_bench.ArgumentError, match="did you mean '/plant/state'"):
+        hil_bench.load_recording(short_run.recording, channels=["/plant/stat"])
+    assert hil_bench.load_recording(short_run.recording, channels="/plant/state").topics == \
+        [ch.PLANT_STATE]
+
+
+def test_the_result_names_the_controller_that_answered(short_run):
+    """From its HELLO_ACK as recorded, not the link spec: the bundled stub is fw 0x0100."""
+    assert short_run.controller.startswith("fw 0x0100 (protocol 1.1, estimators 0x")
+    assert "hil_stub " in short_run.controller and short_run.run.link == "stub"
+    assert hil_bench.check(short_run.recording).controller == short_run.controller
+    assert f"controller: {short_run.controller}" in short_run.summary()

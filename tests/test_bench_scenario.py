@@ -107,7 +107,7 @@ def _line(text: str, needle: str) -> int:
     (lambda t: t + "\n[[events]]\nt_s = 0.6\niq_ref_a = 40\n", "iq_ref_a = 40",
      "events[0].iq_ref_a: 40 A is outside [-32.768, 32.767] A (the range SENSE.i_a..i_c can report"),
     (lambda t: t.replace('claims = ["G2"]', 'claims = ["G99"]'), "claims =",
-     "scenario.claims: unknown claim 'G99'; known: Y1, Y2"),
+     "scenario.claims: unknown claim 'G99' (known: Y1, Y2"),
     (lambda t: t.replace("IQ_MAX_A = 6.0", "IQ_MAX_A = 6.0\nPOLE_PAIRS = 4.5"), "POLE_PAIRS",
      "controller.params.POLE_PAIRS: is an integer parameter: must be a whole number, got 4.5"),
     (lambda t: t.replace("SMO_M_PER_A = 0.01", "SMO_M_PER_A = 1e39"), "SMO_M_PER_A =",

@@ -51,7 +51,7 @@ def test_a_controller_that_breaks_a_rule_fails_that_item(inject, section, words)
 
 def test_a_link_that_does_not_open_is_reported_not_raised(capsys):
     assert cli_main(["conformance", "--link", "serial:/dev/nonexistent-hil-port"]) == 2
-    assert "cannot open serial port" in capsys.readouterr().out
+    assert "the serial port /dev/nonexistent-hil-port does not exist" in capsys.readouterr().out
 
 
 def _rerunning_controller():

@@ -89,6 +89,8 @@ def test_closed_loop_with_the_sanitized_engine_and_stub(tmp_path):
     assert "engine module:" in proc.stdout and "build-asan" in proc.stdout
     flat = " ".join(text.split())
     assert "ran 8000/8000 cycles (lockstep)" in flat, text[-4000:]
-    assert f"controller: hil_stub {ASAN_STUB}" in flat          # the sanitized stub ran
+    # the sanitized stub answered (the report names the controller from its HELLO_ACK, then
+    # the process the bench started for it)
+    assert "controller: fw 0x0100 " in flat and f": hil_stub {ASAN_STUB}," in flat
     assert "ended early" not in text, text[-4000:]
     assert out.exists()

@@ -68,7 +68,7 @@ def test_eight_flipped_bytes_at_half_lose_one_chunk_not_the_second_half(recordin
     assert 0 < lost < 2.0 * sum(original.values()) / n_chunks   # about one chunk's messages
     after = load_recording(fixed)
     assert after.truncated is None and after.messages == sum(counts.values())
-    assert set(after.metadata) == {"run", "run_result"}     # the run_result written at the end survives
+    assert set(after.metadata) == {"run", "controller", "run_result", "sidecar.serial.bin"}   # written at the end: survive
     assert any(a.startswith("scenario/") for a in after.attachments)
     # encoding-agnostic: the messages are the original octets (the first 1000 of /plant/state, before the damage)
     assert _payloads(fixed, "/plant/state")[:1000] == _payloads(recording, "/plant/state")[:1000]
@@ -120,7 +120,7 @@ def test_bad_inputs_are_refused_clearly(tmp_path, recording):
         recover(junk)
     with pytest.raises(RecoverError, match="cannot open"):
         recover(tmp_path / "missing.mcap")
-    with pytest.raises(RecoverError, match="must not be the damaged file itself"):
+    with pytest.raises(RecoverError, match="is the damaged file itself"):
         recover(recording, recording)
     assert cli_main(["recover", str(junk)]) == 2
 

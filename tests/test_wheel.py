@@ -105,10 +105,10 @@ def test_metadata_entry_points_and_license(wheel, names):
     assert license_text.startswith("MIT License")
 
 
-def test_the_wheel_alone_runs_a_scenario_from_another_directory(wheel, tmp_path):
+def _unpacked(wheel: Path, tmp_path: Path):
     """The unpacked wheel first on the path, this environment's dependencies behind it, no site
-    hooks (the checkout's editable install stays out): the bench finds its stub, modules,
-    scenarios and profiles inside the package, from a directory that is not the checkout."""
+    hooks (the checkout's editable install stays out), run from a directory that is not the
+    checkout: (site folder, work folder, bench(*args) -> CompletedProcess)."""
     unpacked = tmp_path / "site"
     with zipfile.ZipFile(wheel) as z:
         z.extractall(unpacked)
@@ -118,13 +118,22 @@ def test_the_wheel_alone_runs_a_scenario_from_another_directory(wheel, tmp_path)
                 os.chmod(unpacked / info.filename, mode)
     deps = sysconfig.get_paths()["purelib"]
     env = dict(os.environ, PYTHONPATH=f"{unpacked}{os.pathsep}{deps}")
-    env.pop("HIL_STUB", None)
+    for var in ("HIL_STUB", "HIL_QEMU_ELF"):
+        env.pop(var, None)
     work = tmp_path / "elsewhere"
     work.mkdir()
 
     def bench(*args: str) -> subprocess.CompletedProcess:
         return subprocess.run([sys.executable, "-S", "-m", "hil_bench", *args], cwd=work,
                               env=env, capture_output=True, text=True, timeout=600)
+
+    return unpacked, work, bench
+
+
+def test_the_wheel_alone_runs_a_scenario_from_another_directory(wheel, tmp_path):
+    """The bench finds its stub, modules, scenarios and profiles inside the package, from a
+    directory that is not the checkout."""
+    unpacked, work, bench = _unpacked(wheel, tmp_path)
 
     version = bench("--version")
     assert version.returncode == 0, version.stderr
@@ -138,3 +147,24 @@ def test_the_wheel_alone_runs_a_scenario_from_another_directory(wheel, tmp_path)
     run = read_header(work / "x.mcap").run
     assert run["controller"] == f"hil_stub {unpacked / 'hil_bench' / 'bin' / 'hil_stub'}"
     assert run["git_revision"] == "none (installed package)"
+
+
+def test_the_wheel_finds_campaigns_by_name_and_says_what_needs_a_checkout(wheel, tmp_path):
+    """Bundled campaigns resolve by name from the package as sweeps do (before: `bench campaign
+    g2_protection` was "no such campaign file" from a wheel), and pil-qemu, which builds the
+    Cortex-M port from the checkout's sources, says so (before: a CMake error)."""
+    _, _, bench = _unpacked(wheel, tmp_path)
+    typo = bench("campaign", "g2_protectio", "--no-progress")
+    assert typo.returncode == 2 and "did you mean 'g2_protection'" in typo.stderr, typo.stderr
+    listed = subprocess.run(
+        [sys.executable, "-S", "-c", "from hil_bench.faults.campaign import load_campaign; "
+                                     "c = load_campaign('g2_protection'); print(c.name, len(c.cases))"],
+        cwd=tmp_path / "elsewhere", env=dict(os.environ, PYTHONPATH=f"{tmp_path / 'site'}"
+                                                                  f"{os.pathsep}"
+                                                                  f"{sysconfig.get_paths()['purelib']}"),
+        capture_output=True, text=True, timeout=120)
+    assert listed.stdout.split() == ["g2_protection", "18"], listed.stderr
+    pil = bench("conformance", "--link", "pil-qemu")
+    assert pil.returncode == 2
+    assert "needs a checkout of hil-bench (firmware_stub/port/cortex_m" in pil.stdout + pil.stderr
+    assert "CMake" not in pil.stdout + pil.stderr

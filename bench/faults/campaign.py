@@ -1,8 +1,8 @@
 """Fault campaigns: a base scenario and a list (or grid) of faults, one run each, a table of what
 the controller did with them, judged against the limits the campaign file states.
 
-    bench campaign bench/campaigns/g2_protection.toml [--jobs N] [--scheduler ADDR] [--out DIR]
-                   [--keep-all]
+    bench campaign g2_protection (a bundled one by name, or a file) [--jobs N] [--scheduler ADDR]
+                   [--out DIR] [--keep-all] [--no-progress]
 
 A campaign file (TOML; docs/faults.md "Campaigns")::
 
@@ -49,6 +49,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hil_bench.errors import BenchError
 from hil_bench.scenario import ScenarioError, check_against_profile, parse_scenario, resolve_path
 from hil_bench.scenario.scenario import NAME_PATTERN, parse_link_allow
 from hil_bench.scenario.fields import Fields
@@ -57,7 +58,7 @@ LIMIT_KEYS = {"detected": bool, "detection_time_s": float, "peak_current_a": flo
               "peak_torque_nm": float, "duties_after_trip": int}
 
 
-class CampaignError(ValueError):
+class CampaignError(BenchError, ValueError):
     """A campaign file that cannot be run; the message names the file, line and field."""
 
 
@@ -119,15 +120,36 @@ def _case_name(label: str, i: int) -> str:
     return f"{i:02d}_{slug}" if slug else f"{i:02d}"
 
 
+#: the bundled campaigns (``bench campaign g2_protection`` by name, from a checkout or a wheel)
+CAMPAIGN_DIR = Path(__file__).resolve().parents[1] / "campaigns"
+
+
+def resolve_campaign(name_or_path: str | Path) -> Path:
+    """A bare name that is not a file resolves to a bundled campaign (``bench/campaigns/``)."""
+    p = Path(name_or_path)
+    if not p.exists() and p.suffix != ".toml" and len(p.parts) == 1:
+        return CAMPAIGN_DIR / f"{name_or_path}.toml"
+    return p
+
+
 def load_campaign(path: str | Path) -> Campaign:
-    """Load and check a campaign file (every run's scenario is built and validated here, before
-    anything runs). Raises CampaignError naming file, line and field."""
-    path = Path(path)
+    """Load and check a campaign file, or a bundled campaign by name (every run's scenario is
+    built and validated here, before anything runs). Raises CampaignError naming file, line and
+    field."""
+    asked = path
+    path = resolve_campaign(path)
     where = str(path)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise CampaignError(f"{where}: no such campaign file") from None
+        from hil_bench.errors import did_you_mean
+
+        names = sorted(p.stem for p in CAMPAIGN_DIR.glob("*.toml"))
+        what = (f"{asked}: no bundled campaign of that name and no such file"
+                if path.parent == CAMPAIGN_DIR and Path(asked) != path else
+                f"{where}: no such campaign file")
+        raise CampaignError(f"{what}{did_you_mean(Path(str(asked)).stem, names)} (bundled: "
+                            f"{', '.join(names) or 'none'})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise CampaignError(f"{where}: cannot read a TOML text file: {exc}") from None
     try:
@@ -304,7 +326,7 @@ def judge(case: Case, outcomes: list, run_error: str, end: str,
 
 def _run_case(camp: Campaign, case_index: int, out_dir: str, link: str) -> dict:
     """One run (here or in a worker process): returns what the table needs."""
-    from hil_bench.loop.runner import RunAborted, run_scenario
+    from hil_bench.loop.runner import Runner
     from hil_bench.papers.check import read_for_check
     from hil_bench.record.fault_outcomes import outcomes as fault_outcomes
     from hil_bench.record.integrity import fault_problems
@@ -314,8 +336,12 @@ def _run_case(camp: Campaign, case_index: int, out_dir: str, link: str) -> dict:
     out = Path(out_dir) / f"{case.name}.mcap"
     t0 = time.monotonic()
     try:
-        result = run_scenario(scn, link_spec=link, out_path=out, progress=False, force=True)
-    except (RunAborted, ValueError, OSError) as exc:
+        # replaces the case's recording of an earlier campaign; a name another run of it is
+        # writing now (its .partial) becomes the next free one (recorder.reserve_recording)
+        runner = Runner(scn, link_spec=link, out_path=out, progress=False, force=True)
+        runner.pick_free_name = True
+        result = runner.run()
+    except (BenchError, ValueError, OSError) as exc:
         return {"error": f"could not run: {exc}", "end": "SETUP", "recording": None,
                 "wall_s": time.monotonic() - t0}
     rec_path = result.recording if Path(result.recording).exists() else None
@@ -407,9 +433,11 @@ def rows(results: list[CaseResult]) -> list[dict[str, str]]:
 
 def write_report(camp: Campaign, results: list[CaseResult], out_dir: Path, wall_s: float) -> Path:
     """results.md and results.csv in out_dir; returns the markdown's path."""
+    from hil_bench.record.atomic import write_aside, write_text_aside
+
     table = rows(results)
     out_dir.mkdir(parents=True, exist_ok=True)
-    with open(out_dir / "results.csv", "w", newline="", encoding="utf-8") as fh:
+    with write_aside(out_dir / "results.csv", newline="") as fh:   # renamed into place when whole
         w = csv.DictWriter(fh, fieldnames=list(table[0]) if table else ["run"])
         w.writeheader()
         w.writerows(table)
@@ -436,6 +464,6 @@ def write_report(camp: Campaign, results: list[CaseResult], out_dir: Path, wall_
             f"{r.case.name}: " + ", ".join(f"`{k} = {v}`" for k, v in r.case.limits.items()
                                            if camp.limits.get(k) != v) for r in special) + ".")
     md = out_dir / "results.md"
-    md.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_text_aside(md, "\n".join(lines) + "\n")
     return md
 

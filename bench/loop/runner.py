@@ -23,12 +23,14 @@ import subprocess
 import sys
 import time
 import traceback
+import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
 from hil_bench.cluster.limits import expired
+from hil_bench.errors import BenchError
 from hil_bench.installation import checkout_root, version
 from hil_bench.plant_rt import engine as eng
 from hil_bench.plant_rt.plant import Plant
@@ -36,11 +38,21 @@ from hil_bench.plant_rt.profile import load_profile
 from hil_bench.protocol.messages import PROTO_VERSION, Command, Estimator, HelloFlag, Mode, Param
 from hil_bench.protocol.timing import RESEND_MAX_INTERVAL_S
 from hil_bench.record import channels as ch
-from hil_bench.record.recorder import ProcessRecorder, RecorderError, check_target
+from hil_bench.record.atomic import refuse_output_is_input
+from hil_bench.record.controller_id import identity as controller_identity
+from hil_bench.record.recorder import (
+    SIDE_SUFFIXES,
+    ProcessRecorder,
+    RecorderError,
+    Reservation,
+    check_target,
+    recording_stamp,
+    reserve_recording,
+)
 from hil_bench.scenario import INV_COMP_CURRENTS, INV_COMP_SHAPES, RPM_PER_RAD_S, Scenario
 
 from .host_session import PROTO_MINOR, HostSession
-from .links import STUB_CAN_MODES, LinkError, OpenedLink, open_link
+from .links import STUB_CAN_MODES, LinkError, OpenedLink, check_link_spec, open_link
 from .links.engine_fd import engine_link_for
 
 RECORDINGS_DIR = Path("recordings")
@@ -49,7 +61,7 @@ STATS_EVERY_CYCLES = 1000
 WATCH_PERIOD_S = 0.1
 
 
-class RunAborted(RuntimeError):
+class RunAborted(BenchError, RuntimeError):
     """The run could not continue; the message says why and where."""
 
 
@@ -268,9 +280,8 @@ _UNSAFE_RUN = re.compile(r"[^A-Za-z0-9_+@-]+")
 
 def default_recording_path(scenario: Scenario) -> Path:
     """recordings/<name>-<stamp>.mcap; the name cannot leave the recordings folder."""
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
     name = _UNSAFE_RUN.sub("_", scenario.name).strip("_") or "run"
-    return RECORDINGS_DIR / f"{name}-{stamp}.mcap"
+    return RECORDINGS_DIR / f"{name}-{recording_stamp()}.mcap"
 
 
 def event_cycles(scenario: Scenario, ts_s: float) -> list[tuple[int, object]]:
@@ -367,7 +378,11 @@ class Runner:
                              f"(--pace is for lockstep runs)")
         self.allow_slow_link = allow_slow_link
         self.link_spec = link_spec
+        #: a default name (none given) that is taken becomes the next free one
+        self.pick_free_name = not out_path
         self.out_path = Path(out_path) if out_path else default_recording_path(scenario)
+        #: this run's id: in the recording's metadata and its side files (bench check compares)
+        self.run_id = uuid.uuid4().hex
         self.force = force
         self.progress = progress
         self.stub_args = tuple(stub_args)
@@ -528,28 +543,46 @@ class Runner:
         finalised. A run that failed before its engine existed yields ``engine`` None with the
         recording already finalised and ``result.error`` saying why."""
         scn = self.scn
-        check_target(self.out_path, self.force)      # before any process or device is touched
+        # never over one of its own inputs (the scenario, the motor profile), with or without
+        # --force; then the target as such, before any process or device is touched
+        refuse_output_is_input([self.out_path, *(self.out_path.with_suffix(sfx)
+                                                 for sfx, _ in SIDE_SUFFIXES)],
+                               [("scenario file", scn.path), ("motor profile", self.profile.path)])
+        if not self.pick_free_name:
+            check_target(self.out_path, self.force)
+        check_link_spec(self.link_spec)               # a bad spec, a port that is not there
         self._check_budget_of_spec()
+        # the name taken (its partial file created exclusively) and, with --force, the previous
+        # recording and its side files moved aside: from here on nothing at out_path is an
+        # older run's (recorder.reserve_recording)
+        res = self.reservation = reserve_recording(self.out_path, force=self.force,
+                                                   pick_free=self.pick_free_name)
+        self.out_path = res.path
         result = RunResult(scn.name, self.out_path, 0, self.n_cycles, mode=self.mode,
                            ts_s=self.ts_s)
         t0 = time.monotonic()
-        opened = self.opened = open_link(self.link_spec, self.stub_args,
-                                         capture_path=self.out_path.with_suffix(".log"))
+        try:
+            opened = self.opened = open_link(self.link_spec, self.stub_args,
+                                             capture_path=self.out_path.with_suffix(".log"))
+        except BaseException as exc:
+            res.release()
+            raise _with_replaced(exc, res) from None
         try:
             self._check_budget(opened)
             self.live_inbox = None
             if self.live is not None or self.scripted:
                 self.live_inbox = new_live_inbox()
             rec = ProcessRecorder(self.out_path, force=self.force, cpus=self._recorder_cpus(),
-                                  background=self.mode == "realtime",
+                                  background=self.mode == "realtime", reservation=res,
                                   live=self.live, live_inbox=self.live_inbox,
                                   **({"ring_capacity": self.ring_bytes} if self.ring_bytes else {}))
             self.live_port = rec.live_port
             if self.live_port is not None and self.on_live is not None:
                 self.on_live(self.live_port)
-        except BaseException:
+        except BaseException as exc:
             opened.close()
-            raise
+            res.release()
+            raise _with_replaced(exc, res) from None
         engine = None
         engine_link = None
         yielded = False
@@ -591,6 +624,9 @@ class Runner:
             result.interrupts_while_closing = closing.count
             closing.release()
             result.recording = rec.final_path or self.out_path
+            if result.error and rec.final_path != self.out_path and res.replaced \
+                    and res.replaced_text() not in result.error:
+                result.error += res.replaced_text()
             result.live_stats = rec.live_stats
             if result.cycles_done == 0 and result.error and rec.final_path:
                 result.error += (f" (no cycle ran; the recording of the attempt, with its "
@@ -646,7 +682,7 @@ class Runner:
         if not isinstance(opened.link, SerialLink):
             return
         self.serial_capture_path = self.out_path.with_suffix(".serial.bin")
-        index = self.ch_serial_raw = rec.raw_capture(self.serial_capture_path)
+        index = self.ch_serial_raw = rec.raw_capture(self.serial_capture_path, self.run_id)
         opened.link.tap = lambda direction, data: rec.write_raw(
             index, time.monotonic_ns(), bytes((direction,)) + bytes(data))
 
@@ -701,6 +737,7 @@ class Runner:
             "realtime_cpus": (json.dumps({"engine": self.cpu, "recorder": self._recorder_cpus(),
                                           "stub": self._stub_cpu()})
                               if self.mode == "realtime" else ""),
+            "run_id": self.run_id,
             "link": opened.link.description,
             "retry_timeout_s": repr(self.scn.link.retry_timeout_s),
             "patience_s": repr(self.scn.link.patience_s),
@@ -753,6 +790,13 @@ class Runner:
             self._event(0.0, "handshake",
                         f"controller fw 0x{int(ack['fw_version']):04X}, estimators mask "
                         f"0x{int(ack['estimators']):04X}", float(ack["fw_version"]))
+            # who answered (record/controller_id.py): the report and the pytest plugin name it
+            self.rec.metadata("controller", controller_identity(
+                ack, opened.link.description,
+                stub.controller if stub is not None else
+                "firmware_stub/src in process (software in the loop)"
+                if _is_sil_link(self.link_spec) else "",
+                version=self.session.version_text))
             params = self.session.serve(self.controller_params(), needs_commands={
                 "RESTART": f"faults[{fs.index}] controller_reset"
                 for fs in self.scn.faults if fs.kind == "controller_reset"})
@@ -981,6 +1025,9 @@ class Runner:
         except (LinkError, OSError):
             pass
         code = opened.close()
+        capture = getattr(opened.link, "capture_written", None)   # CAN: the candump log
+        if capture is not None:
+            rec.metadata("sidecar.log", dict(capture, run_id=self.run_id))
         stats = getattr(opened.stub, "target_stats", None)
         if stats is not None:
             result.target = stats.as_metadata()
@@ -1014,6 +1061,17 @@ class Runner:
                        miss_rate=c["missed_duty"] / max(e.cycles_done, 1),
                        lost_rate=(c["missed_duty"] + c["rt_overruns"]) / max(e.cycles_done, 1))
         return out
+
+
+def _with_replaced(exc: BaseException, res: Reservation) -> BaseException:
+    """``exc`` with what a --force run did with the previous recording (moved aside: a run that
+    fails never leaves it at --out) appended to its message, when it is the bench's own error."""
+    if not res.replaced or not isinstance(exc, BenchError):
+        return exc
+    try:
+        return type(exc)(f"{exc}{res.replaced_text()}")
+    except Exception:  # noqa: BLE001 - an error type with another signature: as it is
+        return exc
 
 
 def _stub_failure(stub) -> str | None:

@@ -333,9 +333,11 @@ def print_report(report: CheckReport, console: Console | None = None) -> None:
     rec, scn, ctx = report.recording, report.scenario, report.context
     run = rec.run
     console.print(f"[bold]{escape(scn.name)}[/bold] — {escape(scn.description)}")
+    from hil_bench.record.controller_id import describe as controller_text
+
     console.print(escape(f"recording {rec.path}  ({rec.messages} messages, git "
-                         f"{run.get('git_revision', '?')}, controller: {run.get('controller', '?')}, "
-                         f"estimator {run.get('estimator', '?')})"))
+                         f"{run.get('git_revision', '?')}, controller: "
+                         f"{controller_text(rec.metadata)}, estimator {run.get('estimator', '?')})"))
     result = rec.metadata.get("run_result", {})
     if result.get("error"):
         console.print(f"[red]run ended early:[/red] {escape(result['error'])}")

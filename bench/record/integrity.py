@@ -21,6 +21,8 @@ truncation note, ``unreadable_chunks`` once the reader counts them), never the M
 * the faults of the scenario (docs/faults.md): each must have acted and left a trace in every detection
   window, judged on the engine's own account in the ``run_result`` record (``faults``, and the counters
   ``faults_acted`` / ``faults_traced``), else on the ``/faults`` rows and the attached scenario;
+* the side files: a ``X.serial.bin`` or ``X.log`` beside ``X.mcap`` that is not the one the run wrote
+  (sidecars.py: its size and SHA-256 against the recording's ``sidecar<suffix>`` metadata);
 * the estimator under test: ``estimator_mismatch`` on ``/link/stats`` (the host's per-cycle count) and the
   recount from ``/controller/telemetry.estimator`` against the run's requested estimator, whichever is
   larger; and the run metadata's ``encoder_angle_sent``: true with an estimator other than ENCODER is a
@@ -68,7 +70,8 @@ ALLOWABLE_COUNTERS: tuple[str, ...] = tuple(c for c in LINK_COUNTERS if c != "es
 
 @dataclass(frozen=True)
 class Problem:
-    kind: str            # "completeness", "link", "estimator", "fault", "operator" or "script"
+    kind: str            # "completeness", "link", "estimator", "fault", "operator", "script"
+                         # or "sidecar"
     name: str            # run_result, cycles, error, interrupted, truncated, unreadable_chunks, damage, rows,
                          # encoder_angle_sent, never_acted / untraced / count (a fault), or a counter
     text: str
@@ -418,6 +421,14 @@ def check_integrity(rec, allow: Mapping[str, int] | None = None,
                 add(Problem(kind, f"{kind}_input", f"{len(steered)} {who}: {steered[0]}"
                             + (f" (+{len(steered) - 1} more)" if len(steered) > 1 else ""),
                             float(len(steered))))
+
+    # -- the files beside it: this run's, or another's (sidecars.py) --------------------------------------
+    path = getattr(rec, "path", None)
+    if path is not None:
+        from .sidecars import sidecar_problems
+
+        for suffix, text in sidecar_problems(path, rec.metadata):
+            add(Problem("sidecar", suffix, text))
 
     # -- the estimator under test -------------------------------------------------------------------------
     sent = str(rec.run.get("encoder_angle_sent", "")).lower() in ("true", "1")

@@ -11,12 +11,19 @@ while the engine is not running, so the ring always has one producer.
 Control (channels, metadata, attachments, close) goes through a pipe. Metadata and attachments
 are written as they arrive; messages in ring order.
 
-Files are never lost or overwritten: the recording is written to ``.<name>.partial`` beside the
-target and renamed when it is finalised (normal end, Ctrl-C, a killed bench: the recorder sees
-the pipe close and still finalises). An existing target is refused unless ``force``, and so are
-the side files a run writes beside it (``<name>.serial.bin``, ``<name>.log``: ``SIDE_SUFFIXES``).
-If the recorder itself fails (disk full, an unwritable folder) it says why in one line, the bench
-ends the run, and the partial file keeps every complete chunk (``bench recover``).
+Files are never lost or overwritten (bench/record/atomic.py): the recording's name is taken by
+creating ``.<name>.partial`` beside it exclusively (O_EXCL: two runs never share a name; a default
+name that is taken becomes the next free one, ``reserve_recording``); the recording is written
+there and renamed into place when it is finalised (normal end, Ctrl-C, a killed bench: the
+recorder sees the pipe close and still finalises). The serial byte capture beside it is written
+the same way and renamed with it, and the recording's ``sidecar<suffix>`` metadata gives its
+size, SHA-256 and run id (``bench check`` compares: bench/record/sidecars.py). An existing target
+is refused unless ``force``, and so are the side files a run writes beside it
+(``<name>.serial.bin``, ``<name>.log``: ``SIDE_SUFFIXES``); with ``force`` they are moved to
+``.<name>.replaced`` before the run starts and removed once the new recording is in place, so a
+run that fails never leaves the old file at its path. If the recorder itself fails (disk full, an
+unwritable folder) it says why in one line, the bench ends the run, and the partial file keeps
+every complete chunk (``bench recover``).
 
 A recorder that is killed (SIGKILL, the OOM killer) cannot finalise anything, so what it has is
 on disk as soon as it has it: the MCAP header right after start, every schema and channel as it is
@@ -27,20 +34,33 @@ closed pipe into ``RecorderError("recorder process (pid N) for PATH died (killed
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import mmap
 import os
 import struct
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mcap.records import Channel, Schema
 
+from hil_bench.errors import BenchError
 from hil_bench.plant_rt._plant_c import ffi, lib
 
 from . import channels as chans
+from . import sidecars
+from .atomic import (
+    abandoned,
+    fsync_dir,
+    keep_abandoned,
+    move_to_replaced,
+    numbered,
+    partial_path,
+    publish,
+    take_exclusive,
+)
 
 CHUNK_SIZE_BYTES = 256 * 1024
 PROFILE = "hil-bench"
@@ -65,18 +85,13 @@ EXIT_WAIT_S = 5.0         #: a recorder whose pipe closed is reaped within this 
 _REC_HEADER = struct.Struct("<IHHq")
 
 
-class RecorderError(RuntimeError):
+class RecorderError(BenchError, RuntimeError):
     """The recorder cannot write the recording (message names the cause and the path)."""
 
 
-#: files a run writes beside its recording X.mcap: the serial byte capture (serial links,
-#: docs/replay.md) and the candump log (CAN links); refused like the recording itself
-SIDE_SUFFIXES: tuple[tuple[str, str], ...] = ((".serial.bin", "serial byte capture"),
-                                              (".log", "CAN log"))
-
-
-def partial_path(path: Path) -> Path:
-    return path.with_name(f".{path.name}.partial")
+#: files a run writes beside its recording X.mcap (sidecars.py): the serial byte capture (serial
+#: links, docs/replay.md) and the candump log (CAN links); refused like the recording itself
+SIDE_SUFFIXES = sidecars.SIDE_SUFFIXES
 
 
 def check_target(path: Path, force: bool, *, option: str = "--out",
@@ -103,6 +118,164 @@ def check_target(path: Path, force: bool, *, option: str = "--out",
         raise RecorderError(f"cannot create the recordings folder {parent}: {exc.strerror}") from None
     if not os.access(parent, os.W_OK):
         raise RecorderError(f"cannot write recordings into {parent}: permission denied")
+
+
+def recording_stamp() -> str:
+    """``<date>-<time>-<ms>-<pid>`` of a default recording name: two runs started in the same
+    millisecond are two processes (and a name that is taken anyway becomes the next free one:
+    :func:`reserve_recording`)."""
+    from datetime import datetime
+
+    now = datetime.now()
+    return f"{now:%Y%m%d-%H%M%S}-{now.microsecond // 1000:03d}-{os.getpid()}"
+
+
+#: how many other names (``x-1.mcap`` ...) a default name that is taken may become
+MAX_FREE_NAMES = 1000
+
+
+@dataclass
+class Reservation:
+    """A recording's name, taken: its partial file exists (empty) and is this run's. ``replaced``:
+    the files a ``force`` run moved aside (original, where it is now) until the new recording is
+    in place (:meth:`drop_replaced`), or for good if the run fails (:meth:`replaced_text`)."""
+
+    path: Path
+    force: bool
+    replaced: list[tuple[Path, Path]] = field(default_factory=list)
+    #: the descriptor that holds the partial file's lock (atomic.take_exclusive); the recorder
+    #: process inherits it and keeps it open until it has finished
+    lock_fd: int | None = None
+    #: partial files of writers that died, moved aside to keep what they hold (bench recover)
+    abandoned: list[Path] = field(default_factory=list)
+
+    @property
+    def partial(self) -> Path:
+        return partial_path(self.path)
+
+    def drop_replaced(self) -> None:
+        for _, moved in self.replaced:
+            try:
+                moved.unlink()
+            except OSError:
+                pass
+        self.replaced = []
+
+    def replaced_text(self) -> str:
+        """What a failed run says about the files it replaced ("" if none)."""
+        if not self.replaced:
+            return ""
+        return ("; the previous " + ", ".join(f"{orig.name} is kept as {moved}"
+                                              for orig, moved in self.replaced))
+
+    def release(self) -> None:
+        """Nothing was written: give the name back (the empty partial file removed)."""
+        try:
+            if self.partial.stat().st_size == 0:
+                self.partial.unlink()
+        except OSError:
+            pass
+        self.unlock()
+
+    def unlock(self) -> None:
+        """This process's hold on the name (the recorder's copy keeps it until it finishes)."""
+        if self.lock_fd is not None:
+            try:
+                os.close(self.lock_fd)
+            except OSError:
+                pass
+            self.lock_fd = None
+
+
+def reserve_recording(path: Path, *, force: bool = False, pick_free: bool = False,
+                      side_suffixes: tuple[tuple[str, str], ...] = SIDE_SUFFIXES,
+                      option: str = "--out") -> Reservation:
+    """Take ``path``'s name for a new recording: check it as :func:`check_target` does, create
+    its partial file exclusively and hold its lock (the recorder process inherits the hold), and
+    with ``force`` move an existing recording and its side files aside (``.<name>.replaced``,
+    never over an older one). A partial file whose writer holds its lock (a run writing it now)
+    is never taken, with or without ``force``; one whose writer died is renamed
+    ``<stem>.abandoned.mcap`` (kept: ``bench check`` reads it, ``bench recover`` copies it) and
+    the name taken. ``pick_free``: a name that is taken (a file, a partial file being written
+    or, without ``force``, a side file) becomes the next free one, ``x-1.mcap``, ``x-2.mcap``
+    ... (default names: two runs started together in one folder both record)."""
+    path = Path(path)
+    kept: list[Path] = []
+    for n in range(MAX_FREE_NAMES + 1):
+        cand = path if n == 0 else numbered(path, n)
+        if pick_free:
+            sides = [cand.with_suffix(sfx) for sfx, _ in side_suffixes]
+            if not force and any(os.path.lexists(p) for p in (cand, *sides)):
+                continue
+            if os.path.lexists(partial_path(cand)) and not abandoned(partial_path(cand)):
+                continue
+        check_target(cand, force, option=option, side_suffixes=side_suffixes)
+        part = partial_path(cand)
+        fd = take_exclusive(part)
+        if fd is None and abandoned(part):
+            # its writer died (no one holds its lock): what it wrote is kept, never lost
+            moved = keep_abandoned(part, cand)
+            if moved is not None:
+                kept.append(moved)
+            fd = take_exclusive(part)
+        if fd is None:
+            if pick_free:
+                continue
+            raise RecorderError(
+                f"{option} {cand}: {part} is being written by another run (it holds the file); "
+                f"choose another {option} (--force never takes a recording that is being written)")
+        res = Reservation(cand, force, lock_fd=fd, abandoned=kept)
+        if force:
+            try:
+                for p in (cand, *(cand.with_suffix(sfx) for sfx, _ in side_suffixes)):
+                    moved = move_to_replaced(p)
+                    if moved is not None:
+                        res.replaced.append((p, moved))
+            except OSError as exc:
+                res.release()
+                raise RecorderError(f"{option} {cand}: cannot move the previous file aside "
+                                    f"({exc.strerror or exc})") from None
+        return res
+    raise RecorderError(f"{option} {path}: it and {MAX_FREE_NAMES} numbered names after it are "
+                        f"taken; clean the folder or give --out")
+
+
+class _CountingFile:
+    """A binary file that counts and hashes what is written to it (the serial byte capture:
+    the recording's ``sidecar.serial.bin`` metadata gives its size and SHA-256)."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self.name = str(path)
+        self._f = open(path, "wb")
+        self._sha = hashlib.sha256()
+        self.size = 0
+
+    def write(self, data) -> int:
+        self._sha.update(data)
+        self.size += len(data)
+        return self._f.write(data)
+
+    def flush(self) -> None:
+        self._f.flush()
+
+    def close(self) -> None:
+        if not self._f.closed:
+            self._f.flush()
+            os.fsync(self._f.fileno())
+            self._f.close()
+
+    @property
+    def sha256(self) -> str:
+        return self._sha.hexdigest()
+
+
+def side_suffix(name: str, suffixes: tuple[tuple[str, str], ...] = SIDE_SUFFIXES) -> str:
+    """The side-file suffix a file name ends with (``.serial.bin``), or its last suffix."""
+    for sfx, _ in suffixes:
+        if name.endswith(sfx):
+            return sfx
+    return Path(name).suffix
 
 
 # -- the child ------------------------------------------------------------------------------
@@ -409,7 +582,7 @@ def _write_outside_chunks(f, record) -> None:
 
 def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: int,
            force: bool, cpus: tuple[int, ...] = (), live=None, live_inbox=None,
-           background: bool = False) -> None:
+           background: bool = False, lock_fd: int | None = None) -> None:
     import signal as _signal
 
     from mcap.writer import CompressionType, Writer
@@ -420,7 +593,8 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     # ... and every other descriptor the parent had open: a link's pty master or socket kept
     # open here would hide the link's end from the controller (a stub blocked writing to a pty
     # whose master the bench has closed would never see EIO, nor exit)
-    _close_inherited_fds(keep=(conn.fileno(),))
+    # (the partial file's lock stays held by this process until it has finished the file)
+    _close_inherited_fds(keep=(conn.fileno(),) + ((lock_fd,) if lock_fd is not None else ()))
     _signal.signal(_signal.SIGINT, _signal.SIG_IGN)   # the parent decides when to stop
     if cpus:
         try:
@@ -460,6 +634,7 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
     cbuf = ffi.from_buffer(buf)
     channel_ids: list[int] = []
     raw_files: dict[int, object] = {}   # ring channel -> side file (serial byte capture)
+    side_targets: dict[int, tuple[Path, str]] = {}   # id(side file) -> (its final path, run id)
     from .serial_capture import END_OF_RUN, write_end
 
     #: how the serial capture ends (its end record): the bench's close, unless it went away first
@@ -555,12 +730,15 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                 elif kind == "rawfile":
                     from .serial_capture import write_header
 
-                    try:
-                        side = open(msg[1], "wb" if force else "xb")   # never replaces a capture
-                    except FileExistsError:
-                        conn.send(("error", f"{msg[1]} exists (appeared after the check); refusing "
-                                            f"to overwrite it"))
+                    side_path = Path(msg[1])
+                    if os.path.lexists(side_path) and not force:
+                        conn.send(("error", f"{side_path} exists (appeared after the check); "
+                                            f"refusing to overwrite it"))
                         continue
+                    # written aside, renamed with the recording (the run's name is reserved:
+                    # a partial capture of that name is one a dead run left)
+                    side = _CountingFile(partial_path(side_path))
+                    side_targets[id(side)] = (side_path, msg[2] if len(msg) > 2 else "")
                     write_header(side)
                     raw_files[len(channel_ids)] = side
                     if live_view is not None:
@@ -624,12 +802,20 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                 except Exception as exc:  # noqa: BLE001 - the file matters more than the figure
                     error = f"recorder: cannot write the live view's figures: {exc}"
         for side in raw_files.values():
+            side_path, run_id = side_targets[id(side)]
             try:
-                write_end(side, time.monotonic_ns(), closed_by if error is None else
-                          f"the recorder failed ({error}); it closed the capture")
+                note = (closed_by if error is None else
+                        f"the recorder failed ({error}); it closed the capture")
+                write_end(side, time.monotonic_ns(), note + (f" (run {run_id})" if run_id else ""))
                 side.close()
+                if writer is not None and error is None:
+                    writer.add_metadata(name="sidecar" + side_suffix(side_path.name), data={
+                        "file": side_path.name, "bytes": str(side.size), "sha256": side.sha256,
+                        "run_id": run_id})
             except OSError as exc:
                 error = error or f"recorder: cannot close {side.name}: {exc.strerror}"
+            except Exception as exc:  # noqa: BLE001 - the file matters more than the figure
+                error = error or f"recorder: cannot note {side_path.name}: {exc}"
         finished = False
         if writer is not None:
             try:
@@ -639,16 +825,31 @@ def _serve(conn, parent_end, path: str, ring_mem, ring_size: int, chunk_size: in
                 error = error or f"recorder: cannot finalise {target}: {exc}"
         if f is not None:
             try:
+                f.flush()
+                os.fsync(f.fileno())
                 f.close()
-            except OSError as exc:
-                error = error or f"recorder: cannot close {target}: {exc.strerror}"
+            except (OSError, ValueError) as exc:
+                error = error or f"recorder: cannot close {target}: {getattr(exc, 'strerror', exc)}"
         final = str(tmp)
         if finished and error is None:
+            # the side files first, then the recording: a reader that finds the recording
+            # finds its captures beside it (a run that fails leaves both under .partial names)
+            for side in raw_files.values():
+                side_path, _ = side_targets[id(side)]
+                try:
+                    publish(side.path, side_path, replace=force)
+                except FileExistsError:
+                    error = (f"recorder: {side_path} appeared while recording; the capture is "
+                             f"kept as {side.path}")
+                except OSError as exc:
+                    error = f"recorder: cannot rename {side.path} to {side_path}: {exc}"
+        if finished and error is None:
             try:
-                if target.exists() and not force:
-                    raise OSError(f"{target} appeared while recording; kept as {tmp}")
-                os.replace(tmp, target)
+                publish(tmp, target, replace=force)
                 final = str(target)
+                fsync_dir(target)
+            except FileExistsError:
+                error = f"recorder: {target} appeared while recording; kept as {tmp}"
             except OSError as exc:
                 error = f"recorder: cannot rename {tmp} to {target}: {exc}"
         try:
@@ -717,18 +918,36 @@ class ProcessRecorder:
 
     def __init__(self, path: Path, *, force: bool = False, ring_capacity: int = RING_CAPACITY_BYTES,
                  chunk_size: int = CHUNK_SIZE_BYTES, cpus: tuple[int, ...] = (), live=None,
-                 live_inbox=None, background: bool = False):
+                 live_inbox=None, background: bool = False,
+                 reservation: Reservation | None = None):
         """``cpus``: the CPUs the recorder process may run on (empty: any); ``background``: it
         yields to every other task of the machine (SCHED_BATCH, nice 19: real time, where the
         engine's deadlines come first; not in lockstep, where the engine waits for ring space).
         ``live``: a
         :class:`.live_view.LiveOptions` to serve the channels to Foxglove while recording
         (:attr:`live_port` is then the port it listens on); ``live_inbox``: the engine's
-        operator-input mailbox (a formatted MAP_SHARED mapping, live.h) it pushes inputs to."""
+        operator-input mailbox (a formatted MAP_SHARED mapping, live.h) it pushes inputs to.
+        ``reservation``: the name the caller took (:func:`reserve_recording`, with the side
+        files); else the recorder takes ``path`` itself."""
+        try:
+            self._init(path, force, ring_capacity, chunk_size, cpus, live, live_inbox, background,
+                       reservation)
+        except BaseException:
+            res = getattr(self, "reservation", None)
+            if res is not None:
+                res.release()   # nothing was written to it: the name is free again
+            raise
+
+    def _init(self, path, force, ring_capacity, chunk_size, cpus, live, live_inbox, background,
+              reservation) -> None:
         import multiprocessing as mp
 
-        self.path = Path(path)
-        check_target(self.path, force, side_suffixes=())   # the side files: the run checked them first
+        if reservation is None:
+            reservation = reserve_recording(Path(path), force=force, side_suffixes=())
+        self.reservation = reservation
+        self.path = reservation.path
+        force = reservation.force
+        self._proc = None
         self.ring_size = int(lib.rec_ring_mapping_size(ring_capacity))
         self.ring_mem = mmap.mmap(-1, self.ring_size)   # MAP_SHARED | MAP_ANONYMOUS: survives fork
         if lib.rec_ring_format(ffi.from_buffer(self.ring_mem), self.ring_size) != 0:
@@ -740,7 +959,7 @@ class ProcessRecorder:
         self._proc = ctx.Process(target=_serve, args=(child, self._conn, str(self.path),
                                                       self.ring_mem, self.ring_size, chunk_size,
                                                       force, tuple(cpus), live, live_inbox,
-                                                      background),
+                                                      background, reservation.lock_fd),
                                  name="hil-recorder", daemon=False)
         self._proc.start()
         child.close()
@@ -852,11 +1071,12 @@ class ProcessRecorder:
         self.channels.append(ch)
         return ch
 
-    def raw_capture(self, path: Path) -> int:
+    def raw_capture(self, path: Path, run_id: str = "") -> int:
         """A ring channel whose records go to a serial byte capture beside the recording
         (bench/record/serial_capture.py: payload = direction octet + octets, time = the
-        record's t_ns as it is). Returns the channel index (engine ch_serial_raw)."""
-        reply = self._request(("rawfile", str(path)), f"serial capture {path}")
+        record's t_ns as it is), written aside and renamed with the recording; its end record
+        names ``run_id``. Returns the channel index (engine ch_serial_raw)."""
+        reply = self._request(("rawfile", str(path), run_id), f"serial capture {path}")
         if reply[0] != "channel_ok" or reply[1] != len(self.channels):
             raise RecorderError(self._child_error(reply))
         self.channels.append(ProcessChannel(self, len(self.channels), str(path), "RAW"))
@@ -948,6 +1168,7 @@ class ProcessRecorder:
             pipe_closed = True
         finally:
             self._conn.close()
+            self.reservation.unlock()   # the recorder keeps its own hold until it has finished
         if reply is None:
             self.final_path = partial_path(self.path)
             if pipe_closed:
@@ -961,13 +1182,16 @@ class ProcessRecorder:
             else:
                 self.error = (f"recorder process (pid {self._proc.pid}) for {self.path} died "
                               f"({self._exit_text()}); {self._leftover()}")
+            self.error += self.reservation.replaced_text()
             raise RecorderError(self.error)
         self._proc.join(10.0)
         _, self.messages, final, error, self.live_stats = reply
         self.final_path = Path(final)
         if error:
-            self.error = error
-            raise RecorderError(error)
+            self.error = error + self.reservation.replaced_text()
+            raise RecorderError(self.error)
+        if self.final_path == self.path:
+            self.reservation.drop_replaced()   # the new recording is in place
 
     def __enter__(self) -> "ProcessRecorder":
         return self

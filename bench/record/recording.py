@@ -37,12 +37,16 @@ from mcap.reader import breakup_chunk
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 
+from hil_bench.errors import BenchError
+
 from . import channels as chans
 
+#: the smallest MCAP file: magic, header record, footer record, magic (the MCAP specification)
+MIN_MCAP_OCTETS = 8 + 9 + 8 + 9 + 20 + 8
 RECORD_SIZE_LIMIT = 256 * 1024 * 1024   # a corrupted length field must not allocate gigabytes
 
 
-class RecordingError(ValueError):
+class RecordingError(BenchError, ValueError):
     """The file is not a readable recording of this bench. ``damaged``: the file looks like an
     MCAP file that damage made unreadable (``bench recover`` may help), False when it is not one
     (no MCAP magic at either end) or a valid MCAP file of someone else (NotABenchRecording)."""
@@ -298,7 +302,11 @@ def read_header(path: str | Path) -> Recording:
 
     path = Path(path)
     try:
-        with open(path, "rb") as f:
+        f = open(path, "rb")
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot open: {exc.strerror}") from None
+    with f:
+        try:
             reader = make_reader(f)
             summary = reader.get_summary()
             if summary is None or summary.statistics is None:
@@ -314,10 +322,9 @@ def read_header(path: str | Path) -> Recording:
                 rec.counts[chan.topic] = int(summary.statistics.channel_message_counts.get(cid, 0))
             rec.messages = int(summary.statistics.message_count)
             return rec
-    except OSError as exc:
-        raise RecordingError(f"{path}: cannot open: {exc.strerror}") from None
-    except Exception:  # noqa: BLE001 - no usable summary (a cut or damaged file): stream it
-        return load_recording(path, topics=())
+        except Exception:  # noqa: BLE001 - no usable summary (a short, cut or damaged file,
+            pass           # a seek before its start): read it as a stream, which says what it is
+    return load_recording(path, topics=())
 
 
 def load_recording(path: str | Path, topics: Iterable[str] | None = None,
@@ -461,8 +468,14 @@ def load_recording(path: str | Path, topics: Iterable[str] | None = None,
                     raise RecordingError(f"{path}: not an MCAP file (no MCAP magic at its start "
                                          f"or end): not a recording of this bench",
                                          damaged=False) from None
-                raise RecordingError(f"{path}: not a readable MCAP recording "
-                                     f"({type(exc).__name__}: {exc})") from None
+                size = rec.file_size
+                what = ("an empty file" if size == 0 else
+                        f"{size} octets, too short to hold an MCAP recording"
+                        if size < MIN_MCAP_OCTETS else f"{type(exc).__name__}: {exc}"
+                        if str(exc) else f"it ends at octet {size}, before any complete "
+                                         f"record of a run")
+                raise RecordingError(f"{path}: not a readable MCAP recording ({what})",
+                                     damaged=size >= MIN_MCAP_OCTETS) from None
             rec.truncated = (f"reading stopped at byte {rec.bytes_read} of {rec.file_size}: "
                              f"{type(exc).__name__}: {exc}")
         flush_all()

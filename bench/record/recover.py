@@ -1,7 +1,8 @@
 """``bench recover DAMAGED.mcap [-o FIXED.mcap] [--force]``: copy every intact record of a damaged recording.
 
 The output (default ``<DAMAGED>.recovered.mcap`` beside it) is never an existing file unless ``--force``:
-it is written to ``<output>.partial`` and renamed when complete.
+it is written to ``.<output>.partial`` and renamed when complete (never over its own input, even
+through a link).
 
 A reader that streams an MCAP file stops at the first bad record, so 8 flipped bytes in the middle of a
 file lose its second half. This tool works at the MCAP record level (the ``mcap`` library's record
@@ -55,6 +56,10 @@ from mcap.records import (
 )
 from mcap.writer import CompressionType, Writer
 
+from hil_bench.errors import BenchError
+
+from .atomic import partial_path, publish
+
 MAGIC = b"\x89MCAP0\r\n"
 _RECORDS = {
     Opcode.HEADER: Header, Opcode.FOOTER: Footer, Opcode.SCHEMA: Schema, Opcode.CHANNEL: Channel,
@@ -67,7 +72,7 @@ _CHUNK_RECORDS = (Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE)
 _CRC_CHECKED = (Opcode.CHUNK, Opcode.ATTACHMENT)
 
 
-class RecoverError(ValueError):
+class RecoverError(BenchError, ValueError):
     """The input cannot be recovered at all (not an MCAP file, unreadable, or nothing intact)."""
 
 
@@ -250,8 +255,12 @@ def recover(source: str | Path, output: str | Path | None = None, force: bool = 
     source = Path(source)
     option = "-o" if output is not None else "output"
     output = Path(output) if output is not None else source.with_name(source.stem + ".recovered.mcap")
-    if output.resolve() == source.resolve():
-        raise RecoverError(f"{output}: the output must not be the damaged file itself")
+    from .atomic import same_file
+
+    if same_file(output, source):   # the same path, or the same file by a symbolic or hard link
+        how = "" if output.resolve() == source.resolve() else f" ({source}, the same file)"
+        raise RecoverError(f"{option} {output}: is the damaged file itself{how}; the output must "
+                           f"be another file (refused with or without --force)")
     report = Report(source)
     try:
         f = open(source, "rb")
@@ -325,7 +334,7 @@ def _recover(buf, size: int, report: Report, output: Path, force: bool = False,
         raise RecoverError(f"{report.source}: no intact chunk, message, metadata or attachment found "
                            f"({report.bytes_skipped} octets damaged)")
 
-    tmp = output.with_name(output.name + ".partial")
+    tmp = partial_path(output)
     with open(tmp, "wb") as out:
         writer = Writer(out, compression=CompressionType.ZSTD)
         writer.start(profile=header.profile if header else "", library=(header.library if header else "") +
@@ -359,8 +368,9 @@ def _recover(buf, size: int, report: Report, output: Path, force: bool = False,
                 writer.add_attachment(r.create_time, r.log_time, r.name, r.media_type, r.data)
                 report.attachments.append(r.name)
         writer.finish()
-    if output.exists() and not force:   # appeared while recovering: keep both
-        raise RecoverError(f"{output} appeared while recovering; the recovered file is {tmp}")
-    tmp.replace(output)
+    try:
+        publish(tmp, output, replace=force)
+    except FileExistsError:   # appeared while recovering: keep both
+        raise RecoverError(f"{output} appeared while recovering; the recovered file is {tmp}") from None
     report.output = output
     return report

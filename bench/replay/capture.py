@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hil_bench.errors import BenchError
 from hil_bench.plant_rt.engine import REPLAY_CYCLE_DTYPE, REPLAY_FRAME_DTYPE
 from hil_bench.protocol.messages import BY_ID, DUTY_RAW_OFF, MESSAGES, Command, Param, SenseAuxFlag
 from hil_bench.protocol.timing import PATIENCE_S
@@ -75,7 +76,7 @@ TELEM_FIELDS = ("theta_hat_rad", "omega_hat_rad_s", "state", "estimator", "e_alp
                 "i_q_ref_a", "duty_a", "duty_b", "duty_c")
 
 
-class CaptureError(ValueError):
+class CaptureError(BenchError, ValueError):
     """A capture cannot be replayed at all (the message names the file and the position)."""
 
 

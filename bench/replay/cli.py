@@ -9,6 +9,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from hil_bench.console import console
+
 
 def add_parser(sub) -> None:
     r = sub.add_parser("replay", help="replay a capture offline, into a controller or into the plant",
@@ -73,7 +75,7 @@ def _parse_kv(items: list[str], what: str) -> list[tuple[str, str]]:
 def build_options(args: argparse.Namespace):
     from hil_bench.protocol.messages import Param
 
-    from .modes import ReplayOptions
+    from .modes import ReplayError, ReplayOptions
 
     est = [e.strip() for e in args.estimators.split(",") if e.strip()] if args.estimators else None
     cfg: dict[str, dict[str, float]] = {}
@@ -90,12 +92,17 @@ def build_options(args: argparse.Namespace):
             raise ValueError(f"--set {k}: unknown CONFIG parameter; known: "
                              f"{', '.join(p.name for p in Param)}") from None
     window = None
-    if args.window:
-        a, _, b = args.window.partition(",")
-        window = (float(a), float(b))
+    if args.window is not None:
+        from .modes import check_window
+
+        a, sep, b = args.window.partition(",")
+        try:
+            window = check_window((a, b) if sep else (args.window,), shown=args.window)
+        except ReplayError as exc:
+            raise ValueError(str(exc)) from None
     from hil_bench.record.live_cli import live_options, said_listening
 
-    err = Console(stderr=True)
+    err = console(stderr=True)
     live = live_options(args, err) if hasattr(args, "live") else None   # ValueError: bad values
     return ReplayOptions(mode=args.mode, out=args.out, force=args.force, estimators=est,
                          est_config=cfg, profile=args.profile, rate=args.rate, link=args.link,
@@ -111,8 +118,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from .readers import read_capture
     from .run import run_replay
 
-    out, err = Console(), Console(stderr=True)
+    out, err = console(), console(stderr=True)
     try:
+        if args.out is not None:   # never over one of its inputs, before any is read
+            from hil_bench.record.atomic import refuse_output_is_input
+
+            profile_file = Path(args.profile) if args.profile else None
+            refuse_output_is_input([args.out], [
+                ("capture", args.capture), ("mapping file", args.mapping),
+                ("motor profile", profile_file if profile_file and profile_file.is_file() else None)])
         opts = build_options(args)
         profile = None
         if args.profile:

@@ -61,7 +61,7 @@ def run_controller(cap: Capture, opts: ReplayOptions, profile, out, window, pace
         res.notes.append(f"CONFIG {p.name} = {v:g} (capture: "
                          f"{cap.config.get(p, float('nan')):g})")
     o = _Out(cap, "controller", out, opts.force, [], ch.REPLAY_CONTROLLER,
-             live=replay_live(opts, pace_s), on_live=opts.on_live)
+             live=replay_live(opts, pace_s), on_live=opts.on_live, reservation=opts.reservation)
     o.pole_pairs = int(profile.pole_pairs)
     opened = None
     link = None

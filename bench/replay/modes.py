@@ -24,10 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
+from hil_bench.errors import BenchError
 from hil_bench.plant_rt import engine as eng
 from hil_bench.protocol.messages import MESSAGES, Command, Estimator, Param
 from hil_bench.record import channels as ch
-from hil_bench.record.recorder import ProcessRecorder, RecorderError
+from hil_bench.record.recorder import ProcessRecorder, RecorderError, recording_stamp
 
 from .capture import TELEM_FIELDS, Capture, CaptureError
 
@@ -39,7 +40,7 @@ WATCH_PERIOD_S = 0.1
 _CMD = MESSAGES["CMD"]
 
 
-class ReplayError(RuntimeError):
+class ReplayError(BenchError, RuntimeError):
     """The replay cannot run (the message says why and what to give)."""
 
 
@@ -61,6 +62,8 @@ class ReplayOptions:
     #: Foxglove while it is written; operator inputs refused); on_live(port) once it listens
     live: object | None = None
     on_live: object | None = None
+    #: the recording's name, taken by run_replay (hil_bench.record.recorder.reserve_recording)
+    reservation: object | None = None
 
 
 @dataclass
@@ -247,8 +250,10 @@ def make_estimators(entries: dict[str, dict[str, float]], profile, ts_s: float):
 
 
 def default_out(cap: Capture, mode: str) -> Path:
+    """recordings/<capture>-replay-<mode>-<date>-<time>-<ms>-<pid>.mcap (a name that is taken
+    anyway becomes the next free one: run_replay)."""
     stem = re.sub(r"[^A-Za-z0-9_+-]+", "_", cap.path.name.split(".")[0]).strip("_") or "capture"
-    return Path("recordings") / f"{stem}-replay-{mode}-{datetime.now():%Y%m%d-%H%M%S}.mcap"
+    return Path("recordings") / f"{stem}-replay-{mode}-{recording_stamp()}.mcap"
 
 
 # -- what a capture without a recording's metadata still needs for `bench check` -------------
@@ -344,10 +349,31 @@ def _pace(cap: Capture, rate: float | None) -> float:
     return cap.ts_s / rate
 
 
+def check_window(window, option: str = "--window", shown: str | None = None) -> tuple[float, float]:
+    """(t0, t1) of a metrics window [s]: two finite times, t0 < t1; else ReplayError saying so
+    (``shown``: the window as the user wrote it)."""
+    try:
+        w0, w1 = (float(v) for v in window)
+    except (TypeError, ValueError):
+        raise ReplayError(f"{option} {shown if shown is not None else window!r}: two times in "
+                          f"seconds, T0,T1 (e.g. 1.0,2.0)") from None
+    if not (math.isfinite(w0) and math.isfinite(w1)):
+        raise ReplayError(f"{option} {w0:g},{w1:g}: the times must be finite numbers of seconds")
+    if not w0 < w1:
+        raise ReplayError(f"{option} {w0:g},{w1:g}: T0 must come before T1 (T0,T1 in seconds)")
+    if w0 < 0:
+        raise ReplayError(f"{option} {w0:g},{w1:g}: T0 must be >= 0 s")
+    return w0, w1
+
+
 def _window(cap: Capture, opts: ReplayOptions) -> tuple[float, float]:
     t = cap.rows["t_s"]
     if opts.window_s is not None:
-        return opts.window_s
+        w0, w1 = check_window(opts.window_s)
+        if len(t) and (w1 <= float(t[0]) or w0 >= float(t[-1])):
+            raise ReplayError(f"--window {w0:g},{w1:g}: outside the capture, which covers "
+                              f"{float(t[0]):g} .. {float(t[-1]):g} s")
+        return w0, w1
     if cap.recording is not None:
         try:
             w = json.loads(cap.recording.run.get("metrics_window_s", ""))
@@ -379,13 +405,14 @@ class _Out:
     :func:`replay_live`) served to Foxglove while it is written."""
 
     def __init__(self, cap: Capture, mode: str, path: Path, force: bool, refs, extra_kind=None,
-                 live=None, on_live=None):
+                 live=None, on_live=None, reservation=None):
         self.inbox = None
         if live is not None:
             from hil_bench.loop.runner import new_live_inbox
 
             self.inbox = new_live_inbox()   # the viewer's inputs: refused, each on /events
-        self.rec = ProcessRecorder(path, force=force, live=live, live_inbox=self.inbox)
+        self.rec = ProcessRecorder(path, force=force, live=live, live_inbox=self.inbox,
+                                   reservation=reservation)
         if self.rec.live_port is not None and on_live is not None:
             on_live(self.rec.live_port)
         r = self.rec

@@ -45,7 +45,7 @@ def run_offline(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
     # voltages already is that average: no split)
     t_delay = t_delay_of(cap, profile) if cap.voltage_is_duty else 0.0
     o = _Out(cap, "offline", out, opts.force, refs,
-             live=replay_live(opts, pace_s), on_live=opts.on_live)
+             live=replay_live(opts, pace_s), on_live=opts.on_live, reservation=opts.reservation)
     o.pole_pairs = int(profile.pole_pairs)
     e = None
     try:

@@ -54,7 +54,7 @@ def run_plant(cap: Capture, opts: ReplayOptions, profile, out, window, pace_s,
     refs_cfg = reference_list(cap, opts, res.notes) if opts.estimators else {}
     refs = make_estimators(refs_cfg, profile, cap.ts_s)
     o = _Out(cap, "plant", out, opts.force, refs, ch.REPLAY_PLANT,
-             live=replay_live(opts, pace_s), on_live=opts.on_live)
+             live=replay_live(opts, pace_s), on_live=opts.on_live, reservation=opts.reservation)
     e = None
     try:
         _write_metadata(o, cap, "plant", profile, plant, refs_cfg, window, opts)

@@ -9,8 +9,10 @@ import math
 import re
 from typing import Any
 
+from hil_bench.errors import BenchError, did_you_mean
 
-class ScenarioError(ValueError):
+
+class ScenarioError(BenchError, ValueError):
     """A scenario file is missing, malformed or asks for something impossible."""
 
 
@@ -153,4 +155,7 @@ class Fields:
         unknown = set(self.table) - self.used - set(allowed_extra)
         if unknown:
             key = sorted(unknown)[0]
-            raise self.fail(key, "unknown key (typo?)")
+            known = sorted(self.used | set(allowed_extra))
+            hint = did_you_mean(key, known)
+            raise self.fail(key, f"unknown key{hint or ' (typo?)'}"
+                                 + (f" (known here: {', '.join(known)})" if known else ""))

@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hil_bench.errors import did_you_mean
 from hil_bench.protocol import params as param_info
 from hil_bench.protocol.messages import MESSAGES, Estimator, HelloFlag, Param
 from hil_bench.protocol.timing import LOCKSTEP_ANSWER_S, PATIENCE_S
@@ -251,8 +252,9 @@ def _estimator(fields: Fields, key: str) -> Estimator:
     try:
         return Estimator[name]
     except KeyError:
-        raise fields.fail(key, f"unknown estimator {name!r}; known: "
-                               f"{', '.join(e.name for e in Estimator)}") from None
+        names = [e.name for e in Estimator]
+        raise fields.fail(key, f"unknown estimator {name!r}{did_you_mean(name, names)} (known: "
+                               f"{', '.join(names)})") from None
 
 
 def _inverter_comp(c: Fields, params: dict[Param, float]) -> InverterComp | None:
@@ -291,8 +293,10 @@ def _controller_params(fields: Fields) -> dict[Param, float]:
         try:
             param = Param[key.upper()]
         except KeyError:
-            raise fields.fail(key, f"unknown controller parameter; known: "
-                                   f"{', '.join(p.name for p in Param)}") from None
+            names = [p.name for p in Param]
+            raise fields.fail(key, f"unknown controller parameter"
+                                   f"{did_you_mean(key.upper(), names)} (known: "
+                                   f"{', '.join(names)})") from None
         value = fields.number(key)
         problem = param_info.BY_NAME[param.name].check(value)
         if problem:   # docs/protocol.md 6.2: how integer, boolean and enum parameters travel
@@ -374,8 +378,14 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     try:
         data = path.read_bytes()
     except FileNotFoundError:
-        known = ", ".join(sorted(p.stem for p in SCENARIO_DIR.glob("*.toml")))
-        raise ScenarioError(f"{where}: no such scenario file (bundled scenarios: {known})") from None
+        names = sorted(p.stem for p in SCENARIO_DIR.glob("*.toml"))
+        given = Path(name_or_path)
+        if given.suffix != ".toml" and len(given.parts) == 1:   # a bare name
+            raise ScenarioError(f"{name_or_path}: no bundled scenario of that name and no such "
+                                f"file{did_you_mean(str(name_or_path), names)} (bundled: "
+                                f"{', '.join(names)}; `bench scenarios` lists them)") from None
+        raise ScenarioError(f"{where}: no such scenario file{did_you_mean(given.stem, names)} "
+                            f"(bundled scenarios: {', '.join(names)})") from None
     except OSError as exc:
         raise ScenarioError(f"{where}: cannot read: {exc.strerror}") from None
     try:
@@ -488,7 +498,8 @@ def parse_scenario(text: str, path: Path) -> Scenario:
 
     for claim in claims:
         if claim not in CLAIMS:
-            raise s.fail("claims", f"unknown claim {claim!r}; known: {', '.join(CLAIMS)} (bench claims)")
+            raise s.fail("claims", f"unknown claim {claim!r}{did_you_mean(claim, CLAIMS)} "
+                                   f"(known: {', '.join(CLAIMS)}; bench claims)")
     s.reject_unknown()
 
     p = top.table_of("plant")
@@ -593,7 +604,12 @@ def check_against_profile(scn: Scenario) -> None:
     try:
         plant = Plant(profile, **scn.plant_overrides)
     except (ProfileError, TypeError, ValueError) as exc:
-        bad = next((k for k in scn.plant_overrides if k in str(exc)), None)
+        # the key the error names: "overrides.<key>" (the profile's own words), else the first
+        # override whose name is a whole word of the message
+        named = re.search(r"overrides\.([A-Za-z0-9_]+)", str(exc))
+        bad = (named.group(1) if named and named.group(1) in scn.plant_overrides else
+               next((k for k in scn.plant_overrides if re.search(rf"\b{re.escape(k)}\b", str(exc))),
+                    None))
         raise (fail("plant", bad, str(exc)) if bad else ScenarioError(f"{where}: plant: {exc}")) from None
     ts_s = float(plant.params.ts_s)
     ts_key = ("plant", "ts_s") if "ts_s" in scn.plant_overrides else ("scenario", "profile")
@@ -729,9 +745,32 @@ def derive_scenario(base: str | Path, name: str, overrides: tuple[tuple[str, Any
     header = [f"# derived from {base_scn.display_path}" + (f": {note}" if note else "")]
     header += [f"#   {k} = {v!r}" for k, v in overrides]
     text = "\n".join(header) + "\n" + tomlw.dumps(doc)
-    scn = parse_scenario(text, path.with_name(f"{name}.toml"))
-    check_against_profile(scn)
+    try:
+        scn = parse_scenario(text, path.with_name(f"{name}.toml"))
+        check_against_profile(scn)
+    except ScenarioError as exc:
+        raise _override_error(exc, base_scn.display_path, overrides, note) from None
     return scn
+
+
+_LOCATED = re.compile(r"(?P<where>.*?)(?::(?P<line>\d+))?: (?P<field>[A-Za-z0-9_.\[\]-]+): (?P<why>.*)\Z",
+                      re.S)
+
+
+def _override_error(exc: ScenarioError, base: str, overrides, note: str) -> ScenarioError:
+    """An error of a derived scenario said against the override that caused it (``bench run
+    --set plant.nosuch=1: ...``), or against the base file and the overrides: the derived text's
+    line numbers are no line of any file the user has."""
+    origin = note or "override"
+    m = _LOCATED.match(str(exc))
+    if m:
+        field, why = m.group("field"), m.group("why")
+        for key, value in overrides:
+            if key == field or key.startswith(field + ".") or field.startswith(key + "."):
+                return ScenarioError(f"{origin} {key}={value!r}: {field}: {why}")
+        keys = ", ".join(k for k, _ in overrides)
+        return ScenarioError(f"{base} with {origin} {keys}: {field}: {why}")
+    return exc
 
 
 def scenario_of(rec) -> Scenario:

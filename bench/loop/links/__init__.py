@@ -42,6 +42,7 @@ Backends are imported only when chosen (python-can's ``BACKENDS`` pattern).
 """
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -206,13 +207,94 @@ def spec_max_cycle_rate_hz(spec: str, flags: int) -> tuple[float, str] | None:
     return None
 
 
+#: every kind of link spec, for "did you mean" (the table above)
+LINK_KINDS = ("stub", "sil", "serial", "can", *STUB_CAN_MODES, "pil-qemu")
+LINK_USAGE = ("use 'stub', 'sil', 'serial:<port>[@baud]', 'can:<interface>:<channel>[@bitrate][,fd]', "
+              "'can' (python-can's configuration), 'stub-slcan', 'stub-socketcand', "
+              "'stub-socketcan[:<iface>]' or 'pil-qemu[:<elf>]' (docs/protocol.md 8)")
+#: options of the stub's CAN links besides the python-can Bus's own keyword arguments
+_STUB_CAN_OPTIONS = ("fd", "data_bitrate")
+
+
+def _bus_options(interface: str) -> set[str] | None:
+    """The keyword arguments python-can's Bus of ``interface`` names (None: it cannot tell)."""
+    import inspect
+
+    try:
+        import can
+
+        module, cls = can.interfaces.BACKENDS[interface]
+        bus = getattr(__import__(module, fromlist=[cls]), cls)
+        names = set()
+        for klass in (bus, can.BusABC):
+            names |= {p for p in inspect.signature(klass.__init__).parameters if p != "self"}
+        return names - {"args", "kwargs", "config"}
+    except Exception:  # noqa: BLE001 - an interface that does not load: its Bus says what is wrong
+        return None
+
+
+def check_link_spec(spec: object, option: str = "--link") -> str:
+    """``spec`` if it names a link this bench can open, else LinkError: an empty spec, an unknown
+    kind or form (with "did you mean"), an unknown option of the stub's CAN links. Nothing is
+    opened; a port or interface that is not there is said by open_link."""
+    from hil_bench.errors import did_you_mean
+
+    if not isinstance(spec, str):
+        raise LinkError(f"{option} {spec!r}: a link spec is a string, e.g. 'stub' or "
+                        f"'serial:/dev/ttyUSB0@3000000'")
+    if not spec.strip():
+        raise LinkError(f"{option} is empty (an unset variable, e.g. $HIL_LINK?): name the "
+                        f"controller's link; {LINK_USAGE}")
+    m = _KIND.match(spec)
+    kind, tail = (m.group(1), m.group(2)) if m else ("", spec)
+    head = re.split(r"[:@,]", spec, maxsplit=1)[0]
+    if kind in ("stub", "sil") and tail:
+        what = "firmware stub on a pty" if kind == "stub" else "firmware in this process"
+        raise LinkError(f"{option} {spec!r}: '{kind}' (the bundled {what}) takes nothing after "
+                        f"it; did you mean '{kind}'? (a drive: serial:<port>[@baud] or "
+                        f"can:<interface>:<channel>; {LINK_USAGE})")
+    if kind == "pil-qemu" and tail and not tail.startswith(":"):
+        raise LinkError(f"{option} {spec!r}: use pil-qemu or pil-qemu:<path to the ELF>")
+    if kind in ("serial", "can") and tail and not tail.startswith((":", "@", ",")) \
+            or kind not in LINK_KINDS:
+        raise LinkError(f"{option} {spec!r}: unknown link spec{did_you_mean(head, LINK_KINDS)} "
+                        f"({LINK_USAGE})")
+    if kind == "serial":
+        rest = tail[1:] if tail.startswith(":") else tail
+        if not rest:
+            raise LinkError(f"{option} {spec!r}: 'serial:' needs a port, e.g. "
+                            f"serial:/dev/ttyUSB0@3000000")
+        port, _ = parse_serial_spec(rest)
+        if "://" not in port and not os.path.exists(port):
+            raise LinkError(f"{option} {spec!r}: the serial port {port} does not exist (plugged "
+                            f"in? `ls /dev/serial/by-id/` lists the USB ones)")
+    if kind == "pil-qemu" and tail:
+        elf = tail[1:]
+        if not elf or not os.path.isfile(elf):
+            raise LinkError(f"{option} {spec!r}: the firmware ELF {elf or '(none given)'} does not "
+                            f"exist (pil-qemu alone builds and runs the bundled Cortex-M port)")
+    if kind in STUB_CAN_MODES:
+        can_spec = parse_stub_can_spec(kind, tail, spec)
+        known = _bus_options(STUB_CAN_MODES[kind])
+        if known is not None:
+            for key in can_spec.options:
+                if key not in known:
+                    choices = sorted(set(_STUB_CAN_OPTIONS) | known)
+                    raise LinkError(f"{option} {spec!r}: unknown option {key!r} of the stub's "
+                                    f"{STUB_CAN_MODES[kind]} link{did_you_mean(key, choices)} "
+                                    f"(options: {', '.join(choices)})")
+    return spec
+
+
 def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
               capture_path: Path | None = None) -> OpenedLink:
     """Open the link a spec names. ``capture_path``: where a backend that has a standard capture
-    format writes the raw traffic beside the recording (CAN: a candump .log); others ignore it."""
+    format writes the raw traffic beside the recording (CAN: a candump .log, written aside and
+    renamed when the link closes); others ignore it."""
+    check_link_spec(spec)
     m = _KIND.match(spec)
     kind, tail = (m.group(1), m.group(2)) if m else ("", spec)
-    if kind == "stub" and not tail.startswith(("-", "@", ",")):
+    if kind == "stub" and not tail:
         from .stub import StubProcess
 
         stub = StubProcess(stub_args)
@@ -245,10 +327,8 @@ def open_link(spec: str = "stub", stub_args: tuple[str, ...] = (),
         from .can_link import open_can_link
 
         return OpenedLink(open_can_link(parse_can_spec(spec), capture_path), None)
-    raise LinkError(f"unknown link spec {spec!r}: use 'stub', 'sil', 'serial:<port>[@baud]', "
-                    f"'can:<interface>:<channel>[@bitrate][,fd]', 'stub-slcan', 'stub-socketcand', "
-                    f"'stub-socketcan[:<iface>]' or 'pil-qemu[:<elf>]'")
+    raise LinkError(f"unknown link spec {spec!r}: {LINK_USAGE}")
 
 
-__all__ = ["Link", "LinkError", "OpenedLink", "open_link", "parse_can_spec", "parse_stub_can_spec",
+__all__ = ["Link", "LinkError", "OpenedLink", "check_link_spec", "open_link", "parse_can_spec", "parse_stub_can_spec",
            "spec_max_cycle_rate_hz"]

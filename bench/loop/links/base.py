@@ -11,8 +11,10 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
+from hil_bench.errors import BenchError
 
-class LinkError(RuntimeError):
+
+class LinkError(BenchError, RuntimeError):
     """The link failed (device vanished, peer closed, timeout on a required answer)."""
 
 

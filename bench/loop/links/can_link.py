@@ -357,9 +357,16 @@ class CanLink(Link):
         #: engine's bridge: one place judges frames, the engine)
         self.deliver_wrong_length = False
         self._last_log_s = 0.0
+        #: the candump log once closed and renamed into place: file, bytes, sha256 (the
+        #: recording's ``sidecar.log`` metadata; bench check compares)
+        self.capture_written: dict[str, str] | None = None
         if capture_path is not None:
+            from hil_bench.record.atomic import partial_path
+
+            # written aside (.<name>.partial), renamed when the link closes it
             try:
-                self.logger = can.Logger(str(capture_path), channel=self.log_channel)
+                self.logger = can.CanutilsLogWriter(str(partial_path(capture_path)),
+                                                    channel=self.log_channel)
             except (OSError, ValueError) as exc:
                 raise LinkError(f"cannot write the CAN log {capture_path}: {exc}") from None
 
@@ -526,7 +533,30 @@ class CanLink(Link):
             try:
                 self.logger.stop()
             except OSError:
-                pass
+                return
+            self._publish_capture()
+
+    def _publish_capture(self) -> None:
+        """The closed candump log into place (never over a file that appeared meanwhile: then it
+        stays under its partial name, said on the logger)."""
+        import hashlib
+
+        from hil_bench.record.atomic import partial_path, publish
+
+        tmp = partial_path(self.capture_path)
+        sha = hashlib.sha256()
+        size = 0
+        try:
+            with open(tmp, "rb") as f:
+                for block in iter(lambda: f.read(1 << 20), b""):
+                    sha.update(block)
+                    size += len(block)
+            publish(tmp, self.capture_path, replace=False)
+        except OSError as exc:
+            log.warning(f"the CAN log stays {tmp}: {exc}")
+            return
+        self.capture_written = {"file": self.capture_path.name, "bytes": str(size),
+                                "sha256": sha.hexdigest()}
 
 
 def open_can_link(spec: CanSpec, capture_path: Path | None = None) -> CanLink:

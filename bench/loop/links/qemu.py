@@ -284,6 +284,12 @@ def firmware_elf(build: bool = True) -> Path:
             raise LinkError(f"$HIL_QEMU_ELF names {path}: no such file")
         return path
     elf = BUILD_DIR / ELF_NAME
+    if not PORT_DIR.is_dir() and not elf.is_file():
+        # an installed package carries no Cortex-M sources to build (a wheel's hil_bench has
+        # neither firmware_stub/port nor a CMake project for it)
+        raise LinkError(f"--link pil-qemu needs a checkout of hil-bench (firmware_stub/port/"
+                        f"cortex_m, built with `make firmware-cm4`), or the firmware ELF given: "
+                        f"pil-qemu:<path to {ELF_NAME}> or $HIL_QEMU_ELF")
     if build and shutil.which("arm-none-eabi-gcc") is not None:
         BUILD_DIR.mkdir(parents=True, exist_ok=True)
         with open(BUILD_DIR / ".build.lock", "w") as lock:
@@ -312,6 +318,8 @@ class QemuProcess:
         """``icount``: count instructions (``-icount shift=0``; about twice QEMU's CPU time per
         cycle); without it the target's ISR figures are host wall-clock ticks and are dropped."""
         self.elf = Path(elf) if elf is not None else firmware_elf()
+        if not self.elf.is_file():
+            raise LinkError(f"pil-qemu: the firmware ELF {self.elf} does not exist")
         self.icount = icount
         self.executable = qemu_path()
         self.controller = (f"{self.elf.name} on {QEMU} -machine {MACHINE} (STM32F405, "
