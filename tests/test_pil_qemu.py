@@ -180,7 +180,7 @@ def test_every_octet_value_crosses_the_link(elf):
     set beyond a byte, so Ctrl-A then `x` (quit) or `c` (switch to the monitor) in a frame are just
     octets. HELLOs whose session number puts those pairs on the wire are each answered."""
     from hil_bench.protocol.framing import encode_frame
-    from hil_bench.protocol.messages import MESSAGES
+    from hil_bench.protocol.messages import MESSAGES, PROTO_MINOR
 
     hello, ack = MESSAGES["HELLO"], MESSAGES["HELLO_ACK"]
     q = QemuProcess(elf)
@@ -189,8 +189,8 @@ def test_every_octet_value_crosses_the_link(elf):
         while not any(fid == MESSAGES["HEARTBEAT_CTRL"].frame_id for fid, _ in q.link.recv(0.1)):
             assert time.monotonic() < deadline, "no HEARTBEAT_CTRL: the firmware did not start"
         for session in (0x7801, 0x6301, 0x0101, 0x7878):     # 01 'x', 01 'c', 01 01, 'x' 'x'
-            payload = hello.pack(proto_version=1, mode=0, period_us=100.0, estimator=3, flags=0,
-                                 session=session)
+            payload = hello.pack(proto_version=1, proto_minor=PROTO_MINOR, mode=0, period_us=100.0,
+                                 estimator=3, flags=0, session=session)
             assert bytes([session & 0xFF, session >> 8]) in encode_frame(hello.frame_id, payload)
             q.link.send([(hello.frame_id, payload)])
             frame = q.link.recv_until(lambda fid, p: fid == ack.frame_id, 5.0)
