@@ -180,7 +180,8 @@ def test_every_octet_value_crosses_the_link(elf):
     set beyond a byte, so Ctrl-A then `x` (quit) or `c` (switch to the monitor) in a frame are just
     octets. HELLOs whose session number puts those pairs on the wire are each answered."""
     from hil_bench.protocol.framing import encode_frame
-    from hil_bench.protocol.messages import MESSAGES, PROTO_MINOR
+    from hil_bench.loop.host_session import PROTO_MINOR
+    from hil_bench.protocol.messages import MESSAGES
 
     hello, ack = MESSAGES["HELLO"], MESSAGES["HELLO_ACK"]
     q = QemuProcess(elf)
