@@ -31,7 +31,6 @@ import subprocess
 import threading
 import time
 import tty
-from pathlib import Path
 
 from hil_bench.loop.links.stub import stub_path
 
