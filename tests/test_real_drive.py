@@ -28,8 +28,12 @@ NOT_RUN = "# not run here:"
 DEVICE = re.compile(r"(serial|can:slcan):(/dev/tty(?:USB|ACM)\d+)")
 #: a command the page expects to fail says so: ``... # exits 1: why``
 EXITS = re.compile(r"\s+# exits (\d+)\b.*$")
-#: what a real-time run prints when the watchdog ended it (the host did not keep real time)
-WATCHDOG = "consecutive periods without a DUTY in time"
+#: a real-time run that ended early after losing more than this fraction of its periods (missed
+#: DUTY or periods the bench itself lost: the "lost rate" it prints) was ended by the host, not by
+#: the loop: the watchdog, or the drive tripping on duties held too long (tests/test_realtime.py,
+#: LOST_PERIODS_LIMIT: on a shared VM the hypervisor stops the guest for milliseconds at a time)
+LOST_PERIODS_LIMIT = 0.01
+LOST_RATE = re.compile(r"lost rate ([0-9.e+-]+)")
 #: the F28335's SCI rate on the page (LSPCLK 37.5 MHz, BRR 4) and the STM32's USART rate
 F28335_SCI = "@937500"
 
@@ -191,8 +195,11 @@ def _checks(cmd: str, out: str) -> list[str]:
 
 
 def _host_lost_real_time(cmd: str, proc: subprocess.CompletedProcess) -> bool:
-    return " --realtime" in cmd and proc.returncode != 0 and WATCHDOG in " ".join(
-        (proc.stdout + proc.stderr).split())
+    """A real-time run that ended early with more than LOST_PERIODS_LIMIT of its periods lost."""
+    if " --realtime" not in cmd or proc.returncode == 0:
+        return False
+    rates = [float(r) for r in LOST_RATE.findall(" ".join(proc.stdout.split()))]
+    return bool(rates) and max(rates) > LOST_PERIODS_LIMIT
 
 
 @pytest.mark.parametrize("block", RUNNABLE, ids=lambda b: f"line{b.line}")
@@ -207,8 +214,9 @@ def test_the_block_runs_as_printed(block, tmp_path):
             proc = run_command(cmd, cwd)
             if _host_lost_real_time(cmd, proc):
                 figures = [ln for ln in proc.stdout.splitlines() if "real time:" in ln]
-                pytest.skip(f"this machine could not keep real time (the watchdog ended the run "
-                            f"twice): {' '.join(figures[:1])}")
+                pytest.skip(f"this machine could not keep real time (twice the run lost more "
+                            f"than {LOST_PERIODS_LIMIT:.0%} of its periods and ended early): "
+                            f"{' '.join(figures[:1])}")
         said = proc.stdout + proc.stderr
         assert proc.returncode == status, (f"{DOC.name}:{block.line}: `{cmd}` exited "
                                            f"{proc.returncode}, the page says {status}\n{said[-4000:]}")
