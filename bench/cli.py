@@ -105,13 +105,20 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     def said_live(port: int) -> None:
         said_listening(err, live, port)
 
+    said_notes: list[str] = []
+
+    def say_link_note(note: str) -> None:
+        said_notes.append(note)
+        err.print(f"[yellow]link:[/yellow] {escape(note)}")
+
     try:
         scn = (derive_scenario(args.scenario, load_scenario(args.scenario).name, args.set,
                                note="bench run --set") if args.set else load_scenario(args.scenario))
         result = run_scenario(scn, link_spec=args.link, out_path=args.out,
                               progress=not args.no_progress, allow_slow_link=args.allow_slow_link,
                               force=args.force, realtime=True if args.realtime else None,
-                              cpu=args.cpu, live=live, pace=args.pace, on_live=said_live)
+                              cpu=args.cpu, live=live, pace=args.pace, on_live=said_live,
+                              on_link_note=say_link_note)
     except (ScenarioError, LinkError, RunAborted, RecorderError) as exc:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
@@ -121,6 +128,9 @@ def _run_and_check(args: argparse.Namespace, presses: _PressOnce) -> int:
     tm = result.timing
     if result.protocol_note:
         err.print(f"[yellow]protocol:[/yellow] {escape(result.protocol_note)}")
+    for note in result.link_notes:
+        if note not in said_notes:     # the set-up failed before the run said it
+            say_link_note(note)
     out.print(f"ran {result.cycles_done}/{result.cycles_planned} cycles ({result.mode}) in "
               f"{result.wall_s:.2f} s ({result.cycles_done / max(result.wall_s, 1e-9):.0f} "
               f"cycles/s); recording {escape(str(result.recording))}")

@@ -111,6 +111,8 @@ class Result:
     aborted: str | None = None
     #: the protocol version the session spoke, and what of the host's newer version it left out
     version_note: str = ""
+    #: what the link found out about itself (a USB adapter holding the answers: serial_link.py)
+    link_notes: list[str] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
@@ -125,6 +127,7 @@ class Result:
             lines.append(f"  {i.verdict:4s}  {i.section:5s} {i.text}" + (f": {i.detail}" if i.detail else ""))
         if self.aborted:
             lines.append(f"  ABORTED: {self.aborted}")
+        lines += [f"  link: {n}" for n in self.link_notes]
         failed = sum(1 for i in self.items if i.ok is False)
         lines.append(f"{len(self.items) - failed} of {len(self.items)} items pass" if not self.aborted
                      else "the session could not be completed")
@@ -275,6 +278,7 @@ def run_conformance(link_spec: str = "stub", stub_args: tuple[str, ...] = (), cy
     except LinkError as exc:
         result.aborted = f"the link failed: {exc}"
     finally:
+        result.link_notes = list(getattr(opened.link, "notes", ()))
         opened.close()
     return result
 

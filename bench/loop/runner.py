@@ -125,6 +125,8 @@ class RunResult:
     realtime_notes: str = ""
     #: the controller speaks an older protocol version: which features the session left out
     protocol_note: str = ""
+    #: what the link found out about itself (a USB adapter's latency timer: links/serial_link.py)
+    link_notes: list[str] = field(default_factory=list)
     ts_s: float = 0.0              # the control period [s]
     target: dict = field(default_factory=dict)   # pil-qemu: the target's own figures (qemu.py)
     #: --live: the viewer's end-of-run figures (record/live_view.py LiveView.stats), else None
@@ -358,6 +360,9 @@ class Runner:
         self.live_port: int | None = None
         #: called with the live view's port once it listens (the CLI prints the URL)
         self.on_live = None
+        #: called with each note the link makes about itself, when it makes it (the CLI prints it)
+        self.on_link_note = None
+        self._link_notes_said: list[str] = []
         if pace is not None and not pace > 0:
             raise RunAborted(f"--pace {pace:g}: the pace is > 0 (1.0: real time)")
         self.pace = pace
@@ -776,6 +781,17 @@ class Runner:
     def _log_setup_frame(self, direction: str, fid: int, payload: bytes) -> None:
         self._setup_frames.append((direction, fid, payload))
 
+    def _say_link_notes(self, opened: OpenedLink) -> None:
+        """Each new note of the link (links/serial_link.py: a USB adapter holding the drive's
+        answers) into the recording and, at once, to ``on_link_note`` (the CLI prints it before
+        the cycles start: a held link makes every lockstep cycle slow)."""
+        for note in getattr(opened.link, "notes", ()):
+            if note not in self._link_notes_said:
+                self._link_notes_said.append(note)
+                self._event(0.0, "link_latency", note)
+                if self.on_link_note is not None:
+                    self.on_link_note(note)
+
     def _start_controller(self, opened: OpenedLink) -> None:
         stub = opened.stub
         self.session = HostSession(
@@ -806,7 +822,9 @@ class Runner:
                                       + (f", without {', '.join(self.session.features_off)}"
                                          if self.session.features_off else ", nothing of the run left out"))
                 self._event(0.0, "protocol", self.protocol_note, float(self.session.session_minor))
+            self._say_link_notes(opened)     # the adapter's latency timer, read when opened
             self.session.configure(params)
+            self._say_link_notes(opened)     # the set-up's round trips are judged by now
             self.session.command(Command.SET_SPEED_REF, self.scn.speed_ref_rad_s)
             self.session.command(Command.RUN)
         finally:
@@ -988,6 +1006,7 @@ class Runner:
                 result: RunResult, t0: float) -> None:
         """After the run: final statistics, the error, STOP, the link closed, run_result."""
         t_end = result.cycles_done * self.ts_s
+        result.link_notes = list(getattr(opened.link, "notes", ()))   # said even if the set-up failed
         stopped = False
         if e is not None and e.running():   # interrupted before the engine was stopped
             e.request_stop()
@@ -1128,13 +1147,15 @@ def run_scenario(scenario: Scenario, link_spec: str = "stub", out_path: Path | N
                  allow_slow_link: bool = False, force: bool = False,
                  realtime: bool | None = None, cpu: int | None = None,
                  record: bool = True, live=None, pace: float | None = None,
-                 on_live=None) -> RunResult:
+                 on_live=None, on_link_note=None) -> RunResult:
     """Run a scenario against the controller on ``link_spec`` and record it (lockstep, or real
     time when the scenario or ``realtime=True`` asks). ``live``, ``pace``: see
-    :class:`Runner`; ``on_live(port)`` is called once the live view listens."""
+    :class:`Runner`; ``on_live(port)`` is called once the live view listens,
+    ``on_link_note(text)`` with each note the link makes about itself (RunResult.link_notes)."""
     runner = Runner(scenario, link_spec, out_path, progress, stub_args, allow_slow_link, force,
                     realtime, record, cpu, live=live, pace=pace)
     runner.on_live = on_live
+    runner.on_link_note = on_link_note
     return runner.run()
 
 

@@ -2,16 +2,87 @@
 
 The byte stream is either a raw file descriptor (the pty master the bench creates for the stub)
 or any pyserial port or URL (a USB UART, ``socket://host:port``, ``rfc2217://...``).
+
+A USB-serial adapter can hold the drive's answers: FTDI's chips keep received octets until their
+*latency timer* expires (16 ms by default; FTDI AN232B-04), which makes every lockstep cycle take
+about that long. The link says so (``SerialLink.notes``, printed by ``bench run`` and ``bench
+conformance``) in two ways: from the adapter's own setting when the kernel publishes it
+(``/sys/bus/usb-serial/devices/<tty>/latency_timer``, ftdi_sio), read when the port is opened; and
+for any adapter, from the round trips of the set-up's request/answer pairs (HELLO -> HELLO_ACK,
+CONFIG -> CONFIG_ACK) against the time their octets take on the wire (docs/real-drive.md).
 """
 from __future__ import annotations
 
 import os
 import select
+import statistics
+import time
+from pathlib import Path
 
 from hil_bench.protocol import budget
 from hil_bench.protocol.framing import Deframer, encode_frame
+from hil_bench.protocol.messages import MESSAGES
 
 from .base import Link, LinkError
+
+#: where Linux's usb-serial drivers publish each port's attributes (ftdi_sio: ``latency_timer``)
+USB_SERIAL_SYSFS = Path("/sys/bus/usb-serial/devices")
+#: the latency timer a HIL link wants [ms]: FTDI's smallest (the default is 16)
+LATENCY_TIMER_WANTED_MS = 1
+#: set-up frames and the answer each one asks for: their round trips measure the adapter
+_ANSWER_OF = {MESSAGES["HELLO"].frame_id: MESSAGES["HELLO_ACK"].frame_id,
+              MESSAGES["CONFIG"].frame_id: MESSAGES["CONFIG_ACK"].frame_id}
+#: round trips judged (the first ones; a run's set-up sends about 20 CONFIG, the kit far more)
+ROUND_TRIPS_JUDGED = 8
+#: a median round trip above this and above ROUND_TRIP_WIRE_FACTOR x the octets' wire time is
+#: called held: far above what the wire and a drive's answer take [s]
+ROUND_TRIP_NOTE_MIN_S = 4e-3
+ROUND_TRIP_WIRE_FACTOR = 4.0
+
+
+def usb_latency_timer_ms(port: str, sysfs: Path | None = None) -> tuple[int, Path] | None:
+    """(latency timer [ms], its sysfs file) of the USB-serial adapter behind the device path
+    ``port`` (symlinks such as /dev/serial/by-id/... followed); None when the kernel publishes
+    none: not a usb-serial port, a driver without the attribute (only ftdi_sio has it), a URL.
+    ``setserial <port> low_latency`` reads back as 1 there (ftdi_sio: ASYNC_LOW_LATENCY)."""
+    if "://" in port:
+        return None
+    path = (sysfs or USB_SERIAL_SYSFS) / Path(os.path.realpath(port)).name / "latency_timer"
+    try:
+        return int(path.read_text().strip()), path
+    except (OSError, ValueError):
+        return None
+
+
+def latency_timer_note(port: str, sysfs: Path | None = None) -> str | None:
+    """What to say about the adapter's latency timer when it is above LATENCY_TIMER_WANTED_MS."""
+    found = usb_latency_timer_ms(port, sysfs)
+    if found is None or found[0] <= LATENCY_TIMER_WANTED_MS:
+        return None
+    ms, path = found
+    return (f"serial {port}: the USB adapter's latency timer is {ms} ms ({path}): the adapter "
+            f"holds the drive's answers up to {ms} ms, so every lockstep cycle takes about {ms} ms "
+            f"and a real-time period shorter than that misses; set it to "
+            f"{LATENCY_TIMER_WANTED_MS} ms: `echo {LATENCY_TIMER_WANTED_MS} | sudo tee {path}` "
+            f"(or `sudo setserial {port} low_latency`; docs/real-drive.md)")
+
+
+def round_trip_note(description: str, round_trips_s: list[float], baud: int | None) -> str | None:
+    """What to say when the set-up's answers came far later than their octets take on the wire
+    (a request and its answer, one 8-octet frame each, 8N1 at ``baud``); None when they did not,
+    or too few were seen to judge."""
+    if len(round_trips_s) < ROUND_TRIPS_JUDGED:
+        return None
+    median_s = statistics.median(round_trips_s)
+    wire_s = (2 * budget.serial_frame_bytes(8) * budget.BITS_PER_UART_BYTE / baud) if baud else 0.0
+    if median_s < max(ROUND_TRIP_NOTE_MIN_S, ROUND_TRIP_WIRE_FACTOR * wire_s):
+        return None
+    wire = f"{wire_s * 1e3:.2f} ms on the wire at {baud} baud" if baud else "no baud rate known"
+    return (f"{description}: the drive's answers to the set-up ({len(round_trips_s)} HELLO/CONFIG) "
+            f"came {median_s * 1e3:.1f} ms after the request (median; a request and its answer take "
+            f"{wire}): something holds them, most often a USB adapter's latency timer (FTDI: 16 ms "
+            f"by default), else a slow drive; every lockstep cycle will take about as long "
+            f"(docs/real-drive.md, 'The adapter's latency timer')")
 
 
 class FdTransport:
@@ -64,6 +135,8 @@ class PySerialTransport:
         except (serial.SerialException, ValueError) as exc:
             raise LinkError(f"cannot open serial port {url!r}: {exc}") from None
         self.baud = baud
+        #: the adapter's latency timer, when the kernel publishes it and it is above 1 ms
+        self.latency_note = latency_timer_note(url)
 
     def write(self, data: bytes) -> None:
         import serial
@@ -103,11 +176,23 @@ class SerialLink(Link):
         self.deframer = Deframer()
         #: tap(direction, octets): every octet written (0) or read (1), for a byte capture
         self.tap = None
+        #: what the user should know about this link (the adapter's latency): said once each
+        self.notes: list[str] = [n for n in (getattr(transport, "latency_note", None),) if n]
+        #: round trips [s] of the set-up's requests (HELLO, CONFIG) to their answers
+        self.round_trips_s: list[float] = []
+        self._asked: dict[int, float] = {}    # answer id -> when its request was first sent
+        # timed on a port the user named only (a stub's pty or QEMU's socket is the bench's own)
+        self._judged = not isinstance(transport, PySerialTransport)
 
     def _write_frames(self, frames):
         data = b"".join(encode_frame(fid, payload) for fid, payload in frames)
         self.counters.bytes_tx += len(data)
         self.transport.write(data)
+        if not self._judged:
+            now = time.monotonic()
+            for fid, _ in frames:
+                if fid in _ANSWER_OF:
+                    self._asked.setdefault(_ANSWER_OF[fid], now)
         if self.tap is not None:
             self.tap(0, data)
 
@@ -118,7 +203,27 @@ class SerialLink(Link):
         if self.tap is not None:
             self.tap(1, data)
         self.counters.bytes_rx += len(data)
-        return self.deframer.feed(data)
+        frames = self.deframer.feed(data)
+        if self._asked and frames:
+            self._time_answers(frames)
+        return frames
+
+    def _time_answers(self, frames) -> None:
+        now = time.monotonic()
+        for fid, _ in frames:
+            asked = self._asked.pop(fid, None)
+            if asked is not None:
+                self.round_trips_s.append(now - asked)
+        if len(self.round_trips_s) >= ROUND_TRIPS_JUDGED:
+            self._judged = True
+            self._asked.clear()
+            note = round_trip_note(self.description, self.round_trips_s, self.baud)
+            if note and not self._latency_known():
+                self.notes.append(note)
+
+    def _latency_known(self) -> bool:
+        """The adapter's own setting was reported already: the measurement would say it again."""
+        return bool(getattr(self.transport, "latency_note", None))
 
     def _update_extra_counters(self):
         self.counters.extra.update(self.deframer.counters())
