@@ -142,14 +142,14 @@ int main(int argc, char **argv)
         hil_c2000_start();
         CHECK(hil_mock_calls.sys_ctrl == 1 && hil_mock_calls.pie_ctrl == 1 &&
                   hil_mock_calls.pie_vect == 1 && hil_mock_calls.adc == 1, "TI's start-up ran");
-        CHECK(SysCtrlRegs.LOSPCP.all == 0u, "LSPCLK = SYSCLKOUT");
+        CHECK(SysCtrlRegs.LOSPCP.all == 2u, "LSPCLK = SYSCLKOUT / 4 = 37.5 MHz (the data sheet's nominal)");
 #if HIL_C2000_LINK == HIL_C2000_LINK_CAN
         CHECK(hil_mock_calls.ecana_gpio == 1 && hil_mock_calls.scia_gpio == 0, "eCAN-A pins only");
         CHECK((ECanaRegs.CANMC.all & 0x3400u) == 0x2400u, "eCAN-A set up");
 #else
         CHECK(hil_mock_calls.scia_gpio == 1 && hil_mock_calls.ecana_gpio == 0, "SCI-A pins only");
-        CHECK(SciaRegs.SCILBAUD == 18u && SciaRegs.SCIHBAUD == 0u && SciaRegs.SCICTL1.all == 0x0023u,
-              "SCI-A set up at 1 Mbaud");
+        CHECK(SciaRegs.SCILBAUD == 4u && SciaRegs.SCIHBAUD == 0u && SciaRegs.SCICTL1.all == 0x0023u,
+              "SCI-A set up at 937.5 kbaud (BRR 4)");
 #endif
         CHECK(PieVectTable.ADCINT == &hil_c2000_adc_isr && PieVectTable.TINT0 == &hil_c2000_timer0_isr,
               "ADCINT and TINT0 vectors");
@@ -175,8 +175,8 @@ int main(int argc, char **argv)
     }
 
     hil_c2000_init(HIL_C2000_LINK_SCI);
-    CHECK(hil_c2000_stats()->sci_baud == 1000000UL && SciaRegs.SCILBAUD == 18u &&
-              SciaRegs.SCIHBAUD == 0u, "SCI-A BRR written");
+    CHECK(hil_c2000_stats()->sci_baud == 921600UL && SciaRegs.SCILBAUD == 4u &&
+              SciaRegs.SCIHBAUD == 0u, "SCI-A BRR written: 4 at LSPCLK 37.5 MHz (937.5 kbaud)");
 
     hil_c2000_init(HIL_C2000_LINK_CAN);
     CHECK(EPwm1Regs.TBCTL.bit.CTRMODE == TB_FREEZE, "frozen until a HELLO");

@@ -46,13 +46,21 @@ from can.interfaces.socketcand.socketcand import SocketCanDaemonBus
 from hil_bench.protocol import budget
 from hil_bench.protocol.messages import BY_ID
 
+from hil_bench.protocol.timing import PATIENCE_S
+
 from .base import Link, LinkError
 
 log = logging.getLogger("hil_bench.loop.links.can")
 
 DEFAULT_BITRATE = 1_000_000
-SEND_TIMEOUT_S = 0.2
-HANDSHAKE_TIMEOUT_S = 5.0        #: socketcand greeting / open / rawmode answers
+#: a send that cannot complete this long means the adapter or the bus is gone. A send blocks when
+#: what was sent before is not taken: a USB adapter (or the stub behind an SLCAN pty) that a busy
+#: host stopped for a while is late, not gone (docs/protocol.md 6.5), so it gets the patience; an
+#: adapter that vanished fails its write at once (EIO)
+SEND_TIMEOUT_S = PATIENCE_S
+#: socketcand greeting / open / rawmode answers: the patience too (a busy host delays the daemon's
+#: answer; a refused or closed connection fails at once)
+HANDSHAKE_TIMEOUT_S = PATIENCE_S
 SOCKETCAND_DEFAULT_PORT = 29536  #: socketcand's default TCP port
 
 # linux/can/error.h: error classes in the id of an error frame, controller status in data[1]

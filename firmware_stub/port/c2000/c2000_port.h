@@ -37,7 +37,9 @@
 #endif
 
 #define HIL_C2000_SYSCLK_HZ 150000000UL
-#define HIL_C2000_LSPCLK_HZ HIL_C2000_SYSCLK_HZ /* LOSPCP = 0: LSPCLK = SYSCLKOUT / 1 */
+/* LOSPCP = 2: LSPCLK = SYSCLKOUT / 4 = 37.5 MHz, SPRS439Q's nominal ("Clocking and Nomenclature": 75
+ * MHz at most, where no standard rate near 1 Mbaud comes within 2 % either: 1 041 667 at BRR 8) */
+#define HIL_C2000_LSPCLK_HZ (HIL_C2000_SYSCLK_HZ / 4UL)
 #define HIL_C2000_SCI_MAX_ERROR_PPM 20000UL     /* 2 %: the design margin of an 8N1 link */
 
 /* The HIL link, chosen at build time: --define=HIL_C2000_LINK=HIL_C2000_LINK_CAN (cl2000; gcc:

@@ -21,7 +21,8 @@ void hil_c2000_start(void)
 {
     InitSysCtrl();               /* PLL: 30 MHz x 10 / 2 = 150 MHz; peripheral clocks on */
     EALLOW;
-    SysCtrlRegs.LOSPCP.all = 0u; /* LSPCLK = SYSCLKOUT: SCI-A at 1 Mbaud (c2000_port.h) */
+    SysCtrlRegs.LOSPCP.all = 2u; /* LSPCLK = SYSCLKOUT / 4 = 37.5 MHz, the data sheet's nominal
+                                  * (75 MHz at most): SCI-A at 937.5 kbaud (c2000_port.h) */
     EDIS;
 #if HIL_C2000_LINK == HIL_C2000_LINK_CAN
     InitECanaGpio();             /* GPIO30 = CANRXA, GPIO31 = CANTXA (docs/ports.md) */
