@@ -31,18 +31,18 @@ _HERE = Path(__file__).resolve().parent
 #: the extras (pyproject.toml's optional dependencies, tests/test_installation.py holds the two
 #: together): extra -> the modules it makes importable (for what, README "Install")
 EXTRAS: dict[str, tuple[str, ...]] = {
-    "data": ("pandas", "pyarrow"),                          # load_recording, bench export
-    "cluster": ("distributed", "pandas", "pyarrow", "scipy"),   # sweeps, campaigns, claims --run
-    "report": ("matplotlib",),                              # the plots of claims and sweeps
-    "daq": ("scipy",),                                      # replaying a scope/DAQ CSV export
-    "live": ("foxglove",),                                  # bench run --live
+    "data": ("pandas", "pyarrow"),              # load_recording, bench export, Session
+    "cluster": ("distributed", "pandas", "pyarrow", "scipy"),   # sweep, campaign, claims --run
+    "report": ("matplotlib",),                  # the plots of claims --run and sweeps
+    "analysis": ("scipy",),                     # replaying a DAQ CSV export, signals.frequency
+    "live": ("foxglove",),                      # bench run --live
 }
 
 #: an optional module -> its name in a message, the smallest extra that installs it
 OPTIONAL: dict[str, tuple[str, str]] = {
     "distributed": ("Dask", "cluster"), "dask": ("Dask", "cluster"),
     "pandas": ("pandas", "data"), "pyarrow": ("pyarrow", "data"),
-    "matplotlib": ("Matplotlib", "report"), "scipy": ("SciPy", "daq"),
+    "matplotlib": ("Matplotlib", "report"), "scipy": ("SciPy", "analysis"),
     "foxglove": ("foxglove-sdk", "live"),
 }
 

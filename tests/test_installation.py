@@ -99,14 +99,19 @@ class Block:
             raise ModuleNotFoundError(f"No module named {name!r}", name=name)
 sys.meta_path.insert(0, Block())
 if __name__ == "__main__":
+    import hil_bench
+    import numpy as np
     from hil_bench.cli import main
+    #: a 50 Hz tone sampled at 10 kHz, its times [s]
+    t = np.arange(1000) * 1e-4
+    tone = np.sin(2 * np.pi * 50.0 * t)
     for step in json.loads(sys.argv[1]):
         out, err = io.StringIO(), io.StringIO()
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             try:
                 if step[0] == "api":
                     rc = 0
-                    print(eval(step[1]))
+                    print(eval(step[1], {"hil_bench": hil_bench, "t": t, "tone": tone}))
                 else:
                     rc = main(step)
             except Exception as exc:
@@ -137,12 +142,15 @@ def core_only(tmp_path_factory):
         "layout": ["layout", "gong_g2_500rpm", "--out", "layout.json"],
         "scenarios": ["scenarios"],
         "claims": ["claims"],
-        "api.run": ["api", "__import__('hil_bench').run('gong_g2_500rpm', out='api.mcap', "
-                           "overrides={'scenario.duration_s': 0.3, "
-                           "'metrics.window_s': [0.1, 0.3]}).run.cycles_done"],
-        "api.check": ["api", "__import__('hil_bench').check('g2.mcap').passed"],
+        "api.run": ["api", "hil_bench.run('gong_g2_500rpm', out='api.mcap', overrides={"
+                           "'scenario.duration_s': 0.3, 'metrics.window_s': [0.1, 0.3]})"
+                           ".run.cycles_done"],
+        "api.check": ["api", "hil_bench.check('g2.mcap').passed"],
+        "signals": ["api", "hil_bench.signals.stays_within(tone, -1.0, 1.0, t=t)"],
         # the extras
-        "load_recording": ["api", "__import__('hil_bench').load_recording('g2.mcap')"],
+        "load_recording": ["api", "hil_bench.load_recording('g2.mcap')"],
+        "session": ["api", "hil_bench.Session('gong_g2_500rpm', out='session.mcap')"],
+        "signals.frequency": ["api", "hil_bench.signals.frequency(tone, t=t)"],
         "export": ["export", "g2.mcap", "--out", "exported"],
         "export.csv": ["export", "g2.mcap", "--format", "csv", "--out", "exported"],
         "sweep": ["sweep", "observers_speed_load", "--out", "sweep"],
@@ -165,7 +173,7 @@ def core_only(tmp_path_factory):
 
 
 CORE = ("run", "check", "replay", "conformance", "recover", "layout", "scenarios", "claims",
-        "api.run", "api.check")
+        "api.run", "api.check", "signals")
 
 
 @pytest.mark.parametrize("step", CORE)
@@ -182,6 +190,7 @@ def test_what_the_core_commands_did(core_only):
     assert "ran 15000/15000 cycles" in results["run"]["out"]
     assert re.search(r"(\d+) of \1 items pass", results["conformance"]["out"])
     assert results["api.run"]["out"].strip() == "3000"
+    assert results["signals"]["out"].strip() == "(-1.0, 1.0)"
     for name in ("g2.mcap", "replayed.mcap", "recovered.mcap", "layout.json", "api.mcap"):
         assert (tmp / name).is_file(), name
 
@@ -189,6 +198,8 @@ def test_what_the_core_commands_did(core_only):
 #: each command that needs an extra: (the start of its one error line, the extra(s) it names)
 NEEDS = {
     "load_recording": ("ExtraMissing: hil_bench.load_recording needs pandas", "data"),
+    "session": ("ExtraMissing: hil_bench.Session needs pandas", "data"),
+    "signals.frequency": ("ExtraMissing: signals.frequency needs SciPy", "analysis"),
     "export": ("error: bench export --format parquet needs pandas and pyarrow", "data"),
     "export.csv": ("error: bench export --format csv needs pandas", "data"),
     "sweep": ("error: bench sweep needs Dask, pyarrow, Matplotlib and pandas", "cluster,report"),
@@ -197,7 +208,7 @@ NEEDS = {
     "claims.run": ("error: bench claims --run needs Dask and Matplotlib", "cluster,report"),
     "claims.run.link": ("error: bench claims --run needs Dask", "cluster"),
     "live": ("error: bench run --live needs foxglove-sdk", "live"),
-    "replay.daq": ("error: bench replay of a scope/DAQ CSV export", "daq"),
+    "replay.daq": ("error: bench replay of a scope/DAQ CSV export", "analysis"),
 }
 
 
@@ -206,15 +217,17 @@ def test_a_command_without_its_extra_says_which_to_install(core_only, step):
     tmp, results = core_only
     r = results[step]
     first, extra = NEEDS[step]
-    assert r["rc"] == ("raised" if step == "load_recording" else 2), r["err"][-3000:]
+    api = r["step"][0] == "api"
+    assert r["rc"] == ("raised" if api else 2), r["err"][-3000:]
     line = r["err"].splitlines()[0]
     assert line.startswith(first) and line.endswith(f": pip install 'hil-bench[{extra}]'"), line
-    if step != "load_recording":                 # the API raises; the CLI prints one line
+    if not api:                                  # the API raises; the CLI prints one line
         assert r["err"].count("\n") == 1 and "Traceback" not in r["err"]
     assert r["loaded"] == []
 
 
 def test_a_command_without_its_extra_writes_nothing(core_only):
     tmp, _ = core_only
-    for name in ("exported", "sweep", "campaign", "claims", "live.mcap", "daq.mcap"):
+    for name in ("exported", "sweep", "campaign", "claims", "live.mcap", "daq.mcap",
+                 "session.mcap"):
         assert not (tmp / name).exists(), name
