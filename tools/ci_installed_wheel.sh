@@ -3,10 +3,10 @@
 #   tools/ci_installed_wheel.sh dist/hil_bench-<version>-<tags>.whl
 # A fresh virtual environment in a temporary folder gets the wheel and its dependencies from
 # PyPI, from that folder (no checkout on any path):
-# 1. the core alone (`pip install <wheel>`, as a user does: README "Install"): its size (must
+# 1. the core alone (`pip install <wheel>`, as a user does: README "As a package"): its size (must
 #    stay under CORE_MAX_MB), `bench --version`, `bench run gong_g2_500rpm` (claims must hold:
-#    --strict), `bench check` of that recording, the API's one-liner, and a command that needs an
-#    extra saying which one (bench sweep: [cluster]);
+#    --strict), `bench check` of that recording, the API's one-liner, and the bundled sweep and
+#    campaign by name saying the extra they need ([cluster]);
 # 2. then `[all]` into the same environment, its size, and examples/firmware_ci's tests with the
 #    pytest plugin against the bundled stub (their JUnit XML kept in the folder).
 set -euo pipefail
@@ -36,11 +36,15 @@ venv/bin/bench --version
 venv/bin/bench run gong_g2_500rpm --out g2.mcap --no-progress --strict
 venv/bin/bench check g2.mcap --strict >/dev/null
 venv/bin/python -c "import hil_bench; print(hil_bench.run('gong_g2_500rpm', out='api.mcap').claims)"
-rc=0
-err=$(venv/bin/bench sweep observers_speed_load --out sweep 2>&1 >/dev/null) || rc=$?
-[ "$rc" = 2 ] && grep -q "pip install 'hil-bench\[cluster" <<<"$err" && [ ! -e sweep ] \
-    || { echo "ci: bench sweep without Dask (exit $rc) did not name the extra: $err"; exit 1; }
-echo "ci: core checked in $(( $(date +%s) - t0 )) s; $err"
+# the bundled sweep and campaign resolve by name from the wheel, then say the extra they need
+for cmd in "sweep observers_speed_load" "campaign g2_protection"; do
+    rc=0
+    err=$(venv/bin/bench $cmd --out extra_out 2>&1 >/dev/null) || rc=$?
+    [ "$rc" = 2 ] && grep -q "pip install 'hil-bench\[cluster" <<<"$err" && [ ! -e extra_out ] \
+        || { echo "ci: bench $cmd without Dask (exit $rc) did not name the extra: $err"; exit 1; }
+    echo "ci: $err"
+done
+echo "ci: core checked in $(( $(date +%s) - t0 )) s"
 # everything else, compiled lazily (no byte-compiling of the extras' thousands of modules up front)
 pip_install --no-compile "$wheel[all]" "pytest>=7"
 echo "ci: [all] and pytest installed in $(( $(date +%s) - t0 )) s: venv $(du -sm venv | cut -f1) MB (without .pyc)"
