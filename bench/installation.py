@@ -29,7 +29,7 @@ _HERE = Path(__file__).resolve().parent
 
 
 #: the extras (pyproject.toml's optional dependencies, tests/test_installation.py holds the two
-#: together): extra -> the modules it makes importable (for what, README "Install")
+#: together): extra -> the modules it makes importable (for what: README "As a package")
 EXTRAS: dict[str, tuple[str, ...]] = {
     "data": ("pandas", "pyarrow"),              # load_recording, bench export, Session
     "cluster": ("distributed", "pandas", "pyarrow", "scipy"),   # sweep, campaign, claims --run
