@@ -35,7 +35,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "cluster": ("distributed", "pandas", "pyarrow", "scipy"),   # sweep, campaign, claims --run
     "report": ("matplotlib",),                  # the plots of claims --run and sweeps
     "analysis": ("scipy",),                     # replaying a DAQ CSV export, signals.frequency
-    "live": ("foxglove",),                      # bench run --live
+    "live": ("foxglove",),                      # bench run / replay --live
 }
 
 #: an optional module -> its name in a message, the smallest extra that installs it

@@ -203,7 +203,7 @@ NEEDS = {
     "campaign": ("error: bench campaign needs Dask", "cluster"),
     "claims.run": ("error: bench claims --run needs Dask and Matplotlib", "cluster,report"),
     "claims.run.link": ("error: bench claims --run needs Dask", "cluster"),
-    "live": ("error: bench run --live needs foxglove-sdk", "live"),
+    "live": ("error: --live (the Foxglove live view) needs foxglove-sdk", "live"),
     "replay.daq": ("error: bench replay of a scope/DAQ CSV export", "analysis"),
 }
 

@@ -257,7 +257,8 @@ class LiveView:
         from hil_bench.installation import ExtraMissing, require_extra
 
         try:   # foxglove.websocket.Capability: present in the sdk range pyproject.toml pins
-            foxglove = require_extra("bench run --live", "foxglove", "foxglove.websocket")
+            foxglove = require_extra("--live (the Foxglove live view)", "foxglove",
+                                     "foxglove.websocket")
         except ExtraMissing as exc:
             raise LiveViewError(str(exc)) from None
         self._fox = foxglove
