@@ -57,6 +57,7 @@ def test_require_extra_names_what_is_missing_and_the_smallest_extras(monkeypatch
     assert require_extra("x", "numpy") is numpy
     monkeypatch.setitem(sys.modules, "distributed", None)    # import distributed fails
     monkeypatch.setitem(sys.modules, "pyarrow", None)
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)   # (imported by an earlier test)
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     with pytest.raises(ExtraMissing) as e:
         require_extra("bench sweep", "distributed")
