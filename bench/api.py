@@ -460,7 +460,7 @@ def load_recording(path: str | Path, channels: list[str] | None = None) -> Recor
     it has. The whole selection is held in memory (a 1.5 s run at 10 kHz: about 40 MB with its
     decoded frames); ``bench check`` reads large files in bounded memory instead. A damaged file
     reads up to the damage (``damage`` says what was lost)."""
-    from hil_bench.installation import require_modules
+    from hil_bench.installation import require_extra, require_modules
 
     path = _path(path, "load_recording(path)")
     if isinstance(channels, str):
@@ -475,9 +475,9 @@ def load_recording(path: str | Path, channels: list[str] | None = None) -> Recor
                                 f"'/reference/*'), got {channels!r}")
     require_modules()
     from hil_bench.record.recording import load_recording as read
-    from hil_bench.record.tables import channel_frame, require
+    from hil_bench.record.tables import channel_frame
 
-    require("pandas", "hil_bench.load_recording")
+    require_extra("hil_bench.load_recording", "pandas")
     if not path.is_file():
         raise NoSuchFile(f"{path}: no such recording" + (" (a directory)" if path.is_dir() else ""))
     rec = read(path, topics=channels)

@@ -349,6 +349,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     import time
 
     from hil_bench.faults.campaign import CampaignError, load_campaign, run_campaign, write_report
+    from hil_bench.installation import require_extra
     from hil_bench.loop.links import check_link_spec
     from hil_bench.record.atomic import refuse_output_is_input
 
@@ -358,6 +359,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     except CampaignError as exc:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
+    require_extra("bench campaign", "distributed")   # its runs go to a Dask cluster
     out_dir = Path(args.out) if args.out else Path("reports") / "campaigns" / camp.name
     refuse_output_is_input([out_dir, out_dir / "results.md", out_dir / "results.csv",
                             out_dir / "recordings"],
@@ -427,7 +429,11 @@ def _cmd_claims(args: argparse.Namespace) -> int:
     from hil_bench.claims.registry import CLAIMS
 
     only = _claim_ids(args.only)
-    if args.run:
+    if args.run:   # the runs go to a Dask cluster; the report of the stub's runs has plots
+        from hil_bench.installation import require_extra
+
+        require_extra("bench claims --run", "distributed",
+                      *(("matplotlib",) if args.link == "stub" else ()))
         _claims_out_checked(Path(args.out))
     # --no-progress: a console that is not a terminal shows no progress bar (hil_bench.cluster)
     progress_console = console(stderr=True)

@@ -6,13 +6,19 @@ An installed wheel carries them inside the package: the cffi modules next to the
 in ``hil_bench/bin/`` (``hil_stub``, ``pty_pingpong``, ``wakeup_latency``). A checkout built with
 ``make build`` has the modules in place and the executables in ``build/bin/``. ``$HIL_STUB``
 names another stub executable (a sanitized build, a drive team's own host build of its firmware).
+
+The core install runs, checks, replays and conformance-tests; the heavier libraries are extras
+(pyproject.toml's ``[project.optional-dependencies]``, :data:`EXTRAS`), imported only by what
+needs them, through :func:`require_extra`, which names the extra to install when one is missing.
 """
 from __future__ import annotations
 
+import importlib
 import importlib.resources
 import importlib.util
 import os
 from pathlib import Path
+from types import ModuleType
 
 from hil_bench.errors import BenchError
 
@@ -20,6 +26,31 @@ from hil_bench.errors import BenchError
 MODULES = ("hil_bench.plant_rt._plant_c", "hil_bench.firmware_stub._fw_c")
 
 _HERE = Path(__file__).resolve().parent
+
+
+#: the extras (pyproject.toml's optional dependencies, tests/test_installation.py holds the two
+#: together): extra -> the modules it makes importable (for what: README "As a package")
+EXTRAS: dict[str, tuple[str, ...]] = {
+    "data": ("pandas", "pyarrow"),              # load_recording, bench export, Session
+    "cluster": ("distributed", "pandas", "pyarrow", "scipy"),   # sweep, campaign, claims --run
+    "report": ("matplotlib",),                  # the plots of claims --run and sweeps
+    "analysis": ("scipy",),                     # replaying a DAQ CSV export, signals.frequency
+    "live": ("foxglove",),                      # bench run / replay --live
+}
+
+#: an optional module -> its name in a message, the smallest extra that installs it
+OPTIONAL: dict[str, tuple[str, str]] = {
+    "distributed": ("Dask", "cluster"), "dask": ("Dask", "cluster"),
+    "pandas": ("pandas", "data"), "pyarrow": ("pyarrow", "data"),
+    "matplotlib": ("Matplotlib", "report"), "scipy": ("SciPy", "analysis"),
+    "foxglove": ("foxglove-sdk", "live"),
+}
+
+
+class ExtraMissing(BenchError, ImportError):
+    """An optional dependency is not installed (or does not import); the message is one line
+    naming the feature, what it needs and the extra to install (the CLI prints it as its error
+    line, as every BenchError)."""
 
 
 def version() -> str:
@@ -125,3 +156,33 @@ def find_executable(name: str, env: str | None = None) -> Path:
     where = ", ".join(str(p) for p in looked) or "nowhere (no package bin/, no checkout)"
     hint = f" (or point ${env} at one)" if env else ""
     raise FileNotFoundError(f"{name} not found (looked in {where}): {how_to_build()}{hint}")
+
+
+def require_extra(feature: str, *modules: str, extra: str | None = None) -> ModuleType:
+    """Import ``modules`` (dotted names; the first is returned) for ``feature`` ("bench sweep"),
+    or raise ExtraMissing, one line: "bench sweep needs Dask: pip install 'hil-bench[cluster]'".
+    The extra named is ``extra`` when given, else the smallest that installs each module that
+    failed (:data:`OPTIONAL`), leaving out one that another named extra contains."""
+    if not modules:
+        raise TypeError("require_extra: name at least one module")
+    found: list[ModuleType] = []
+    failed: dict[str, str | None] = {}     # top-level module -> None (not installed) or why
+    for name in modules:
+        top = name.split(".", 1)[0]
+        try:
+            found.append(importlib.import_module(name))
+        except ImportError as exc:
+            gone = isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] == top
+            # else it is there but its own import fails (a shared library, a version clash)
+            failed.setdefault(top, None if gone else str(exc))
+    if not failed:
+        return found[0]
+    wanted = [extra] if extra else list(dict.fromkeys(OPTIONAL.get(t, (t, "all"))[1]
+                                                      for t in failed))
+    wanted = [e for e in wanted if not any(
+        f != e and set(EXTRAS.get(e, ())) <= set(EXTRAS.get(f, ())) for f in wanted)]
+    install = f"pip install 'hil-bench[{','.join(wanted)}]'"
+    said = [OPTIONAL.get(t, (t,))[0] + (f" (installed, but: {why})" if why else "")
+            for t, why in failed.items()]
+    names = " and ".join(filter(None, (", ".join(said[:-1]), said[-1])))
+    raise ExtraMissing(f"{feature} needs {names}: {install}")

@@ -105,9 +105,11 @@ class Session:
                  every_s: float = DEFAULT_EVERY_S,
                  wall_timeout_s: float = DEFAULT_WALL_TIMEOUT_S, progress: bool = False):
         from hil_bench.api import _scenario
-        from hil_bench.installation import require_modules
+        from hil_bench.installation import require_extra, require_modules
 
         require_modules()
+        # its windows, looks and events are DataFrames: said before the run starts
+        require_extra("hil_bench.Session", "pandas")
         from hil_bench.loop.mailbox import HOLD_AT, ScriptMailbox
         from hil_bench.loop.runner import Runner
         from hil_bench.record import channels as ch
@@ -790,10 +792,11 @@ def _frame(state: dict | None, telem: dict | None) -> pandas.DataFrame:
     ``load_recording`` gives its channel (hil_bench.record.tables: state and estimator as
     categoricals named by the DBC, NaN in a cycle without telemetry; units in
     ``attrs["units"]``)."""
+    from hil_bench.installation import require_extra
     from hil_bench.record import channels as ch
     from hil_bench.record import tables
 
-    tables.require("pandas", "a Session's rows as a DataFrame")
+    require_extra("a Session's rows as a DataFrame", "pandas")
     plant = tables.channel_frame(ch.PLANT_STATE, state or {})
     tel = tables.channel_frame(ch.CONTROLLER_TELEMETRY, telem or {})
     units = {**plant.attrs.get("units", {}),

@@ -322,7 +322,9 @@ def _dominant_frequency(s: _Signal) -> float:
     the least residual, within half a bin of the peak (scipy.optimize.minimize_scalar): the
     maximum-likelihood estimate for a tone in white noise, free of the bias the window's
     leakage and the negative-frequency image give the peak alone over a few periods."""
-    from scipy.optimize import minimize_scalar
+    from hil_bench.installation import require_extra
+
+    minimize_scalar = require_extra("signals.frequency", "scipy.optimize").minimize_scalar
 
     n = len(s.t)
     dt = np.diff(s.t)

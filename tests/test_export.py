@@ -190,6 +190,6 @@ def test_without_pyarrow_it_says_which_extra_to_install(recording, tmp_path, mon
     assert bench(recording, "--out", tmp_path / "x") == 2
     err = capsys.readouterr().err
     assert "bench export --format parquet needs pyarrow" in err
-    assert "pip install 'hil-bench[cluster]'" in err
+    assert "pip install 'hil-bench[data]'" in err
     assert bench(recording, "--format", "csv", "--channels", ch.EVENTS,
                  "--out", tmp_path / "events.csv") == 0

@@ -388,7 +388,8 @@ def test_foxglove_sdk_is_the_pinned_range_and_its_log_lines_are_read():
 
     from hil_bench.record.live_view import _SdkLog
 
-    deps = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["dependencies"]
+    deps = tomllib.loads((REPO / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]["live"]                   # the [live] extra
     req = next(Requirement(d) for d in deps if d.startswith("foxglove-sdk"))
     assert req.specifier and any(s.operator == "<" for s in req.specifier), req
     assert importlib.metadata.version("foxglove-sdk") in req.specifier, req

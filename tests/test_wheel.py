@@ -99,7 +99,13 @@ def test_metadata_entry_points_and_license(wheel, names):
         entry_points = z.read(f"{dist}/entry_points.txt").decode()
         license_text = z.read(f"{dist}/licenses/LICENSE").decode()
     assert meta["Name"] == "hil-bench" and meta["License-Expression"] == "MIT"
-    assert "pandas>=2.0" in meta.get_all("Requires-Dist")
+    requires = meta.get_all("Requires-Dist")
+    # the core and its extras (README "As a package", tests/test_installation.py)
+    assert "numpy>=1.26" in requires and 'pandas>=2.0; extra == "data"' in requires
+    assert not [r for r in requires if r.startswith(("pandas", "dask", "pyarrow", "scipy",
+                                                     "matplotlib", "foxglove")) and ";" not in r]
+    assert set(meta.get_all("Provides-Extra")) == {"data", "cluster", "report", "analysis",
+                                                   "live", "all", "test"}
     assert "bench = hil_bench.cli:main" in entry_points
     assert "[pytest11]" in entry_points and "hil_bench = hil_bench.pytest_plugin" in entry_points
     assert license_text.startswith("MIT License")

@@ -2,21 +2,30 @@
 # The installed wheel, outside the checkout (.ci/run calls it after `make test`):
 #   tools/ci_installed_wheel.sh dist/hil_bench-<version>-<tags>.whl
 # A fresh virtual environment in a temporary folder gets the wheel and its dependencies from
-# PyPI; from that folder (no checkout on any path) `bench --version`, `bench run gong_g2_500rpm`
-# (claims must hold: --strict), the API's one-liner, and examples/firmware_ci's tests with the
-# pytest plugin against the bundled stub (their JUnit XML kept in the folder).
+# PyPI, from that folder (no checkout on any path):
+# 1. the core alone (`pip install <wheel>`, as a user does: README "As a package"): its size (must
+#    stay under CORE_MAX_MB), `bench --version`, `bench run gong_g2_500rpm` (claims must hold:
+#    --strict), `bench check` of that recording, the API's one-liner, and the bundled sweep and
+#    campaign by name saying the extra they need ([cluster]);
+# 2. then `[all]` into the same environment, its size, and examples/firmware_ci's tests with the
+#    pytest plugin against the bundled stub (their JUnit XML kept in the folder).
 set -euo pipefail
 wheel=$(realpath "$1")
 repo=$(cd "$(dirname "$0")/.." && pwd)
 PY=${PY:-python3}
+CORE_MAX_MB=${CORE_MAX_MB:-250}
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/hil-wheel-XXXXXX")
 echo "ci: installed wheel: $(basename "$wheel") into $scratch/venv"
 t0=$(date +%s)
-# the venv's own pip (ensurepip) installs wheels: no upgrade round trip; no byte-compiling of the
-# dependencies' thousands of modules up front (what runs compiles its own on first import)
+pip_install() {
+    "$scratch/venv/bin/python" -m pip install -q --disable-pip-version-check "$@"
+}
+# the venv's own pip (ensurepip) installs wheels: no upgrade round trip
 "$PY" -m venv "$scratch/venv"
-"$scratch/venv/bin/python" -m pip install -q --disable-pip-version-check --no-compile "$wheel" "pytest>=7"
-echo "ci: installed in $(( $(date +%s) - t0 )) s"
+pip_install "$wheel"
+core_mb=$(du -sm "$scratch/venv" | cut -f1)
+echo "ci: core installed in $(( $(date +%s) - t0 )) s: venv $core_mb MB (du -sm; limit $CORE_MAX_MB MB)"
+[ "$core_mb" -lt "$CORE_MAX_MB" ] || { echo "ci: the core install is $core_mb MB, not under $CORE_MAX_MB MB"; exit 1; }
 cp -r "$repo/examples/firmware_ci" "$scratch/firmware_ci"
 cd "$scratch"
 case "$(venv/bin/python -c 'import hil_bench, os; print(os.path.dirname(hil_bench.__file__))')" in
@@ -25,7 +34,20 @@ case "$(venv/bin/python -c 'import hil_bench, os; print(os.path.dirname(hil_benc
 esac
 venv/bin/bench --version
 venv/bin/bench run gong_g2_500rpm --out g2.mcap --no-progress --strict
+venv/bin/bench check g2.mcap --strict >/dev/null
 venv/bin/python -c "import hil_bench; print(hil_bench.run('gong_g2_500rpm', out='api.mcap').claims)"
+# the bundled sweep and campaign resolve by name from the wheel, then say the extra they need
+for cmd in "sweep observers_speed_load" "campaign g2_protection"; do
+    rc=0
+    err=$(venv/bin/bench $cmd --out extra_out 2>&1 >/dev/null) || rc=$?
+    [ "$rc" = 2 ] && grep -q "pip install 'hil-bench\[cluster" <<<"$err" && [ ! -e extra_out ] \
+        || { echo "ci: bench $cmd without Dask (exit $rc) did not name the extra: $err"; exit 1; }
+    echo "ci: $err"
+done
+echo "ci: core checked in $(( $(date +%s) - t0 )) s"
+# everything else, compiled lazily (no byte-compiling of the extras' thousands of modules up front)
+pip_install --no-compile "$wheel[all]" "pytest>=7"
+echo "ci: [all] and pytest installed in $(( $(date +%s) - t0 )) s: venv $(du -sm venv | cut -f1) MB (without .pyc)"
 help=$(venv/bin/pytest --help)
 grep -q -- "--hil-link=SPEC" <<<"$help" || { echo "ci: pytest --help has no --hil-link"; exit 1; }
 (cd firmware_ci && ../venv/bin/pytest -p no:cacheprovider -q --junitxml="$scratch/firmware_ci.xml")

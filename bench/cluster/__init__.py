@@ -157,8 +157,12 @@ class Executor:
                  progress: bool = True, console=None, label: str = "runs"):
         import logging
 
-        from distributed import Client, LocalCluster
         from rich.console import Console
+
+        from hil_bench.installation import require_extra
+
+        require_extra(f"spreading runs ({label}) on a Dask cluster", "distributed")
+        from distributed import Client, LocalCluster
 
         self.console = console or Console(stderr=True)
         self.progress = progress

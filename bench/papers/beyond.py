@@ -247,7 +247,9 @@ def evaluate(pl: Plan, rep) -> dict:
 # -- plots ------------------------------------------------------------------------------------------
 
 def _plots(out, rep):
-    import matplotlib
+    from hil_bench.installation import require_extra
+
+    matplotlib = require_extra("the claims report's plots", "matplotlib")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

@@ -1,7 +1,9 @@
 """PNG plots of the claims report: per claim, what the paper's figure shows, from the recordings.
 
 Each ``plot_<claim>(rep)`` returns the figures it drew (a claim without a usable recording gets
-a figure that says so instead of a blank). matplotlib with the Agg backend (no display needed).
+a figure that says so instead of a blank). matplotlib with the Agg backend (no display needed):
+the "report" extra, imported when the report draws (bench/papers/report.py imports this module
+then).
 """
 from __future__ import annotations
 
@@ -9,8 +11,9 @@ import math
 from pathlib import Path
 from typing import Callable
 
-import matplotlib
+from hil_bench.installation import require_extra
 
+matplotlib = require_extra("the claims report's plots", "matplotlib")
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402

@@ -31,9 +31,11 @@ import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from hil_bench.installation import require_extra
+
 from . import channels as chans
 from .recording import RecordingError, load_recording, read_header
-from .tables import channel_frame, require
+from .tables import channel_frame
 
 FORMATS = {"parquet": ".parquet", "csv": ".csv"}
 
@@ -116,9 +118,8 @@ def export(source: str | Path, out: str | Path, fmt: str = "parquet",
     source, out = Path(source), Path(out)
     if fmt not in FORMATS:
         raise ExportError(f"--format {fmt!r}: one of {', '.join(FORMATS)}")
-    require("pandas", f"bench export --format {fmt}")
-    if fmt == "parquet":
-        require("pyarrow", "bench export --format parquet")
+    require_extra(f"bench export --format {fmt}", "pandas",
+                  *(("pyarrow",) if fmt == "parquet" else ()))
     if not source.exists():
         raise ExportError(f"{source}: no such recording")
     if source.is_dir():

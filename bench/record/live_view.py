@@ -254,12 +254,13 @@ class LiveView:
         """``inbox_mem``: the engine's operator-input mailbox (live.h; None: no inputs are
         served); ``inputs_allowed``: the scenario's ``[live] inputs`` (otherwise every input is
         refused, with an /events row saying why)."""
-        try:
-            import foxglove
-            from foxglove.websocket import Capability  # noqa: F401 - present in the sdk we need
-        except ImportError as exc:
-            raise LiveViewError(f"live view: foxglove-sdk is not installed ({exc}); "
-                                f"`pip install foxglove-sdk`") from None
+        from hil_bench.installation import ExtraMissing, require_extra
+
+        try:   # foxglove.websocket.Capability: present in the sdk range pyproject.toml pins
+            foxglove = require_extra("--live (the Foxglove live view)", "foxglove",
+                                     "foxglove.websocket")
+        except ExtraMissing as exc:
+            raise LiveViewError(str(exc)) from None
         self._fox = foxglove
         self._sdk_log = _listen_to_sdk_log(foxglove)   # before the server: the sdk's rule
         self.opts = opts

@@ -22,36 +22,25 @@
   integers, NaN / <NA> in the rows of other messages. A duty leg OFF (raw 65535) reads NaN.
   :func:`message_frame` gives one message's rows with plain signal names.
 
-pandas is imported when a table is made; :func:`require` names the extra to install.
+pandas is imported when a table is made (the "data" extra: ``installation.require_extra`` names it
+when it is missing).
 """
 from __future__ import annotations
 
-import importlib
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from hil_bench.installation import require_extra
 
 from . import channels as chans
 
 if TYPE_CHECKING:
     import pandas
 
-#: the extra that installs the table libraries (pandas, pyarrow)
-EXTRA = "cluster"
-
 #: the columns of the decoded /link/frames before its signals
 FRAME_COLUMNS = ("seq", "direction", "message", "id", "data")
-
-
-def require(module: str, feature: str):
-    """Import an optional dependency, or raise ImportError saying which extra installs it."""
-    try:
-        return importlib.import_module(module)
-    except ImportError:
-        package = module.split(".", 1)[0]
-        raise ImportError(f"{feature} needs {package}, which is not installed: "
-                          f"pip install 'hil-bench[{EXTRA}]' (or pip install {package})") from None
 
 
 def _enum_tables() -> dict[str, Mapping[int, str]]:
@@ -118,7 +107,7 @@ def _empty_columns(topic: str) -> dict[str, np.ndarray]:
 def channel_frame(topic: str, cols: Mapping[str, np.ndarray]) -> pandas.DataFrame:
     """One channel's columns (as ``record.recording.load_recording`` keeps them) as a DataFrame
     indexed by ``t_s``, units in ``attrs``, enums as categoricals; ``/link/frames`` decoded."""
-    pd = require("pandas", "reading a recording into DataFrames")
+    pd = require_extra("reading a recording into DataFrames", "pandas")
     if not cols:
         cols = _empty_columns(topic)
     if topic == chans.LINK_FRAMES and "tx" in cols and "rx" in cols:
@@ -186,7 +175,7 @@ def _signal_columns():
 def link_frames(cols: Mapping[str, np.ndarray]) -> pandas.DataFrame:
     """``/link/frames`` rows (t_s, seq, tx, rx: candump-style ``ID#DATA`` texts) decoded into one
     row per frame (module docstring)."""
-    pd = require("pandas", "reading a recording into DataFrames")
+    pd = require_extra("reading a recording into DataFrames", "pandas")
     by_id = _signal_columns()
     t_s, seqs = cols["t_s"], cols.get("seq")
     f_t, f_seq, f_dir, f_id, f_data, f_msg = [], [], [], [], [], []

@@ -453,8 +453,12 @@ def _signal_spec(where: str, key: str, spec, kind: str) -> dict:
 
 def read_csv(path: Path, mapping_path: Path, *, profile=None, ts_s: float | None = None) -> Capture:
     """A scope/DAQ export, resampled onto the control period (docs/replay.md "Resampling")."""
-    from .resample import resample_capture
+    from hil_bench.installation import require_extra
 
+    from .resample import DAQ_FEATURE, resample_capture
+
+    # SciPy resamples the export: said before the file is read
+    require_extra(DAQ_FEATURE, "scipy.signal", "scipy.interpolate", "scipy.integrate")
     m = load_mapping(mapping_path)
     delim = m["csv"].get("delimiter", ",")
     skip = int(m["csv"].get("skip_rows", 0))

@@ -36,10 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
+from hil_bench.installation import require_extra
 from hil_bench.plant_rt.engine import REPLAY_CYCLE_DTYPE
 
 from .capture import Anomalies, Capture, CaptureError, duty_raw_of, empty_telem
 
+#: what needs SciPy here (its ExtraMissing message)
+DAQ_FEATURE = "bench replay of a scope/DAQ CSV export (anti-alias filter, spline resampling)"
 BUTTER_ORDER = 4          #: per pass (sosfiltfilt doubles it)
 GAP_FACTOR = 1.5          #: a sample interval above 1.5 x the median is a gap
 
@@ -52,8 +55,6 @@ def _segments(t: np.ndarray, gap_s: float) -> list[slice]:
 
 def _filtered(t: np.ndarray, x: np.ndarray, segs: list[slice], fs_hz: float,
               cutoff_hz: float | None, notes: list[str]) -> np.ndarray:
-    from scipy import signal
-
     if cutoff_hz is None:
         return x
     cutoff = cutoff_hz
@@ -61,6 +62,7 @@ def _filtered(t: np.ndarray, x: np.ndarray, segs: list[slice], fs_hz: float,
         notes.append(f"anti-alias cutoff {cutoff:g} Hz is at or above the DAQ's Nyquist "
                      f"frequency ({fs_hz / 2:g} Hz): not applied")
         return x
+    signal = require_extra(DAQ_FEATURE, "scipy.signal")
     sos = signal.butter(BUTTER_ORDER, cutoff, btype="low", fs=fs_hz, output="sos")
     y = x.astype(float).copy()
     for s in segs:
@@ -75,8 +77,7 @@ def _filtered(t: np.ndarray, x: np.ndarray, segs: list[slice], fs_hz: float,
 
 def _interp(t: np.ndarray, x: np.ndarray, segs: list[slice], tk: np.ndarray,
             seg_of_k: np.ndarray) -> np.ndarray:
-    from scipy.interpolate import make_interp_spline
-
+    make_interp_spline = require_extra(DAQ_FEATURE, "scipy.interpolate").make_interp_spline
     out = np.full(len(tk), np.nan)
     for j, s in enumerate(segs):
         sel = seg_of_k == j
@@ -192,7 +193,7 @@ def resample_capture(path: Path, m: dict, arrays: dict[str, np.ndarray], line_no
                             f"their duty acts on (the DAQ is slower than the PWM); the last duties "
                             f"held", n=int((~ok).sum()))
     else:
-        from scipy.integrate import cumulative_trapezoid
+        cumulative_trapezoid = require_extra(DAQ_FEATURE, "scipy.integrate").cumulative_trapezoid
 
         avg = []
         for name in ("v_a", "v_b", "v_c"):

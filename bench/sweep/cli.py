@@ -35,6 +35,7 @@ def add_arguments(w: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from hil_bench.cluster import ClusterError, Executor
+    from hil_bench.installation import require_extra
     from hil_bench.sweep import SweepError, load_sweep
     from hil_bench.sweep.folder import FolderBusy, FolderLock, new_out_dir
     from hil_bench.sweep.run import SweepStopped, describe, error_summary, run_sweep
@@ -50,6 +51,10 @@ def main(args: argparse.Namespace) -> int:
         sw = load_sweep(args.sweep, quick=args.quick)
     except SweepError as exc:
         return fail(str(exc), 2)
+    # what the sweep needs, before its folder is made: Dask runs it, pyarrow writes its table,
+    # Matplotlib and pandas its plots
+    require_extra("bench sweep", "distributed", "pyarrow",
+                  *(() if args.no_plots else ("matplotlib", "pandas")))
     if args.time_limit_s is not None:
         sw.time_limit_s = args.time_limit_s
     try:

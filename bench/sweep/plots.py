@@ -56,11 +56,13 @@ def metric_columns(sw: Sweep, df) -> list[str]:
 
 
 def plot_sweep(sw: Sweep, rows: list[dict], out_dir: Path, timing: dict | None = None) -> list[Path]:
-    import matplotlib
+    import numpy as np
 
+    from hil_bench.installation import require_extra
+
+    matplotlib = require_extra("bench sweep's plots", "matplotlib", "pandas")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
     import pandas as pd
 
     df = pd.DataFrame(rows)

@@ -476,7 +476,10 @@ def _samples(sw: Sweep) -> list[dict[str, Any]]:
     if sw.method == "grid":
         return [dict(zip([a.name for a in sw.axes], combo))
                 for combo in itertools.product(*(a.grid() for a in sw.axes))]
-    from scipy.stats import qmc
+    from hil_bench.installation import require_extra
+
+    qmc = require_extra(f"a sweep's [sampling] method = \"{sw.method}\"", "scipy.stats.qmc",
+                        extra="cluster")
 
     d = len(sw.axes)
     if sw.method == "lhs":

@@ -31,11 +31,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hil_bench.installation import require_extra
 from hil_bench.record.atomic import written_aside
 
 from .spec import Sweep
 
 RESULTS = "results.parquet"
+#: what needs pyarrow here (its ExtraMissing message)
+TABLE_FEATURE = "a sweep's results table"
 JOURNAL = "results.journal.jsonl"
 META_KEY = b"hil_bench.sweep"
 FORMAT = 1
@@ -75,7 +78,7 @@ def _aside_hint(out_dir: Path) -> str:
 
 def column_type(sw: Sweep, name: str):
     """The Arrow type of a column (None: inferred)."""
-    import pyarrow as pa
+    pa = require_extra(TABLE_FEATURE, "pyarrow")
 
     if name in INT_COLUMNS:
         return pa.int64()
@@ -113,7 +116,7 @@ def _array(values: list, typ):
 
 def to_arrow(sw: Sweep, rows: list[dict]):
     """The rows as a typed Arrow table with the sweep's identity in its metadata."""
-    import pyarrow as pa
+    pa = require_extra(TABLE_FEATURE, "pyarrow")
 
     columns: dict[str, None] = {}
     for r in rows:
@@ -128,7 +131,7 @@ def to_arrow(sw: Sweep, rows: list[dict]):
 
 def write_table(sw: Sweep, rows: list[dict], path: Path) -> None:
     """The table, written aside and renamed into place (a failed write leaves the old table)."""
-    import pyarrow.parquet as pq
+    pq = require_extra(TABLE_FEATURE, "pyarrow.parquet")
 
     with written_aside(path) as tmp:
         pq.write_table(to_arrow(sw, rows), tmp)
@@ -168,7 +171,7 @@ def _expected_kind(sw: Sweep, name: str) -> str | None:
 def read_table(sw: Sweep, path: Path) -> tuple[dict | None, list[dict]]:
     """(the identity in its metadata, its rows) of a results table; TableError when it is not a
     table this bench can resume."""
-    import pyarrow as pa
+    pa = require_extra(TABLE_FEATURE, "pyarrow")
     import pyarrow.parquet as pq
 
     hint = _aside_hint(path.parent)
