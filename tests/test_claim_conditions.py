@@ -69,6 +69,21 @@ def _y1():
     return run, cond.scenario_for(run)
 
 
+@pytest.mark.parametrize("duty_update", ["on_arrival", "next_period"])
+def test_a_real_time_run_of_a_claims_scenario_is_not_a_run_of_the_claim(duty_update):
+    """Gong's G2 runs in lockstep: the duties act at the emulated computation delay. A real-time
+    run of the same scenario (bench run gong_g2_500rpm --realtime) has the link's round trip as its
+    delay (on_arrival) or a whole period (next_period): its G2 rows are not G2's, whatever its
+    plant and CONFIG say (found by the real-drive guide: the conditions did not look at the mode)."""
+    scn = load_scenario("gong_g2_500rpm")
+    rec = _Recording(scn)
+    assert not cond.failed(CLAIMS["G2"].run("G2"), rec, scn, CLAIMS["G2"])
+    rec.run.update(mode="realtime", duty_update=duty_update)
+    (f,) = cond.failed(CLAIMS["G2"].run("G2"), rec, scn, CLAIMS["G2"])
+    assert f.name == "timing" and f.text() == (f"timing: the claim's run runs lockstep; this run: "
+                                               f"realtime ({duty_update})")
+
+
 def test_the_estimator_is_what_the_controller_reported_not_what_was_asked():
     run, scn = _y1()
     (f,) = cond.failed(run, _Recording(scn, reported="ENCODER"), scn, CLAIMS["Y1"])

@@ -11,6 +11,10 @@ is then compared with them (``failed``), condition by condition:
 
 * ``estimator``: the estimator the controller *reported* closing the loop (TELEM.estimator over
   the whole run), not the one the scenario asked for; a recording without telemetry fails it;
+* ``timing``: lockstep, or real time with its duty update (``on_arrival``: the duties act when
+  they arrive, after the link's round trip; ``next_period``): a claim's run is lockstep, where the
+  duties act at the emulated computation delay; a real-time run of the same scenario has another
+  delay, so it is not a run of the claim;
 * ``profile``: the motor profile;
 * ``plant.<key>``: every plant parameter (the non-idealities on/off and their values; the
   values of a group that is off on both sides do not matter; the ADC's noise seed never does);
@@ -92,6 +96,7 @@ class Setup:
     duration_s: float
     metrics_window_s: tuple[float, float]
     raw: dict[str, Any]
+    timing: str = "lockstep"   # "lockstep", or "realtime (on_arrival)" / "realtime (next_period)"
 
 
 def _timeline(scn) -> tuple[dict[str, tuple], dict[str, float]]:
@@ -136,9 +141,10 @@ def _expected(run: Run) -> Setup:
     scn = scenario_for(run)
     r = Runner(scn, "stub", out_path=None, progress=False, realtime=False, record=False)
     controller = {p.name: float(v) for p, v in r.controller_params().items()}
-    return _setup_of_scenario(scn, dict(r.plant.params.as_dict()), controller,
-                              dict(r.inverter_comp_metadata()), scn.estimator.name,
-                              r.profile.name)
+    setup = _setup_of_scenario(scn, dict(r.plant.params.as_dict()), controller,
+                               dict(r.inverter_comp_metadata()), scn.estimator.name,
+                               r.profile.name)
+    return dataclasses.replace(setup, timing=_timing(scn.mode, scn.realtime.duty_update))
 
 
 def reported_estimators(rec) -> dict[str, int]:
@@ -182,9 +188,15 @@ def actual(rec, scn) -> Setup:
             return {}
         return v if isinstance(v, dict) else {}
 
-    return _setup_of_scenario(scn, js("plant_params"), js("controller_params"),
-                              js("inverter_comp") or {"on": False}, str(run.get("estimator", "")),
-                              str(run.get("profile", "")))
+    setup = _setup_of_scenario(scn, js("plant_params"), js("controller_params"),
+                               js("inverter_comp") or {"on": False}, str(run.get("estimator", "")),
+                               str(run.get("profile", "")))
+    return dataclasses.replace(setup, timing=_timing(str(run.get("mode", "lockstep") or "lockstep"),
+                                                     str(run.get("duty_update", "") or "")))
+
+
+def _timing(mode: str, duty_update: str) -> str:
+    return "lockstep" if mode != "realtime" else f"realtime ({duty_update or 'on_arrival'})"
 
 
 def _same(a: Any, b: Any, rel_tol: float = _REL_TOL) -> bool:
@@ -321,6 +333,8 @@ def failed(run: Run, rec, scn, claim: Claim | None = None, estimator: bool = Tru
                                   f"{k} in {c} of {total} cycles" for k, c in other.items())))
     if exp.profile != act.profile:
         out.append(Failed("profile", f"is {exp.profile}", act.profile or "none recorded"))
+    if exp.timing != act.timing:
+        out.append(Failed("timing", f"runs {exp.timing}", act.timing))
     if not act.plant:
         out.append(Failed("plant", "records its plant", "none recorded"))
     else:
