@@ -200,6 +200,9 @@ def _install_the_wheel(env_dir: Path, names: list[str]) -> dict[str, str]:
         script.write_text(f"#!{py}\nimport sys\nfrom pytest import console_main\n"
                           f"sys.exit(console_main())\n")
         script.chmod(0o755)
+    where = subprocess.run([str(py), "-c", "import hil_bench; print(hil_bench.__file__)"],
+                           capture_output=True, text=True, cwd=env_dir).stdout.strip()
+    assert where.startswith(site), f"hil_bench is imported from {where!r}, not the fresh {site}"
     path = os.environ.get("PATH", "").split(os.pathsep)
     path = [p for p in path if Path(p).resolve() != (REPO / ".venv" / "bin").resolve()]
     return {"PATH": os.pathsep.join([str(env_dir / "bin"), *path]), "VIRTUAL_ENV": str(env_dir),
@@ -238,6 +241,11 @@ def _claims_listed(out: str) -> str:
     return str(len(re.findall(r"^[A-Z]\d+ {2}", out, re.M)))
 
 
+def _divergence(out: str) -> str | None:
+    m = re.search(r"first divergence at cycle (?:seq )?(\d+) .*?: (\w+) recorded", out)
+    return f"{m.group(1)} ({m.group(2)})" if m else None
+
+
 CAMPAIGN = r"bench campaign g2_protection\b"
 EXAMPLE_TESTS = r"^pytest\b"
 FIGURES = [
@@ -256,8 +264,8 @@ FIGURES = [
     Figure("the example project's tests", "docs/api.md", r"its own pyproject.toml and (\w+) tests",
            EXAMPLE_TESTS, _group(r"\b(\d+) passed")),
     Figure("the controller replay's first divergence", "README.md",
-           r"first divergence at cycle (\d+)", r"replay example\.serial\.bin --mode controller",
-           _group(r"first divergence.*?cycle (\d+)", re.S)),
+           r"first divergence at cycle (\d+ \(\w+\))", r"replay example\.serial\.bin --mode controller",
+           _divergence),
 ]
 
 
