@@ -369,6 +369,29 @@ def _matches_figure(value, said: str, shown: str) -> str | None:
     return output_matches([shown], said)
 
 
+#: a failure a page shows (a ```text block starting ``<Exception>: ``) and the call of its worked
+#: example that raises it: (page, the call as the page quotes it, evaluated after the python block
+#: that defines its names)
+FAILURES = [("docs/api.md", "signals.settles(step.speed_rpm, 800, band=8, within_s=0.15)")]
+
+
+def _shown_failure(doc: str, call: str, namespace: dict) -> str | None:
+    """What is wrong with the failure the page shows for ``call`` (None: it is what it raises)."""
+    text = (REPO / doc).read_text()
+    assert f"`{call}`" in text, f"{doc}: the call of its shown failure, `{call}`, is not quoted"
+    shown = [b for b in fenced_blocks(REPO / doc)
+             if b.lang == "text" and re.match(r"\w+: ", b.lines[0] if b.lines else "")]
+    assert len(shown) == 1, f"{doc}: {len(shown)} shown failures, FAILURES has one"
+    try:
+        eval(call, namespace)
+    except Exception as exc:  # noqa: BLE001 - the page shows what it raises
+        said = f"{type(exc).__name__}: {exc}"
+    else:
+        return f"`{call}` raised nothing"
+    page = " ".join(" ".join(shown[0].lines).split())
+    return None if page == " ".join(said.split()) else f"the page shows {page!r}, it raises {said!r}"
+
+
 @pytest.mark.parametrize("block", PYTHON_BLOCKS, ids=lambda b: b.where)
 def test_the_python_block_runs(block, tmp_path, monkeypatch):
     work = scratch_folder(tmp_path / "work")
@@ -409,4 +432,10 @@ def test_the_python_block_runs(block, tmp_path, monkeypatch):
         why = _matches_figure(value, said, fig)
         if why:
             wrong.append(f"{block.doc}:{block.line + n}: `{lines[n - 1].strip()}`: {why}")
+    for doc, call in FAILURES:
+        names = set(re.findall(r"\b([a-z_]\w*)\.", call))
+        if doc == block.doc and names <= set(namespace):
+            why = _shown_failure(doc, call, namespace)
+            if why:
+                wrong.append(f"{doc}: {why}")
     assert not wrong, "\n".join(wrong)
