@@ -3,8 +3,9 @@ test runs one of those commands here (tests/test_docs.py: every page; tests/test
 docs/real-drive.md, with the checks of that page).
 
 A **shell block** is a fenced block of README.md, docs/*.md or examples/*/README.md whose language
-is ``sh``, ``bash``, ``shell`` or ``console``, or an untagged (or ``text``) one whose first line is
-a command (``$ ...``, ``.venv/bin/...``, ``bench ...``, ``pip ...``, ...). A command outside any
+is ``sh``, ``bash``, ``shell`` or ``console``, or an untagged one whose first line is a command
+(``$ ...``, ``.venv/bin/...``, ``bench ...``, ``pip ...``, ...); a ``text`` block is never one (a
+synopsis, an output). A command outside any
 fence (an indented code block) is reported too: fence it, so it is run or marked.
 
 A **marker** is a comment line of its own in a block:
@@ -51,8 +52,8 @@ RUNS_AS = "# runs here as:"
 NOT_RUN = "# not run here:"
 SHELL_LANGS = ("sh", "bash", "shell", "console")
 #: an untagged block whose first line starts like this is a shell block
-COMMAND_START = re.compile(r"^(\$ |\.venv/bin/|\.\./\.\./\.venv/bin/|bench [a-z-]+\b|pip |python3? |"
-                           r"pytest\b|make |cd |dask |tests/\S+\.sh|tools/\S+|cmake |ctest )")
+COMMAND_START = re.compile(r"^(\$ |\S*\.venv/bin/|bench [a-z-]+\b|pip |python3? |pytest\b|make |cd |"
+                           r"dask |tests/\S+\.sh|tools/\S+|cmake |ctest |apt-get |sudo )")
 #: a command the page expects to fail says so: ``... # exits 1: why``
 EXITS = re.compile(r"#\s*exits (\d+)\b")
 #: the device names the pages use, and the stub that stands in for each kind of link
@@ -157,7 +158,7 @@ def strip_comment(cmd: str) -> str:
 def _is_shell(lang: str, lines: list[str]) -> bool:
     if lang in SHELL_LANGS:
         return True
-    if lang not in ("", "text"):
+    if lang:                        # ``text``: a synopsis or an output, by its author's word
         return False
     first = next((ln.strip() for ln in lines if ln.strip()), "")
     return bool(COMMAND_START.match(first))
@@ -306,12 +307,12 @@ def _line_pattern(shown: str) -> re.Pattern:
 
 
 def output_matches(shown: list[str], said: str) -> str | None:
-    """Whether the command's output has the shown lines, in order (a line that is ``...`` alone:
-    any lines in between; otherwise each shown line is the next line of output); None if it
-    does, else what was not found."""
+    """Whether the command's output has the shown lines, in order (the first anywhere; then a
+    line that is ``...`` alone: any lines in between, otherwise each shown line is the next line
+    of output); None if it does, else what was not found."""
     lines = [" ".join(ln.split()) for ln in said.splitlines()]
     shown = [s for s in shown if s.strip() and not s.strip().startswith("# ")]
-    i, gap = 0, False
+    i, gap = 0, True
     for s in shown:
         if s.strip() == "...":
             gap = True
@@ -389,19 +390,21 @@ def host_lost_real_time(cmd: str, proc: subprocess.CompletedProcess) -> bool:
 def run_command(cmd: str, cwd: Path, env: dict[str, str] | None = None,
                 timeout_s: float = 900) -> subprocess.CompletedProcess:
     """One command of a page with bash in ``cwd``, its device replaced by a pty with the stub on
-    it; rich's tables at 250 columns (a log's width, nothing wrapped)."""
+    it; rich's tables at 250 columns (a log's width, nothing wrapped). Its stdout and stderr in
+    one stream, in the order a terminal shows them (``.stdout``)."""
     from tests.drive_on_pty import StubOnPty
 
     env = {**os.environ, "COLUMNS": "250",
            "PATH": f"{REPO / '.venv' / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}", **(env or {})}
     m = DEVICE.search(cmd)
     if m is None:
-        return subprocess.run(["bash", "-c", cmd], cwd=cwd, capture_output=True, text=True,
-                              env=env, timeout=timeout_s)
+        return subprocess.run(["bash", "-c", cmd], cwd=cwd, stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT, text=True, env=env, timeout=timeout_s)
     mode = "serial" if m.group(1) == "serial" else "slcan"
     with StubOnPty(mode, _stub_args(cmd)) as drive:
         return subprocess.run(["bash", "-c", cmd.replace(m.group(2), drive.path)], cwd=cwd,
-                              capture_output=True, text=True, env=env, timeout=timeout_s)
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+                              timeout=timeout_s)
 
 
 def all_blocks() -> list[Block]:
