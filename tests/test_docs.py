@@ -40,8 +40,9 @@ from typing import Callable
 import pytest
 
 from tests.doc_blocks import (NOT_RUN, REPO, RUNS_AS, RUNS_HERE, Block, Command, all_blocks,
-                              fenced_blocks, host_lost_real_time, loose_commands, output_matches,
-                              pages, run_command, scratch_folder, strip_comment, variant_problem)
+                              fenced_blocks, loose_commands, output_matches, pages,
+                              run_keeping_real_time, scratch_folder, strip_comment,
+                              variant_problem)
 
 BLOCKS = all_blocks()
 #: pages whose blocks another test runs, with that page's own checks
@@ -112,6 +113,25 @@ def test_the_markers_are_read_as_written():
     assert output_matches(console[0].output, "ran 15000/15000 cycles in 1.05 s (14000 cycles/s)\n"
                                              "more\n") is None
     assert output_matches(console[0].output, "ran 1500/15000 cycles in 1.05 s (140 cycles/s)\n")
+
+
+def test_a_real_time_run_the_host_lost_is_repeated_on_a_clean_slate(tmp_path, monkeypatch):
+    """The repeat of a real-time run the host could not keep starts without the first attempt's
+    recording (before, in tests/test_real_drive.py, it failed: "--out ...: file exists")."""
+    from tests import doc_blocks
+
+    seen = []
+
+    def lost(cmd, cwd, env=None):
+        seen.append(sorted(p.name for p in cwd.iterdir()))
+        for name in ("rt.mcap", "rt.mcap.serial.bin"):
+            (cwd / name).write_text("")
+        return subprocess.CompletedProcess(cmd, 1, "real time: ...; lost rate 5.00e-02\n")
+
+    monkeypatch.setattr(doc_blocks, "run_command", lost)
+    with pytest.raises(pytest.skip.Exception, match="could not keep real time"):
+        run_keeping_real_time(".venv/bin/bench run g2 --realtime --out rt.mcap", tmp_path)
+    assert seen == [[], []]
 
 
 # ---- what a block needs -----------------------------------------------------------------------
@@ -295,17 +315,6 @@ def _needs(block: Block) -> str | None:
     return None
 
 
-def _run(cmd: str, cwd: Path, env: dict[str, str]) -> subprocess.CompletedProcess:
-    proc = run_command(cmd, cwd, env)
-    if host_lost_real_time(cmd, proc):             # repeat once, then say the machine could not
-        proc = run_command(cmd, cwd, env)
-        if host_lost_real_time(cmd, proc):
-            figures = [ln for ln in proc.stdout.splitlines() if "real time:" in ln]
-            pytest.skip(f"this machine could not keep real time (twice the run lost more than 1 % "
-                        f"of its periods and ended early): {' '.join(figures[:1])}")
-    return proc
-
-
 @pytest.mark.parametrize("block", RUN_HERE, ids=lambda b: b.where)
 def test_the_block_runs_as_printed(block, tmp_path):
     why = _needs(block)
@@ -330,7 +339,7 @@ def test_the_block_runs_as_printed(block, tmp_path):
         if pip and HIL_BENCH_SPEC.search(pip.group(1)):
             env.update(_install_the_wheel(tmp_path / "env", shlex.split(pip.group(1))))
             continue
-        proc = _run(c.to_run, cwd, env)
+        proc = run_keeping_real_time(c.to_run, cwd, env)
         said = proc.stdout
         assert proc.returncode == c.status, (f"{c.where}: `{c.to_run}` exited {proc.returncode}, "
                                              f"the page says {c.status}\n{said[-4000:]}")
