@@ -207,11 +207,12 @@ def _install_the_wheel(env_dir: Path, names: list[str]) -> dict[str, str]:
     if not wheel:
         pytest.skip("`pip install` of hil-bench runs with the wheel: set HIL_WHEEL to one "
                     "(`make wheel`; `make test` does both)")
-    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True)
     py = env_dir / "bin" / "python"
-    subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q",
-                    "--no-deps", "--no-index", "--disable-pip-version-check", wheel],
-                   check=True, capture_output=True, timeout=600)
+    if not py.exists():                            # (a second `pip install` of it: an extra)
+        subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True)
+        subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q",
+                        "--no-deps", "--no-index", "--disable-pip-version-check", wheel],
+                       check=True, capture_output=True, timeout=600)
     site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                           capture_output=True, text=True, check=True).stdout.strip()
     Path(site, "_checkout_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
