@@ -449,3 +449,55 @@ def test_the_python_block_runs(block, tmp_path, monkeypatch):
             if why:
                 wrong.append(f"{doc}: {why}")
     assert not wrong, "\n".join(wrong)
+
+
+# ---- docs/api.md's figures of a whole G2 recording ----------------------------------------------
+
+#: how far a size the page quotes may be from what the command gives today (pandas', pyarrow's and
+#: zstd's versions move them a little; a figure that drifted further is stale)
+SIZE_TOLERANCE = 0.10
+API_FIGURES = {
+    "cycles": r"A whole 1\.5 s G2 recording \(([\d ]+) cycles,",
+    "file_mb": r"G2 recording \([\d ]+ cycles, ([\d.]+) MB\)",
+    "frames_mb": r"into ([\d.]+) MB of DataFrames",
+    "link_frames_mb": r"MB of DataFrames, ([\d.]+) MB of them the",
+    "frames": r"MB of them the ([\d ]+) decoded frames",
+    "parquet_mb": r"([\d.]+) MB of Parquet in",
+    "parquet_files": r"MB of Parquet in (\d+) files",
+    "csv_mb": r"\(([\d.]+) MB as CSV\)",
+}
+
+
+def test_the_figures_of_a_whole_g2_recording_in_api_md(tmp_path):
+    """docs/api.md's sizes and counts of the whole G2 recording, its DataFrames and its export:
+    counts exactly, sizes within SIZE_TOLERANCE (MB = 10^6 bytes)."""
+    import hil_bench
+
+    text = " ".join((REPO / "docs" / "api.md").read_text().split())
+    quoted = {}
+    for key, pattern in API_FIGURES.items():
+        m = re.search(pattern, text)
+        assert m, f"docs/api.md: no {key} figure (`{pattern}`): update API_FIGURES"
+        quoted[key] = float(m.group(1).replace(" ", ""))
+    result = hil_bench.run("gong_g2_500rpm", out=tmp_path / "g2.mcap")
+    rec = hil_bench.load_recording(result.recording)
+    got = {"cycles": result.integrity.cycles_done,
+           "file_mb": result.recording.stat().st_size / 1e6,
+           "frames_mb": sum(df.memory_usage(deep=True).sum() for _, df in rec.items()) / 1e6,
+           "link_frames_mb": rec["/link/frames"].memory_usage(deep=True).sum() / 1e6,
+           "frames": len(rec["/link/frames"])}
+    for fmt, folder in (("parquet", tmp_path / "pq"), ("csv", tmp_path / "csv")):
+        proc = subprocess.run([sys.executable, "-m", "hil_bench", "export", str(result.recording),
+                               "--format", fmt, "--out", str(folder)], capture_output=True,
+                              text=True, timeout=600)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        files = sorted(folder.glob(f"*.{fmt}"))
+        got[f"{fmt}_mb"] = sum(f.stat().st_size for f in files) / 1e6
+        if fmt == "parquet":
+            got["parquet_files"] = len(files)
+    wrong = []
+    for key, value in quoted.items():
+        exact = key in ("cycles", "frames", "parquet_files")
+        if (value != got[key]) if exact else abs(value - got[key]) > SIZE_TOLERANCE * got[key]:
+            wrong.append(f"{key}: the page says {value:g}, today {got[key]:.4g}")
+    assert not wrong, "docs/api.md: " + "; ".join(wrong)
