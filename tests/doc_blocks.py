@@ -21,7 +21,7 @@ A **marker** is a comment line of its own in a block:
 
 A marker holds for the commands after it until the next marker (``runs here as`` for one command
 only); the first line of a block is its marker. A command line may end in ``# exits N: why``: the
-status it exits with (else 0). In a ``console`` block each ``$ COMMAND`` line is followed by the
+status it exits with (else 0), or in ``# -> TEXT``: a line it prints (matched as below). In a ``console`` block each ``$ COMMAND`` line is followed by the
 output the page shows: the test compares the command's output with it line by line, ``...`` for
 lines or text left out, and every timing figure (a number of s, ms, us, cycles/s, MB, ...) taken
 as any number (``output_matches``).
@@ -57,6 +57,8 @@ COMMAND_START = re.compile(r"^(\$ |\S*\.venv/bin/|bench [a-z-]+\b|pip |python3? 
                            r"dask |tests/\S+\.sh|tools/\S+|cmake |ctest |apt-get |sudo )")
 #: a command the page expects to fail says so: ``... # exits 1: why``
 EXITS = re.compile(r"#\s*exits (\d+)\b")
+#: a line the command prints, shown in its trailing comment: ``bench --version   # -> bench ...``
+SHOWN = re.compile(r"\s#\s*->\s*(.+)$")
 #: the device names the pages use, and the stub that stands in for each kind of link
 DEVICE = re.compile(r"(serial|can:slcan):(/dev/tty(?:USB|ACM)\d+)")
 
@@ -210,7 +212,9 @@ def _commands(block: Block) -> list[Command]:
 
 def _command(block: Block, line: int, text: str, marker: str, why: str) -> Command:
     m = EXITS.search(text)
-    return Command(block.doc, line, text, int(m.group(1)) if m else 0, marker, why)
+    shown = SHOWN.search(text)
+    return Command(block.doc, line, text, int(m.group(1)) if m else 0, marker, why,
+                   [shown.group(1)] if shown else [])
 
 
 def fenced_blocks(path: Path) -> list[Block]:
