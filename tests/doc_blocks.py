@@ -21,7 +21,8 @@ A **marker** is a comment line of its own in a block:
 
 A marker holds for the commands after it until the next marker (``runs here as`` for one command
 only); the first line of a block is its marker. A command line may end in ``# exits N: why``: the
-status it exits with (else 0), or in ``# -> TEXT``: a line it prints (matched as below). In a ``console`` block each ``$ COMMAND`` line is followed by the
+status it exits with (else 0), or in ``# -> TEXT``: a line it prints (matched as below). In a
+``console`` block each ``$ COMMAND`` line is followed by the
 output the page shows: the test compares the command's output with it line by line, ``...`` for
 lines or text left out, and every timing figure (a number of s, ms, us, cycles/s, MB, ...) taken
 as any number (``output_matches``).
@@ -53,8 +54,8 @@ RUNS_AS = "# runs here as:"
 NOT_RUN = "# not run here:"
 SHELL_LANGS = ("sh", "bash", "shell", "console")
 #: an untagged block whose first line starts like this is a shell block
-COMMAND_START = re.compile(r"^(\$ |\S*\.venv/bin/|bench [a-z-]+\b|pip |python3? |pytest\b|make |cd |"
-                           r"dask |tests/\S+\.sh|tools/\S+|cmake |ctest |apt-get |sudo )")
+COMMAND_START = re.compile(r"^(\$ |\S*\.venv/bin/|bench [a-z-]+\b|pip |python3? |pytest\b|make |"
+                           r"cd |dask |tests/\S+\.sh|tools/\S+|cmake |ctest |apt-get |sudo )")
 #: a command the page expects to fail says so: ``... # exits 1: why``
 EXITS = re.compile(r"#\s*exits (\d+)\b")
 #: a line the command prints, shown in its trailing comment: ``bench --version   # -> bench ...``
@@ -226,7 +227,8 @@ def fenced_blocks(path: Path) -> list[Block]:
         stripped = raw.strip()
         if current is None:
             if stripped.startswith("```"):
-                current, indent = Block(doc, n, stripped[3:].strip(), []), len(raw) - len(raw.lstrip())
+                current = Block(doc, n, stripped[3:].strip(), [])
+                indent = len(raw) - len(raw.lstrip())
             continue
         if stripped == "```":
             blocks.append(current)
@@ -261,7 +263,8 @@ def loose_commands(path: Path) -> list[tuple[int, str]]:
             continue
         prev = doc_lines[n - 2] if n > 1 else ""
         indented_code = not prev.strip() or prev.startswith("    ")
-        if indented_code and COMMAND_START.match(raw.strip()) and not raw.lstrip().startswith(("* ", "- ")):
+        listed = raw.lstrip().startswith(("* ", "- "))
+        if indented_code and COMMAND_START.match(raw.strip()) and not listed:
             loose.append((n, raw.strip()))
     return loose
 
@@ -400,7 +403,8 @@ def run_command(cmd: str, cwd: Path, env: dict[str, str] | None = None,
     from tests.drive_on_pty import StubOnPty
 
     env = {**os.environ, "COLUMNS": "250",
-           "PATH": f"{REPO / '.venv' / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}", **(env or {})}
+           "PATH": f"{REPO / '.venv' / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
+           **(env or {})}
     m = DEVICE.search(cmd)
     if m is None:
         return subprocess.run(["bash", "-c", cmd], cwd=cwd, stdout=subprocess.PIPE,
@@ -431,7 +435,8 @@ def run_keeping_real_time(cmd: str, cwd: Path, env: dict[str, str] | None = None
     if host_lost_real_time(cmd, proc):
         figures = [ln for ln in proc.stdout.splitlines() if "real time:" in ln]
         pytest.skip(f"this machine could not keep real time (twice the run lost more than "
-                    f"{LOST_PERIODS_LIMIT:.0%} of its periods and ended early): {' '.join(figures[:1])}")
+                    f"{LOST_PERIODS_LIMIT:.0%} of its periods and ended early): "
+                    f"{' '.join(figures[:1])}")
     return proc
 
 

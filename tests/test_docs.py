@@ -79,7 +79,8 @@ def test_every_shell_block_is_run_here_or_says_why_not():
         for n, text in loose_commands(page):
             problems.append(f"{page.relative_to(REPO)}:{n}: `{text}` is outside a fenced block: "
                             f"fence it (```sh) and mark it")
-    assert not problems, f"{len(problems)} command(s) neither run nor marked:\n" + "\n".join(problems)
+    assert not problems, (f"{len(problems)} command(s) neither run nor marked:\n"
+                          + "\n".join(problems))
 
 
 def test_the_markers_are_read_as_written():
@@ -213,7 +214,8 @@ def _install_the_wheel(env_dir: Path, names: list[str]) -> dict[str, str]:
         subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q",
                         "--no-deps", "--no-index", "--disable-pip-version-check", wheel],
                        check=True, capture_output=True, timeout=600)
-    site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+    site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()"
+                                          "['purelib'])"],
                           capture_output=True, text=True, check=True).stdout.strip()
     Path(site, "_checkout_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
     if any(n.split("[")[0].split(">")[0].split("=")[0] == "pytest" for n in names):
@@ -285,7 +287,8 @@ FIGURES = [
     Figure("the example project's tests", "docs/api.md", r"its own pyproject.toml and (\w+) tests",
            EXAMPLE_TESTS, _group(r"\b(\d+) passed")),
     Figure("the controller replay's first divergence", "README.md",
-           r"first divergence at cycle (\d+ \(\w+\))", r"replay example\.serial\.bin --mode controller",
+           r"first divergence at cycle (\d+ \(\w+\))",
+           r"replay example\.serial\.bin --mode controller",
            _divergence),
 ]
 
@@ -350,7 +353,8 @@ def test_the_block_runs_as_printed(block, tmp_path):
                                    f"{wrong}\n{said[-4000:]}")
         for f in _figures_of(c.to_run, block.doc):
             printed = f.printed(said)
-            assert printed is not None, f"{c.where}: `{c.to_run}` printed no {f.what}\n{said[-3000:]}"
+            assert printed is not None, (f"{c.where}: `{c.to_run}` printed no {f.what}\n"
+                                         f"{said[-3000:]}")
             assert set(f.quoted()) == {printed}, (f"{f.page}: {f.what}: the page says "
                                                   f"{f.quoted()}, `{c.to_run}` prints {printed}")
 
@@ -399,7 +403,9 @@ def _shown_failure(doc: str, call: str, namespace: dict) -> str | None:
     else:
         return f"`{call}` raised nothing"
     page = " ".join(" ".join(shown[0].lines).split())
-    return None if page == " ".join(said.split()) else f"the page shows {page!r}, it raises {said!r}"
+    if page == " ".join(said.split()):
+        return None
+    return f"the page shows {page!r}, it raises {said!r}"
 
 
 @pytest.mark.parametrize("block", PYTHON_BLOCKS, ids=lambda b: b.where)

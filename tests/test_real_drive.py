@@ -56,7 +56,8 @@ def test_the_f28335_sci_path_is_on_the_page_at_the_rate_the_part_makes():
     """The F28335's SCI makes 937 500 baud at its reset LSPCLK (37.5 MHz, BRR 4): the page's
     F28335-over-SCI commands use it, the kit with the G2 estimator, G2 in lockstep and the 1 kHz
     scenario in real time among them."""
-    cmds = [c.text for b in RUNNABLE for c in b.commands if "serial:/dev/ttyUSB0" + F28335_SCI in c.text]
+    cmds = [c.text for b in RUNNABLE for c in b.commands
+            if "serial:/dev/ttyUSB0" + F28335_SCI in c.text]
     assert any("conformance" in c and "--estimator SMO_TANH" in c for c in cmds)
     assert any("run gong_g2_500rpm " in c and "--allow-slow-link" in c for c in cmds)
     assert any("run gong_g2_serial_1mbaud " in c and "--realtime" in c for c in cmds)
@@ -111,7 +112,8 @@ def test_the_block_runs_as_printed(block, tmp_path):
         proc = run_keeping_real_time(cmd, cwd)   # (repeated once if the host lost real time)
         said = proc.stdout
         assert proc.returncode == status, (f"{DOC.name}:{c.line}: `{cmd}` exited "
-                                           f"{proc.returncode}, the page says {status}\n{said[-4000:]}")
+                                           f"{proc.returncode}, the page says {status}\n"
+                                           f"{said[-4000:]}")
         wrong = _checks(cmd, said)
         assert not wrong, f"{DOC.name}:{c.line}: `{cmd}`: {'; '.join(wrong)}\n{said[-4000:]}"
 
