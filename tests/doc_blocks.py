@@ -427,10 +427,12 @@ def run_keeping_real_time(cmd: str, cwd: Path, env: dict[str, str] | None = None
     if not host_lost_real_time(cmd, proc):
         return proc
     out = re.search(r"--out\s+(\S+)", strip_comment(cmd))
-    if out:
+    if out:                        # X.mcap and its side files X.serial.bin, X.log, .X.mcap.*
         first = cwd / out.group(1)
-        for path in first.parent.glob(glob.escape(first.name) + "*"):
-            path.unlink()
+        stem = glob.escape(first.name.removesuffix(".mcap"))
+        for pattern in (f"{stem}.*", f".{glob.escape(first.name)}.*"):
+            for path in first.parent.glob(pattern):
+                path.unlink()
     proc = run_command(cmd, cwd, env)
     if host_lost_real_time(cmd, proc):
         figures = [ln for ln in proc.stdout.splitlines() if "real time:" in ln]

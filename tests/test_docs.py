@@ -125,14 +125,15 @@ def test_a_real_time_run_the_host_lost_is_repeated_on_a_clean_slate(tmp_path, mo
 
     def lost(cmd, cwd, env=None):
         seen.append(sorted(p.name for p in cwd.iterdir()))
-        for name in ("rt.mcap", "rt.mcap.serial.bin"):
+        for name in ("rt.mcap", "rt.serial.bin", ".rt.mcap.partial"):
             (cwd / name).write_text("")
         return subprocess.CompletedProcess(cmd, 1, "real time: ...; lost rate 5.00e-02\n")
 
+    (tmp_path / "rt_other.mcap").write_text("")     # another command's: kept
     monkeypatch.setattr(doc_blocks, "run_command", lost)
     with pytest.raises(pytest.skip.Exception, match="could not keep real time"):
         run_keeping_real_time(".venv/bin/bench run g2 --realtime --out rt.mcap", tmp_path)
-    assert seen == [[], []]
+    assert seen == [["rt_other.mcap"], ["rt_other.mcap"]]
 
 
 # ---- what a block needs -----------------------------------------------------------------------
