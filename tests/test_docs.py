@@ -508,3 +508,34 @@ def test_the_figures_of_a_whole_g2_recording_in_api_md(tmp_path):
         if (value != got[key]) if exact else abs(value - got[key]) > SIZE_TOLERANCE * got[key]:
             wrong.append(f"{key}: the page says {value:g}, today {got[key]:.4g}")
     assert not wrong, "docs/api.md: " + "; ".join(wrong)
+
+
+# ---- README's figures that no block prints --------------------------------------------------------
+
+def test_the_example_captures_are_the_size_the_readme_says():
+    quoted = re.search(r"one 0\.3 s bench run in each format, (\d+) kB together",
+                       " ".join((REPO / "README.md").read_text().split()))
+    assert quoted, "README.md: the example captures' size is not quoted any more"
+    size_kb = sum(p.stat().st_size for p in (REPO / "examples" / "captures").glob("example*")) / 1e3
+    assert round(size_kb) == int(quoted.group(1)), f"README.md says {quoted.group(1)} kB, {size_kb:.1f}"
+
+
+def test_the_claims_runs_the_readme_counts(monkeypatch, tmp_path):
+    """`bench claims --run` prints how many runs it starts before it starts them ("N runs (J in
+    parallel) for claims ..."): README's count is that one, taken from the command's own code with
+    the runs themselves left out (the residual study adds runs at its flips after those)."""
+    from hil_bench.papers import report
+
+    class Planned(Exception):
+        pass
+
+    def execute(runs, *args, **kwargs):
+        raise Planned(len(runs))
+
+    monkeypatch.setattr(report, "execute", execute)
+    with pytest.raises(Planned) as planned:
+        report.run_report(tmp_path / "claims")
+    quoted = re.search(r"`\.venv/bin/bench claims --run` \(([\d ]+) runs",
+                       " ".join((REPO / "README.md").read_text().split()))
+    assert quoted, "README.md: the count of `bench claims --run`'s runs is not quoted any more"
+    assert int(quoted.group(1).replace(" ", "")) == planned.value.args[0]
