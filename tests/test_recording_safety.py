@@ -322,12 +322,12 @@ def test_a_starved_recorder_is_working_a_stopped_one_is_not(tmp_path):
         spin.kill()
         spin.wait()
     rec = ProcessRecorder(tmp_path / "idle.mcap")
+    os.kill(rec.pid, signal.SIGSTOP)
     try:
-        # idle (blocked on its pipe): not runnable, and no CPU used since "now"
-        assert rec._working(rec._cpu_s() + 1.0) == (False, pytest.approx(rec._cpu_s()))
-        os.kill(rec.pid, signal.SIGSTOP)
+        while process_runnable(rec.pid):          # the stop takes effect
+            time.sleep(0.01)
         assert rec._working(0.0)[0]               # it did use CPU since 0
-        assert not rec._working(rec._cpu_s())[0]  # but none since, and stopped
-        os.kill(rec.pid, signal.SIGCONT)
+        assert not rec._working(rec._cpu_s())[0]  # but none since, and it is stopped
     finally:
+        os.kill(rec.pid, signal.SIGCONT)
         rec.close()
