@@ -278,3 +278,62 @@ def test_runaways_end_as_named_overcurrents(tmp_path, run_id):
         if run_id in q.runs and not q.study and not q.aggregate:
             _, verdict, note = cl.measure(q, ctx)
             assert "SENSOR_FAULT" not in note and "over-current" in note, (q.key, note)
+
+
+def _speed_recording(speed_rpm, ts=1e-4):
+    from pathlib import Path
+
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recording import Recording
+    t = np.arange(speed_rpm.size) * ts
+    return Recording(Path("synthetic.mcap"), metadata={"run": {"plant_params": "{}"}}, topics={
+        ch.PLANT_STATE: {"t_s": t, "speed_rpm": speed_rpm},
+        ch.CONTROLLER_TELEMETRY: {"t_s": t, "speed_hat_rpm": speed_rpm + 0.5}})
+
+
+def test_a_comparator_off_its_point_is_untested_and_so_are_its_relations():
+    """issue 27, 4: a row on the bench's reconstruction of a cited method that did not hold its
+    operating point is UNTESTED, not FAIL, and so is every relation over it; a row of the paper's
+    own method off its point still FAILs the relation."""
+    import dataclasses
+
+    from hil_bench.claims.model import Quantity, Relation, at_most
+    from hil_bench.papers.claim_metrics import Context
+    stalled = _speed_recording(np.full(5000, 0.3))       # a 10 rpm run stalled at 0.3 rpm
+    ctx = Context(stalled, (0.1, 0.5), 10.0, 4, 1e-4)
+    q = Quantity("X.conv.10", "w", "speed_est_error_rpm", 4.0, at_most(4.0, "s", "within ±x"),
+                 "X.conv", at_speed_rpm=10.0)
+    assert cl.measure(q, ctx)[1] == "FAIL"
+    comp = dataclasses.replace(q, comparator="the bench's sign SMO")
+    v, verdict, note = cl.measure(comp, ctx)
+    assert verdict == "UNTESTED" and "the bench's sign SMO" in note and "did not hold" in note
+    rel = Relation("X.10", "improved < conventional", ("X.imp.10", "X.conv.10"), "<", "1.5 < 4",
+                   "s", words="better / faster / less / falls")
+    vals = {"X.imp.10": 1.0, "X.conv.10": 0.5}
+    off = frozenset({"X.conv.10"})
+    assert cl.relate(rel, vals, off_point=off, untested={"X.conv.10": "why"})[1] == "UNTESTED"
+    assert cl.relate(rel, vals, off_point=off)[1] == "FAIL"
+    both = frozenset({"X.imp.10", "X.conv.10"})          # the paper's own method off: FAIL
+    assert cl.relate(rel, vals, off_point=both, untested={"X.conv.10": "why"})[1] == "FAIL"
+
+
+def test_a_steady_state_row_on_a_settling_window_is_not_measured_as_steady():
+    """issue 27, 1: a window that still holds a settling transient is flagged, not used: the
+    row fails as a drive that did not hold a steady speed (COMPARED rows keep their verdict and
+    say so); a transient row is exempt."""
+    import dataclasses
+
+    from hil_bench.claims.model import Quantity, at_most, compared
+    from hil_bench.papers.claim_metrics import Context
+    t = np.arange(5000) * 1e-4
+    settling = _speed_recording(2000 + 9.0 * np.exp(-t / 0.03))
+    ctx = Context(settling, (0.0, 0.5), 2000.0, 4, 1e-4)
+    q = Quantity("X.sf", "w", "speed_band_hat_rpm", 24.0, at_most(24.0, "s", "±x"), "X",
+                 at_speed_rpm=2000.0)
+    v, verdict, note = cl.measure(q, ctx)
+    assert verdict == "FAIL" and "did not hold a steady speed" in note and v < 24.0
+    c = dataclasses.replace(q, rule=compared("s", "x"))
+    assert cl.measure(c, ctx)[1] == "COMPARED"
+    assert cl.measure(dataclasses.replace(q, transient=True), ctx)[1] == "PASS"
+    later = Context(settling, (0.3, 0.5), 2000.0, 4, 1e-4)    # after the tail: steady
+    assert cl.measure(q, later)[1] == "PASS"
