@@ -70,7 +70,9 @@ def test_pass_or_fail_only_across_the_range_else_depends_with_the_threshold():
     assert "Hou gives no dead time" in held.text()
     fails = _result([(v * us, "FAIL") for v in (0.5, 1.0, 1.78, 2.5, 3.0)])
     assert asm.verdict_across("FAIL", [fails]) == "FAIL"
-    assert fails.threshold() == "holds at no dead time of 0.5 us-3 us"
+    assert fails.threshold() == "holds at no dead time of 0.5-3 us"
+    assert fails.short() == ("dead time: holds at no dead time of 0.5-3 us (Hou gives no dead time "
+                             "(no power stage is named); the scenarios' 1.78 us is Yuan's fit)")
     passes = _result([(v * us, "PASS") for v in (0.5, 1.0, 1.78, 2.5, 3.0)])
     assert asm.verdict_across("PASS", [passes, fails]) == "DEPENDS"
     assert asm.verdict_across("PASS", [passes]) == "PASS"
@@ -115,3 +117,15 @@ def test_a_comparator_finding_says_where_it_holds():
     none = cmp.finding({"points": [cmp.Point("Y1", "r", st, cmp.PLANTS[0][0], False, [row])]},
                        "Y1")
     assert none.startswith("no sourced setting holds")
+
+
+def test_a_partly_claim_holds_and_a_point_without_pass_fail_does_not_vote():
+    """G6 is PARTLY (its lags pass, its i_q relations are NOT RESOLVED): it holds at a point; a
+    point whose verdict has no pass/fail (NOT RESOLVED, UNTESTED, INVALID) does not vote."""
+    us = 1e-6
+    partly = _result([(v * us, "PARTLY") for v in (0.5, 1.0, 1.78, 2.5, 3.0)])
+    assert asm.verdict_across("PARTLY", [partly]) == "PARTLY"
+    mixed = _result([(0.5 * us, "PARTLY"), (1.78 * us, "PARTLY"), (3.0 * us, "FAIL")])
+    assert asm.verdict_across("PARTLY", [mixed]) == "DEPENDS"
+    quiet = _result([(0.5 * us, "UNTESTED"), (1.78 * us, "FAIL"), (3.0 * us, "NOT RESOLVED")])
+    assert asm.verdict_across("FAIL", [quiet]) == "FAIL"

@@ -337,3 +337,21 @@ def test_a_steady_state_row_on_a_settling_window_is_not_measured_as_steady():
     assert cl.measure(dataclasses.replace(q, transient=True), ctx)[1] == "PASS"
     later = Context(settling, (0.3, 0.5), 2000.0, 4, 1e-4)    # after the tail: steady
     assert cl.measure(q, later)[1] == "PASS"
+
+
+def test_a_comparator_that_faulted_before_its_window_is_untested():
+    """H2's super-twisting comparator trips over-current before the load step: no value at all,
+    UNTESTED (the paper's own method faulting stays FAIL)."""
+    import dataclasses
+
+    from hil_bench.claims.model import Quantity, compared
+    from hil_bench.papers.claim_metrics import Context
+    rec = _speed_recording(np.full(3000, 10.0))
+    rec.metadata["run_result"] = {"error": "at cycle 3000: controller fault: controller reported "
+                                           "fault OVERCURRENT at seq 3000 (detail 9995)"}
+    ctx = Context(rec, (0.6, 1.2), 10.0, 3, 1e-4)           # the window after the recording ends
+    q = Quantity("X.smo.resp", "w", "response_time_ms", 6.5, compared("s", "x"), "X.smo",
+                 params=(("t_event_s", 0.8),))
+    assert cl.measure(q, ctx)[1] == "FAIL"
+    v, verdict, note = cl.measure(dataclasses.replace(q, comparator="the bench's STA"), ctx)
+    assert verdict == "UNTESTED" and "OVERCURRENT" in note and "the bench's STA" in note

@@ -46,9 +46,13 @@ class Axis:
     default_source: str                  # where the scenarios' value comes from
     range_source: str                    # where the range comes from
     variant: Callable[[Run, float], Run]  # the run at a value (the default: the run itself)
+    origin: str = ""                     # the scenarios' value in a few words ("Yuan's fit")
 
     def fmt(self, v: float) -> str:
         return f"{v * self.scale:.3g} {self.unit}".strip()
+
+    def fmt_range(self, lo: float, hi: float) -> str:
+        return f"{lo * self.scale:.3g}-{hi * self.scale:.3g} {self.unit}".strip()
 
     def is_default(self, v: float) -> bool:
         return math.isclose(v, self.default, rel_tol=1e-9, abs_tol=1e-15)
@@ -94,7 +98,7 @@ def _dead_time_variant(run: Run, t_s: float) -> Run:
 
 def dead_time_axis(paper: str, default_source: str) -> Axis:
     return Axis("dead time", "us", 1e6, 1.78e-6, DEAD_TIMES_S, paper, default_source,
-                DEAD_TIME_RANGE, _dead_time_variant)
+                DEAD_TIME_RANGE, _dead_time_variant, "Yuan's fit")
 
 
 #: the node capacitance (both devices' output capacitance, snubber, cable) of a leg
@@ -113,9 +117,9 @@ def _node_cap_variant(run: Run, scale: float) -> Run:
 
 
 def node_cap_axis(paper: str) -> Axis:
-    return Axis("node capacitance", "x 0.9 nF", 1.0, 1.0, NODE_CAP_SCALES, paper,
+    return Axis("node capacitance", "nF", 0.9, 1.0, NODE_CAP_SCALES, paper,
                 "0.9 nF: plant_rt/profiles (C_node ~0.9 nF: both devices' C_oss, snubber, cable)",
-                NODE_CAP_RANGE, _node_cap_variant)
+                NODE_CAP_RANGE, _node_cap_variant, "the profiles' estimate")
 
 
 #: the residual's plausible range: no figure could be sourced (docs/inverter_comp.md)
@@ -129,7 +133,7 @@ RESIDUAL_RANGE = (
 def residual_axis(paper: str) -> Axis:
     return Axis("compensation residual", "%", 100.0, rs.REALISTIC, RESIDUALS, paper,
                 "5 %: the scenarios' [controller.inverter_comp] residual (an assumption)",
-                RESIDUAL_RANGE, rs.variant)
+                RESIDUAL_RANGE, rs.variant, "an assumption")
 
 
 _YUAN_RES = "Yuan describes no dead-time compensation"
@@ -208,10 +212,11 @@ class AxisResult:
         pts = sorted(self.points, key=lambda p: p.value)
         held = [p for p in pts if p.holds]
         a = self.axis
+        span = a.fmt_range(pts[0].value, pts[-1].value)
         if not held:
-            return f"holds at no {a.name} of {a.fmt(pts[0].value)}-{a.fmt(pts[-1].value)}"
+            return f"holds at no {a.name} of {span}"
         if len(held) == len(pts):
-            return f"holds at every {a.name} of {a.fmt(pts[0].value)}-{a.fmt(pts[-1].value)}"
+            return f"holds at every {a.name} of {span}"
         idx = [pts.index(p) for p in held]
         contiguous = idx == list(range(idx[0], idx[-1] + 1))
         if contiguous and idx[0] == 0:
@@ -227,18 +232,32 @@ class AxisResult:
         return (f"{a.name}: {self.threshold()}; {a.paper}; the scenarios' "
                 f"{a.default_source}; plausible {a.range_source.split(':')[0]}")
 
+    def short(self) -> str:
+        """The summary table's line: the threshold, what the paper gives, the bench's value."""
+        a = self.axis
+        return (f"{a.name}: {self.threshold()} ({a.paper}; the scenarios' {a.fmt(a.default)} is "
+                f"{a.origin})")
+
 
 #: the verdicts a claim can only have as its own, whatever the axes say
 _NO_PASS_FAIL = ("COMPARED", "NOT REPRODUCIBLE", "UNTESTED", "NOT RESOLVED", "INVALID")
 
 
+def vote(verdict: str) -> bool | None:
+    """A point's vote: it holds (PASS, COMPARED, PARTLY), it fails (FAIL), or it has no
+    pass/fail to give (INVALID: the bench could not measure; NOT REPRODUCIBLE, NOT RESOLVED,
+    UNTESTED)."""
+    if verdict in HOLDS:
+        return True
+    return False if verdict == "FAIL" else None
+
+
 def verdict_across(own: str, results: list[AxisResult]) -> str:
     """A claim's verdict over its axes: its own verdict if that is no pass/fail (or no axis);
-    PASS or FAIL (PARTLY) if every point of every axis agrees; DEPENDS otherwise. A point the
-    bench could not measure (INVALID) does not vote."""
+    its own (or FAIL) if every voting point of every axis holds (fails); DEPENDS otherwise."""
     if own in _NO_PASS_FAIL or not results:
         return own
-    votes = {p.holds for r in results for p in r.points if p.verdict != "INVALID"}
+    votes = {vote(p.verdict) for r in results for p in r.points} - {None}
     if votes == {True}:
         return own
     if votes == {False}:
@@ -274,7 +293,7 @@ def summary(assump: dict[str, Any], cid: str) -> tuple[str | None, str]:
     c = (assump or {}).get("claims", {}).get(cid)
     if c is None:
         return None, NO_AXIS.get(cid, "")
-    return c["verdict"], " | ".join(r.text() for r in c["axes"])
+    return c["verdict"], "; ".join(r.short() for r in c["axes"])
 
 
 #: what the summary says of a claim without an axis

@@ -257,6 +257,8 @@ def measure_with_resolution(q: Quantity, ctx: Context) -> tuple[float, str, str,
     except MetricAtLeast as exc:
         value, at_least = exc.value, str(exc)
     except MetricUnavailable as exc:
+        if kind == "FAIL" and q.comparator:
+            return math.nan, "UNTESTED", comparator_note(q, why), 0.0
         if kind:
             return math.nan, kind, why, 0.0
         return math.nan, "INVALID", str(exc), 0.0
