@@ -129,3 +129,8 @@ def test_a_partly_claim_holds_and_a_point_without_pass_fail_does_not_vote():
     assert asm.verdict_across("PARTLY", [mixed]) == "DEPENDS"
     quiet = _result([(0.5 * us, "UNTESTED"), (1.78 * us, "FAIL"), (3.0 * us, "NOT RESOLVED")])
     assert asm.verdict_across("FAIL", [quiet]) == "FAIL"
+
+
+def test_an_axis_without_pass_or_fail_says_so():
+    nr = _result([(v * 1e-6, "NOT REPRODUCIBLE") for v in (0.5, 1.78, 3.0)])
+    assert nr.threshold() == "no pass/fail at any dead time of 0.5-3 us (NOT REPRODUCIBLE)"

@@ -645,6 +645,8 @@ def switching(spec: Spec, runs: list[Run], quantities: list[Quantity],
                                     diagnostic=rel.diagnostic or diagnostic)
                 for rel in relations
                 if all(k in keys for k in rel.keys if not k.startswith("#"))]
+    out_runs += [_then(by_id[r], ".sw.shadow", SHADOW_OVERRIDES, SHADOW_LABEL) for r in shadow]
+    out_qs += [twin(q, ".sw.shadow", SHADOW_TAG, True) for q in rows_on(shadow)]
     if decides:                              # the averaged rows and relations: diagnostic now
         moved = {k for k in keys}
         quantities[:] = [dataclasses.replace(q, what=q.what + AVERAGED_TAG, diagnostic=True,
@@ -655,8 +657,6 @@ def switching(spec: Spec, runs: list[Run], quantities: list[Quantity],
         relations[:] = [dataclasses.replace(rel, what=rel.what + AVERAGED_TAG, diagnostic=True)
                         if rel.key in twinned_rels and not rel.diagnostic else rel
                         for rel in relations]
-    out_runs += [_then(by_id[r], ".sw.shadow", SHADOW_OVERRIDES, SHADOW_LABEL) for r in shadow]
-    out_qs += [twin(q, ".sw.shadow", SHADOW_TAG, True) for q in rows_on(shadow)]
     setup = ("rows marked [switching inverter]: the same runs on the " + SWITCHING_SETUP
              + ("; they decide the claim, the averaged plant's rows are diagnostic" if decides
                 else ""))

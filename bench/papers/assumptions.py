@@ -213,6 +213,9 @@ class AxisResult:
         held = [p for p in pts if p.holds]
         a = self.axis
         span = a.fmt_range(pts[0].value, pts[-1].value)
+        if all(vote(p.verdict) is None for p in pts):
+            return (f"no pass/fail at any {a.name} of {span} ("
+                    + ", ".join(dict.fromkeys(p.verdict for p in pts)) + ")")
         if not held:
             return f"holds at no {a.name} of {span}"
         if len(held) == len(pts):
