@@ -268,10 +268,11 @@ def verdict_across(own: str, results: list[AxisResult]) -> str:
     return "DEPENDS"
 
 
-def evaluate(pl: Plan, rep, judge: Judge) -> dict[str, Any]:
-    """Per claim: its axes' points (the default point is the claim's own verdict, from the
-    report's rows), its verdict across them and the text the summary shows."""
-    from .report import claim_verdict
+def evaluate(pl: Plan, rep, judge: Judge, claim_verdict: Callable[[list], str]) -> dict[str, Any]:
+    """Per claim: its axes' points (the default point is the claim's own verdict from the
+    report's rows, by the report's ``claim_verdict``), its verdict across them and the text the
+    summary shows. The report hands its own judge and verdict (as to the residual study), so
+    this module does not import the report that imports it."""
     out: dict[str, Any] = {"claims": {}}
     for cid in pl.claims:
         own_rows = [r for r in rep.rows if r.claim == cid]

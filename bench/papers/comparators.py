@@ -25,7 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 from hil_bench.claims.model import Claim, Run
 from hil_bench.claims.registry import CLAIMS
@@ -127,8 +127,9 @@ def _claim_of(c: Claim, run: Run, var: Run) -> Claim:
     return dataclasses.replace(c, quantities=qs, relations=(), runs=(var,))
 
 
-def evaluate(pl: Plan, rep) -> dict[str, Any]:
-    from .report import measure_claims
+def evaluate(pl: Plan, rep, measure_claims: Callable[..., list]) -> dict[str, Any]:
+    """Each point's comparator rows, measured by the report's ``measure_claims`` (handed in, so
+    this module does not import the report that imports it)."""
     pts = []
     for cid, run, st, plant, var in pl.points:
         rows = measure_claims([_claim_of(CLAIMS[cid], run, var)], rep.outcomes, {}, {})

@@ -829,11 +829,11 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
         rep.residual["refine_s"] = time.monotonic() - t_res
     if assumptions_plan is not None and assumptions_plan.claims:
         from . import assumptions as asm
-        rep.assumptions = asm.evaluate(assumptions_plan, rep, judge_claim)
+        rep.assumptions = asm.evaluate(assumptions_plan, rep, judge_claim, claim_verdict)
         _write_aside(out_dir / "assumptions.json", json.dumps(asm.to_json(rep.assumptions), indent=1))
     if comparators_plan is not None and comparators_plan.points:
         from . import comparators as cmp
-        rep.comparators = cmp.evaluate(comparators_plan, rep)
+        rep.comparators = cmp.evaluate(comparators_plan, rep, measure_claims)
         _write_aside(out_dir / "comparators.json", json.dumps(cmp.to_json(rep.comparators), indent=1))
     if bandwidth_plan is not None and bandwidth_plan.sweeps:
         from . import bandwidth as bw
