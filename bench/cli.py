@@ -473,11 +473,11 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         except ValueError as exc:
             console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
             return 2
-        from hil_bench.papers.report import claim_summary
+        from hil_bench.papers.report import summary_row
         out = console()
         for c in rep.claims:
-            verdict, _paper, _measured, reason = claim_summary(
-                c, [r for r in rep.rows if r.claim == c.id])
+            verdict, _assumption, _paper, _measured, reason = summary_row(
+                rep, c, [r for r in rep.rows if r.claim == c.id])
             out.print(escape(f"{c.id:3s} {verdict:17s} {reason}"))
         if rep.residual:
             from hil_bench.papers.residual import summary
