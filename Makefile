@@ -73,8 +73,10 @@ wheel: $(STAMP)
 	$(VPY) -m pip wheel --no-deps -q -w $(DIST) -C build-dir=$(BUILD)/wheel .
 	@ls $(DIST)/hil_bench-*.whl
 
+# pytest-xdist: one worker per CPU; the real-time tests on one of them, one after the other, and
+# each module's shared fixture made once (tests/conftest.py, docs/performance.md "The test suite")
 test-py: build wheel
-	HIL_WHEEL=$$(ls $(DIST)/hil_bench-*.whl) $(VPY) -m pytest -q tests
+	HIL_WHEEL=$$(ls $(DIST)/hil_bench-*.whl) $(VPY) -m pytest -q -n auto --dist loadgroup tests
 
 test: build test-c sanitize wheel test-py
 

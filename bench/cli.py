@@ -360,16 +360,29 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         err.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     require_extra("bench campaign", "distributed")   # its runs go to a Dask cluster
-    out_dir = Path(args.out) if args.out else Path("reports") / "campaigns" / camp.name
+    default_dir = Path("reports") / "campaigns" / camp.name
+    out_dir = Path(args.out) if args.out else default_dir
     refuse_output_is_input([out_dir, out_dir / "results.md", out_dir / "results.csv",
                             out_dir / "recordings"],
                            [("campaign file", camp.path), ("base scenario", camp.base_path)])
     if args.link is not None:
         check_link_spec(args.link)
+    from hil_bench.sweep.folder import FolderBusy, claim_folder
+
+    try:   # one campaign per folder: a second one started beside it takes a folder of its own
+        out_dir, lock, note = claim_folder(Path(args.out) if args.out else None, default_dir,
+                                           "bench campaign")
+    except (FolderBusy, OSError) as exc:
+        err.print(f"[red]error:[/red] {escape(str(exc))}")
+        return 2
+    if note:
+        err.print(escape(note))
     t0 = time.monotonic()
-    results = run_campaign(camp, out_dir, jobs=args.jobs, link=args.link, keep_all=args.keep_all,
-                           console=err, scheduler=args.scheduler, progress=not args.no_progress)
-    md = write_report(camp, results, out_dir, time.monotonic() - t0)
+    with lock:
+        results = run_campaign(camp, out_dir, jobs=args.jobs, link=args.link,
+                               keep_all=args.keep_all, console=err, scheduler=args.scheduler,
+                               progress=not args.no_progress)
+        md = write_report(camp, results, out_dir, time.monotonic() - t0)
     out = console()
     for r in results:
         colour = {"PASS": "green", "FAIL": "red"}.get(r.verdict, "yellow")
@@ -410,6 +423,11 @@ def _claim_ids(text: str) -> list[str] | None:
     return ids or None
 
 
+#: ``bench claims --run``'s report folder without ``--out`` (another one beside it while a claims
+#: run writes it: sweep.folder.claim_folder)
+CLAIMS_DEFAULT_OUT = Path("reports/claims")
+
+
 def _claims_out_checked(out: Path) -> None:
     """The report folder is not one of the claims' own inputs (the registry, the scenarios)."""
     from hil_bench.claims import registry
@@ -425,10 +443,10 @@ def _claims_out_checked(out: Path) -> None:
 
 
 def _cmd_claims(args: argparse.Namespace) -> int:
-    from hil_bench.claims.model import METRIC_DEFINITIONS
-    from hil_bench.claims.registry import CLAIMS
-
     only = _claim_ids(args.only)
+    args.out_given = args.out
+    if args.out is None:
+        args.out = CLAIMS_DEFAULT_OUT
     if args.run:   # the runs go to a Dask cluster; the report of the stub's runs has plots
         from hil_bench.installation import require_extra
 
@@ -442,6 +460,28 @@ def _cmd_claims(args: argparse.Namespace) -> int:
 
         progress_console = Console(stderr=True, force_terminal=False, force_interactive=False,
                                    width=progress_console.width, soft_wrap=True)
+
+    lock = None
+    if args.run:   # one claims run per folder: a second one beside it takes a folder of its own
+        from hil_bench.sweep.folder import FolderBusy, claim_folder
+
+        try:
+            args.out, lock, note = claim_folder(args.out_given, Path(args.out), "bench claims")
+        except (FolderBusy, OSError) as exc:
+            console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
+            return 2
+        if note:
+            progress_console.print(escape(note))
+    try:
+        return _claims_run_or_list(args, only, progress_console)
+    finally:
+        if lock is not None:
+            lock.__exit__()
+
+
+def _claims_run_or_list(args: argparse.Namespace, only, progress_console) -> int:
+    from hil_bench.claims.model import METRIC_DEFINITIONS
+    from hil_bench.claims.registry import CLAIMS
 
     if args.run and args.link != "stub":
         from hil_bench.papers.rungs import run_rungs
@@ -473,11 +513,11 @@ def _cmd_claims(args: argparse.Namespace) -> int:
         except ValueError as exc:
             console(stderr=True).print(f"[red]error:[/red] {escape(str(exc))}")
             return 2
-        from hil_bench.papers.report import claim_summary
+        from hil_bench.papers.report import summary_row
         out = console()
         for c in rep.claims:
-            verdict, _paper, _measured, reason = claim_summary(
-                c, [r for r in rep.rows if r.claim == c.id])
+            verdict, _assumption, _paper, _measured, reason = summary_row(
+                rep, c, [r for r in rep.rows if r.claim == c.id])
             out.print(escape(f"{c.id:3s} {verdict:17s} {reason}"))
         if rep.residual:
             from hil_bench.papers.residual import summary
@@ -646,7 +686,8 @@ def build_parser() -> argparse.ArgumentParser:
                                         "detection and reaction against the file's limits")
     g.add_argument("campaign", help="a bundled campaign's name (g2_protection) or a campaign "
                                     "TOML file")
-    g.add_argument("--out", help="report folder (default reports/campaigns/<name>)")
+    g.add_argument("--out", help="report folder (default reports/campaigns/<name>, or a new "
+                                 "<name>-<time>-<pid> beside it while another campaign writes it)")
     g.add_argument("--jobs", type=positive_int, default=None,
                    help="local Dask cluster: worker processes (default: one per core)")
     g.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
@@ -676,8 +717,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --run: run the claims' scenarios against this controller too "
                         "(pil-qemu, serial:..., can:...) and set each verdict beside the host "
                         "stub's in <out>/rungs.md (one run at a time on a single device)")
-    k.add_argument("--out", type=Path, default=Path("reports/claims"),
-                   help="report folder (default reports/claims)")
+    k.add_argument("--out", type=Path, default=None,
+                   help="report folder (default reports/claims, or a new reports/claims-<time>-"
+                        "<pid> beside it while another claims run writes it)")
     k.add_argument("--jobs", type=positive_int, default=None,
                    help="local Dask cluster: worker processes (default: the number of cores, "
                         "at most 4)")

@@ -56,22 +56,29 @@ def test_pll_keeps_zeta_and_sends_both_gains():
 
 
 def test_plan_runs_each_swept_run_at_each_scale():
+    """Every sweep at the scenarios' residual and at 0 % (issue 27, 6: at 5 % every Y point
+    stalled), on the runs that decide (the switching plant's twins)."""
     pl = bw.plan(["Y1", "H1"])
-    assert {(s.claim, s.bandwidth) for s in pl.sweeps} == {
-        ("Y1", "pll"), ("Y1", "smo_wc"), ("H1", "hfi_bw"), ("H1", "pll")}
+    assert {(s.claim, s.bandwidth, s.residual) for s in pl.sweeps} == {
+        (c, b, r) for c, b in (("Y1", "pll"), ("Y1", "smo_wc"), ("H1", "hfi_bw"), ("H1", "pll"))
+        for r in (None, 0.0)}
     ids = [r.id for r in pl.runs]
     assert len(ids) == len(set(ids))
     n = len(bw.SCALES)
-    # Y1: both runs swept by both bandwidths; H1: one run per bandwidth (the other is its own)
-    assert len(ids) == 2 * 2 * n + 1 * n + 1 * n
+    # Y1: both runs swept by both bandwidths at both residuals; H1: one run per bandwidth (the
+    # other is its own at the scenarios' residual, its 0 % copy at 0 %: one run each)
+    assert len(ids) == 2 * 2 * n * 2 + 2 * (2 * n + 1)
     own = {r.id for c in ("Y1", "H1") for r in CLAIMS[c].runs}
     assert not own & set(ids)
     hfi = [r for r in pl.runs if r.id.startswith("bw.hfi_bwx")]
-    assert hfi and all(r.id.endswith(".H1.hfi") for r in hfi)
+    assert hfi and all(r.id.endswith(".H1.hfi.sw") for r in hfi)
     for r in hfi:
         s = _scale_of(r.id)
-        assert dict(r.overrides)["controller.params.HFI_BW_RAD_S"] == pytest.approx(300.0 * s)
-    quick = bw.plan(["Y1"], bw.QUICK_SCALES)
+        ov = dict(r.overrides)
+        assert ov["controller.params.HFI_BW_RAD_S"] == pytest.approx(300.0 * s)
+        assert ov.get("controller.inverter_comp.residual", 0.05) == (0.0 if ".r0." in r.id
+                                                                     else 0.05)
+    quick = bw.plan(["Y1"], bw.QUICK_SCALES, residuals=(None,))
     assert len(quick.runs) == 2 * 2 * len(bw.QUICK_SCALES)
     assert bw.plan(["G2"]).sweeps == []
 
@@ -79,9 +86,13 @@ def test_plan_runs_each_swept_run_at_each_scale():
 def test_claim_at_reads_the_variants_and_keeps_the_unswept_run():
     c = bw.claim_at(CLAIMS["H1"], bw.HFI_BW, 2.0)
     runs = {q.key: q.runs for q in c.quantities}
-    assert runs["H1.hfi.10"] == ("bw.hfi_bwx2.H1.hfi",)
-    assert runs["H1.smo.10"] == ("H1.smo",)                 # SMO_STA has no HFI loop
-    assert {rel.key for rel in c.relations} == {"H1.10", "H1.50"}
+    assert runs["H1.hfi.10.sw"] == ("bw.hfi_bwx2.H1.hfi.sw",)
+    assert runs["H1.smo.10.sw"] == ("H1.smo.sw",)           # SMO_STA has no HFI loop
+    assert {rel.key for rel in c.relations} == {"H1.10.sw", "H1.50.sw"}
+    c0 = bw.claim_at(CLAIMS["H1"], bw.HFI_BW, 2.0, 0.0)      # at 0 % residual: both runs copied
+    runs0 = {q.key: q.runs for q in c0.quantities}
+    assert runs0["H1.hfi.10.sw"] == ("bw.hfi_bwx2.r0.H1.hfi.sw",)
+    assert runs0["H1.smo.10.sw"] == ("r0.H1.smo.sw",)
     assert all(not q.diagnostic for q in c.quantities)
     assert len(base_runs(CLAIMS["Y8"])) == 5
 
@@ -126,7 +137,7 @@ def test_a_points_recording_carries_the_scaled_bandwidth(tmp_path: Path):
 
 def _scale_of(run_id: str) -> float:
     """The scale of a point's run id: 'bw.hfi_bwx0.5.H1.hfi' -> 0.5."""
-    m = re.match(r"^bw\.[a-z_]+x([0-9.]+)\.(?=[A-Z])", run_id)
+    m = re.match(r"^bw\.[a-z_]+x([0-9]+(?:\.[0-9]+)?)\.(?:r[0-9.]+?\.)?(?=[A-Z])", run_id)
     assert m, run_id
     return float(m.group(1))
 
@@ -170,7 +181,7 @@ def test_the_report_section_tables_each_sweep(tmp_path: Path):
     from hil_bench.papers.report import _img
 
     (tmp_path / "plots").mkdir()
-    pl = bw.plan(["H1"], (0.5, 1.0, 2.0))
+    pl = bw.plan(["H1"], (0.5, 1.0, 2.0), residuals=(None,))
     err = {0.5: 2.5, 1.0: 1.2, 2.0: 0.8}
 
     def judge(claim, outcomes):
@@ -185,7 +196,8 @@ def test_the_report_section_tables_each_sweep(tmp_path: Path):
     assert all(p.exists() and p.stat().st_size > 10_000 for p in rep.bandwidth["plots"])
     md = "\n".join(bw.markdown(rep))
     assert "## Estimator-bandwidth sweeps" in md
-    assert "### H1 vs HFI tracking bandwidth (chosen: 300 rad/s)" in md
+    assert ("### H1 vs HFI tracking bandwidth at the scenarios' residual (chosen: 300 rad/s)"
+            in md)
     assert "H1 holds for HFI tracking bandwidth in [300, 600] rad/s (1 .. 2 x the chosen)" in md
     assert "| HFI tracking bandwidth (x chosen) | 150 rad/s (0.5 x) | 300 rad/s (1 x) | " \
            "600 rad/s (2 x) |" in md
@@ -197,7 +209,11 @@ def test_the_report_section_tables_each_sweep(tmp_path: Path):
     assert "<td class='FAIL'>2.5 rpm FAIL</td>" in html and "data:image/png;base64" in html
     data = bw.to_json(rep.bandwidth)
     assert data["H1.hfi_bw"]["holds_scales"] == [1.0, 2.0]
-    assert data["H1.hfi_bw"]["chosen_rad_s"] == {"H1.hfi": 300.0}
+    assert data["H1.hfi_bw"]["chosen_rad_s"] == {"H1.hfi.sw": 300.0}
+    # at 0 % residual the sweep has its own key, plot and heading
+    pl0 = bw.plan(["H1"], (0.5, 1.0, 2.0), sweeps=(("H1", "hfi_bw"),), residuals=(0.0,))
+    assert [s.key for s in pl0.sweeps] == ["H1.hfi_bw.r0"] and "at 0 % residual" in \
+        bw._sweep_title(pl0.sweeps[0])
     json.dumps(data)
 
 

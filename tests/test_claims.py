@@ -153,9 +153,11 @@ def test_derived_ratio_and_rule_on_derived_rows():
 
 
 def test_papers_words_decide_the_rules():
-    """issue 16.5: Y6 judged on the operations of the paper's recursions, with the library's
-    instructions beside (diagnostic relation); G7's 'slightly better' and H1's 'about +-3 rpm'
-    are reported values (COMPARED); G1/G5 say what the averaged plant cannot test."""
+    """issue 16.5 and 27.2: Y6 judged on the operations of the paper's recursions, with the
+    library's instructions beside (diagnostic relation); one reading of the papers' words: G7's
+    'slightly better' is an ordering checked like every other, H1's 'about +-3 rpm' a band
+    (bound) like Gong's '+-7.5 rpm', Y4's 'significantly decrease from 8.06 % to 6.01 %' judged
+    on its size; G1/G5 say what the averaged plant cannot test."""
     from hil_bench.papers import studies
     ops = studies.y6_ops()
     assert (ops["sdft_mul"], ops["sdft_add"]) == (16, 11)      # 5th + 7th, comb shared
@@ -168,17 +170,26 @@ def test_papers_words_decide_the_rules():
     assert rel["Y6.rel.protected"].diagnostic
     assert cl.relate(rel["Y6.rel"], {"Y6.saving.ops": ops["saving_ops"]})[1] == "FAIL"
     g7 = [r for r in registry.CLAIMS["G7"].relations if not r.diagnostic]
-    assert g7 and all(r.compared for r in g7)
-    vals, verdict, note = cl.relate(g7[0], {g7[0].keys[0]: 1.29, g7[0].keys[1]: 1.05})
-    assert verdict == "COMPARED" and "is not seen here" in note
-    assert cl.relate(g7[0], {g7[0].keys[0]: 1.0, g7[0].keys[1]: 1.05})[2].endswith("holds here")
+    assert g7 and not any(r.compared for r in g7)
+    assert cl.relate(g7[0], {g7[0].keys[0]: 1.29, g7[0].keys[1]: 1.05})[1] == "FAIL"
+    assert cl.relate(g7[0], {g7[0].keys[0]: 1.0, g7[0].keys[1]: 1.05})[1] == "PASS"
     h1 = {q.key: q for q in registry.CLAIMS["H1"].quantities}
-    for k, v in (("H1.hfi.10", 1.5), ("H1.hfi.50", 3.0)):
-        assert h1[k].rule.kind == "compared" and h1[k].paper_value == v
+    for k, v in (("H1.hfi.10.sw", 1.5), ("H1.hfi.50.sw", 3.0), ("H1.hfi.10.conclusion.sw", 3.0)):
+        assert h1[k].rule.kind == "at_most" and h1[k].rule.hi == v and not h1[k].diagnostic
+    assert (h1["H1.hfi.10.sw"].rule.words, registry.CLAIMS["G2"].quantities[0].rule.words) == \
+        ("about ±x", "±x")
+    y4 = {r.key: r for r in registry.CLAIMS["Y4"].relations}
+    thd = y4["Y4.10.THD"]
+    assert thd.min_fall == pytest.approx((8.06 - 6.01) / 8.06)    # the smallest fall it names
+    assert cl.relate(thd, {"Y4.10.on.THD": 8.35, "Y4.10.off.THD": 8.61})[1] == "FAIL"   # -3 %
+    assert cl.relate(thd, {"Y4.10.on.THD": 6.0, "Y4.10.off.THD": 8.06})[1] == "PASS"
+    assert cl.relate(thd, {"Y4.10.on.THD": 8.7, "Y4.10.off.THD": 8.6})[1] == "FAIL"    # rises
     g = {q.key: q for c in ("G1", "G5") for q in registry.CLAIMS[c].quantities}
-    for k in ("G1.m0.01.thd", "G1.m0.01.amp", "G5.td"):
+    for k in ("G1.m0.01.thd", "G1.m0.01.amp"):
         assert g[k].not_reproducible.startswith("the bench cannot test this with the averaged "
                                                 "plant"), k
+    # G5's number measures the bench's sampling chain, on either plant (issue 27, 3)
+    assert "sampling chain" in g["G5.td.sw"].not_reproducible
     # m >= 0.1 is unstable at the bench's 10 kHz whatever the plant: that reason stays
     assert "unstable" in g["G1.m1.thd"].not_reproducible
 
@@ -267,3 +278,80 @@ def test_runaways_end_as_named_overcurrents(tmp_path, run_id):
         if run_id in q.runs and not q.study and not q.aggregate:
             _, verdict, note = cl.measure(q, ctx)
             assert "SENSOR_FAULT" not in note and "over-current" in note, (q.key, note)
+
+
+def _speed_recording(speed_rpm, ts=1e-4):
+    from pathlib import Path
+
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recording import Recording
+    t = np.arange(speed_rpm.size) * ts
+    return Recording(Path("synthetic.mcap"), metadata={"run": {"plant_params": "{}"}}, topics={
+        ch.PLANT_STATE: {"t_s": t, "speed_rpm": speed_rpm},
+        ch.CONTROLLER_TELEMETRY: {"t_s": t, "speed_hat_rpm": speed_rpm + 0.5}})
+
+
+def test_a_comparator_off_its_point_is_untested_and_so_are_its_relations():
+    """issue 27, 4: a row on the bench's reconstruction of a cited method that did not hold its
+    operating point is UNTESTED, not FAIL, and so is every relation over it; a row of the paper's
+    own method off its point still FAILs the relation."""
+    import dataclasses
+
+    from hil_bench.claims.model import Quantity, Relation, at_most
+    from hil_bench.papers.claim_metrics import Context
+    stalled = _speed_recording(np.full(5000, 0.3))       # a 10 rpm run stalled at 0.3 rpm
+    ctx = Context(stalled, (0.1, 0.5), 10.0, 4, 1e-4)
+    q = Quantity("X.conv.10", "w", "speed_est_error_rpm", 4.0, at_most(4.0, "s", "within ±x"),
+                 "X.conv", at_speed_rpm=10.0)
+    assert cl.measure(q, ctx)[1] == "FAIL"
+    comp = dataclasses.replace(q, comparator="the bench's sign SMO")
+    v, verdict, note = cl.measure(comp, ctx)
+    assert verdict == "UNTESTED" and "the bench's sign SMO" in note and "did not hold" in note
+    rel = Relation("X.10", "improved < conventional", ("X.imp.10", "X.conv.10"), "<", "1.5 < 4",
+                   "s", words="better / faster / less / falls")
+    vals = {"X.imp.10": 1.0, "X.conv.10": 0.5}
+    off = frozenset({"X.conv.10"})
+    assert cl.relate(rel, vals, off_point=off, untested={"X.conv.10": "why"})[1] == "UNTESTED"
+    assert cl.relate(rel, vals, off_point=off)[1] == "FAIL"
+    both = frozenset({"X.imp.10", "X.conv.10"})          # the paper's own method off: FAIL
+    assert cl.relate(rel, vals, off_point=both, untested={"X.conv.10": "why"})[1] == "FAIL"
+
+
+def test_a_steady_state_row_on_a_settling_window_is_not_measured_as_steady():
+    """issue 27, 1: a window that still holds a settling transient is flagged, not used: the
+    row fails as a drive that did not hold a steady speed (COMPARED rows keep their verdict and
+    say so); a transient row is exempt."""
+    import dataclasses
+
+    from hil_bench.claims.model import Quantity, at_most, compared
+    from hil_bench.papers.claim_metrics import Context
+    t = np.arange(5000) * 1e-4
+    settling = _speed_recording(2000 + 9.0 * np.exp(-t / 0.03))
+    ctx = Context(settling, (0.0, 0.5), 2000.0, 4, 1e-4)
+    q = Quantity("X.sf", "w", "speed_band_hat_rpm", 24.0, at_most(24.0, "s", "±x"), "X",
+                 at_speed_rpm=2000.0)
+    v, verdict, note = cl.measure(q, ctx)
+    assert verdict == "FAIL" and "did not hold a steady speed" in note and v < 24.0
+    c = dataclasses.replace(q, rule=compared("s", "x"))
+    assert cl.measure(c, ctx)[1] == "COMPARED"
+    assert cl.measure(dataclasses.replace(q, transient=True), ctx)[1] == "PASS"
+    later = Context(settling, (0.3, 0.5), 2000.0, 4, 1e-4)    # after the tail: steady
+    assert cl.measure(q, later)[1] == "PASS"
+
+
+def test_a_comparator_that_faulted_before_its_window_is_untested():
+    """H2's super-twisting comparator trips over-current before the load step: no value at all,
+    UNTESTED (the paper's own method faulting stays FAIL)."""
+    import dataclasses
+
+    from hil_bench.claims.model import Quantity, compared
+    from hil_bench.papers.claim_metrics import Context
+    rec = _speed_recording(np.full(3000, 10.0))
+    rec.metadata["run_result"] = {"error": "at cycle 3000: controller fault: controller reported "
+                                           "fault OVERCURRENT at seq 3000 (detail 9995)"}
+    ctx = Context(rec, (0.6, 1.2), 10.0, 3, 1e-4)           # the window after the recording ends
+    q = Quantity("X.smo.resp", "w", "response_time_ms", 6.5, compared("s", "x"), "X.smo",
+                 params=(("t_event_s", 0.8),))
+    assert cl.measure(q, ctx)[1] == "FAIL"
+    v, verdict, note = cl.measure(dataclasses.replace(q, comparator="the bench's STA"), ctx)
+    assert verdict == "UNTESTED" and "OVERCURRENT" in note and "the bench's STA" in note

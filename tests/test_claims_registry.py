@@ -59,6 +59,7 @@ what = "true speed band"
 metric = "speed_band_true_rpm"
 paper_value = 24.0
 rule = "at_most"
+words = "±x"
 rule_source = "a test"
 run = "G3"
 
@@ -76,10 +77,10 @@ run = "G3"
 def test_a_rule_changed_is_one_line(tmp_path):
     """Changing a family's rule (Y8's at_most to compared) is one line of its table."""
     folder = _copy(tmp_path)
-    _edit(folder, "yuan2020.toml", 'rule = "at_most"\nrule_source = "Yuan Table 4',
-          'rule = "compared"\nrule_source = "Yuan Table 4')
+    _edit(folder, "yuan2020.toml", 'rule = "at_most"\nwords = "band in a table"\nrule_source = '
+          '"Yuan Table 4', 'rule = "compared"\nwords = "approximately x"\nrule_source = "Yuan Table 4')
     rows = registry.load(folder)["Y8"].quantities
-    assert {q.rule.kind for q in rows} == {"compared"} and len(rows) == 10
+    assert {q.rule.kind for q in rows} == {"compared"} and len(rows) == 15   # + switching twins
 
 
 @pytest.mark.parametrize("name, old, new, message", [
@@ -100,9 +101,24 @@ def test_a_rule_changed_is_one_line(tmp_path):
      "G1 relation G1.thd: no quantity G1.m2.thd"),
     ("gong2020.toml", 'run = "G2"\nat_speed_rpm = 500.0\ndiagnostic = true',
      'run = "G2.x"\nat_speed_rpm = 500.0\ndiagnostic = true', "G2 G2.sf.telemetry: no run G2.x"),
-    ("gong2020.toml", 'rule = "at_most"\nrule_source = "Gong V-A-b: \'within',
-     'rule = "below"\nrule_source = "Gong V-A-b: \'within',
+    ("gong2020.toml", 'rule = "at_most"\nwords = "within ±x"\nrule_source = "Gong V-A-b: \'within',
+     'rule = "below"\nwords = "within ±x"\nrule_source = "Gong V-A-b: \'within',
      "rule must be at_most, within or compared, got 'below'"),
+    # one reading of the papers' words: a row's rule is the one its words give
+    ("gong2020.toml", 'rule = "at_most"\nwords = "within ±x"\nrule_source = "Gong V-A-b: \'within',
+     'rule = "compared"\nwords = "within ±x"\nrule_source = "Gong V-A-b: \'within',
+     "G2 G2.pee: the words 'within ±x' give the rule at_most, the row has compared"),
+    ("gong2020.toml", 'rule = "at_most"\nwords = "within ±x"\nrule_source = "Gong V-A-b: \'within',
+     'rule = "at_most"\nwords = "inside ±x"\nrule_source = "Gong V-A-b: \'within',
+     "G2 G2.pee: words 'inside ±x' is no entry of the words table"),
+    ("hou2021.toml", 'keys = ["H1.hfi.10", "H1.smo.10"]\nop = "<"\npaper = "1.5 < 4 rpm"\n'
+     'source = "Hou 4.2"\nwords = "better / faster / less / falls"',
+     'keys = ["H1.hfi.10", "H1.smo.10"]\nop = "<"\npaper = "1.5 < 4 rpm"\n'
+     'source = "Hou 4.2"\nwords = "identical"',
+     "H1 relation H1.10: the words 'identical' give the test equal, the relation has ordering"),
+    ("common.toml", 'id = "about ±x"\nshape = "a band, read off a figure"\nrule = "at_most"',
+     'id = "about ±x"\nshape = "a band, read off a figure"\nrule = "compared"',
+     "the words 'about ±x' give the rule compared, the row has at_most"),
 ])
 def test_a_bad_file_is_refused_naming_where(tmp_path, name, old, new, message):
     folder = _copy(tmp_path)
@@ -122,23 +138,57 @@ def test_a_toml_syntax_error_names_the_file_and_line(tmp_path):
 def test_variants_follow_their_names():
     """A variant's run is the run with each change of its name in order; the eq. 5 floor only
     where the sign SMO closes the loop; a row on the run is measured on each copy."""
-    base = Run("X.smo", "hou_h2_smo", (("a", 1),), "sign SMO")
-    both = expand.vary_run(base, "nodt.keq5", "hou2021")
+    base = Run("X.smo", "yuan_y2_conventional", (("a", 1),), "sign SMO")
+    both = expand.vary_run(base, "nodt.keq5", "yuan2020")
     assert both.id == "X.smo.nodt.keq5"
     assert both.overrides == (("a", 1), ("plant.inverter_nonlinear", False),
-                              ("controller.params.SMO_K_MIN_V", 1.43))
-    assert both.label == ("sign SMO, dead time off (diagnostic), sign SMO gain floor 1.43 V by "
+                              ("controller.params.SMO_K_MIN_V", 0.48))
+    assert both.label == ("sign SMO, dead time off (diagnostic), sign SMO gain floor 0.48 V by "
                           "eq. 5 (diagnostic)")
     assert not expand.applies("keq5", "") and expand.applies("nodt.dyno", "")
     h2 = registry.CLAIMS["H2"]
     smo = [q.key for q in h2.quantities if q.key.startswith("H2.smo")]
     assert smo == ["H2.smo.resp", "H2.smo.drop", "H2.smo.nodt.resp", "H2.smo.nodt.drop",
-                   "H2.smo.nodt.dyno.resp", "H2.smo.nodt.dyno.drop", "H2.smo.keq5.resp",
-                   "H2.smo.keq5.drop", "H2.smo.nodt.keq5.resp", "H2.smo.nodt.keq5.drop"]
+                   "H2.smo.nodt.dyno.resp", "H2.smo.nodt.dyno.drop", "H2.smo.resp.sw",
+                   "H2.smo.drop.sw"]
     drop = {q.key: q for q in h2.quantities}
     # the paper's row says why its number cannot come out here; its diagnostic copies do not
-    assert drop["H2.smo.drop"].not_reproducible and not drop["H2.smo.nodt.dyno.drop"].not_reproducible
-    assert all(q.diagnostic for k, q in drop.items() if ".nodt" in k or ".keq5" in k)
+    assert drop["H2.smo.drop.sw"].not_reproducible and not drop["H2.smo.nodt.dyno.drop"].not_reproducible
+    assert all(q.diagnostic for k, q in drop.items() if ".nodt" in k)
+    # the switching twins decide, the averaged rows are diagnostic; the comparator's rows say so
+    assert drop["H2.smo.drop"].diagnostic and not drop["H2.smo.drop.sw"].diagnostic
+    assert drop["H2.smo.drop.sw"].comparator and not drop["H2.hfi.drop.sw"].comparator
+
+
+def test_the_registry_follows_the_words_table():
+    """issue 27, 2: every row and relation names an entry of the words table (common.toml), and
+    has the rule (the relation test) that entry gives, in all three papers."""
+    words = registry.WORDS
+    for c in registry.CLAIMS.values():
+        for q in c.quantities:
+            assert words[q.rule.words].rule == q.rule.kind, (c.id, q.key)
+        for r in c.relations:
+            assert words[r.words].rule == registry.relation_test(r), (c.id, r.key)
+    by_words: dict[str, set] = {}
+    for c in registry.CLAIMS.values():
+        for q in c.quantities:
+            by_words.setdefault(q.rule.words, set()).add(q.rule.kind)
+    assert all(len(kinds) == 1 for kinds in by_words.values()), by_words
+    # the bands read off figures ('about', 'approximately within') are bands like '+-x'
+    for w in ("±x", "within ±x", "about ±x", "approximately within ±x", "can be ensured within ±x"):
+        assert words[w].rule == "at_most"
+    assert words["approximately x"].rule == "compared"
+    assert words["significantly decrease from a to b"].rule == "sized"
+
+
+def test_the_words_table_in_the_docs_is_the_registrys():
+    """docs/claims.md carries the table generated from the registry (python -m
+    hil_bench.claims.registry --words), verbatim: one reading, written once."""
+    docs = (Path(__file__).resolve().parents[1] / "docs" / "claims.md").read_text()
+    assert registry.words_table() in docs
+    out = subprocess.run([sys.executable, "-m", "hil_bench.claims.registry", "--words"],
+                         capture_output=True, text=True, check=True).stdout
+    assert out == registry.words_table()
 
 
 def test_the_families_keep_their_tables():

@@ -214,7 +214,7 @@ def test_sign_smo_closes_the_loop_through_a_reversal(tmp_path):
     scn = derive_scenario("beyond_reversal", "beyond_reversal@sign_test",
                           (("controller.estimator", "SMO_SIGN"),))
     out = tmp_path / "rev.mcap"
-    res = run_scenario(scn, out_path=out, progress=False)
+    res = run_scenario(scn, link_spec="sil", out_path=out, progress=False)
     assert res.ok, res.error
     rec = load_recording(out)
     st, te = rec.topic(ch.PLANT_STATE), rec.topic(ch.CONTROLLER_TELEMETRY)

@@ -126,7 +126,7 @@ def test_closes_the_loop_in_the_stub_and_runs_as_a_host_reference(tmp_path):
     scn = derive_scenario("gong_g2_500rpm", "g2_sta", (("controller.estimator", "SMO_STA"),
                                                        ("reference.estimators", ["SMO_STA"])))
     out = tmp_path / "sta.mcap"
-    res = run_scenario(scn, out_path=out, progress=False)
+    res = run_scenario(scn, link_spec="sil", out_path=out, progress=False)
     assert res.ok, res.error
     rec = load_recording(out)
     telem, state = rec.topic(ch.CONTROLLER_TELEMETRY), rec.topic(ch.PLANT_STATE)

@@ -96,7 +96,7 @@ def test_recording_states_truth_estimate_and_residual(tmp_path):
                                                      ("scenario.duration_s", 0.02),
                                                      ("metrics.window_s", [0.0, 0.02])))
     out = tmp_path / "r.mcap"
-    res = run_scenario(scn, out_path=out, progress=False)
+    res = run_scenario(scn, link_spec="sil", out_path=out, progress=False)
     assert res.cycles_done == 200, res.error
     meta = json.loads(load_recording(out).run["inverter_comp"])
     assert meta["on"] and meta["residual"] == 0.1 and meta["current"] == "vector"

@@ -165,20 +165,23 @@ def test_a_late_controller_is_waited_for_and_its_rows_are_the_prompt_ones(tmp_pa
                     stub_args=("--inject", "late@100")).run()
     assert result.ok, result.error
     stats = result.link_stats
-    # cycles 100, 600, ...: 6 late cycles, each re-sent at 50 and 150 ms and answered 3 times
-    assert stats["late_answers"] == 6 and stats["lost_frames"] == 0, stats
-    assert stats["retries"] == 2 * 6 and stats["resend_answers"] == 2 * 6, stats
+    # cycles 100, 600, ...: 6 late cycles, each re-sent at 50 and 150 ms and answered 3 times; a
+    # busy host may make a prompt answer late too (seen: 13 re-sends beside other test runs):
+    # timing as well, so the counts are at least those of the injected cycles
+    assert stats["late_answers"] >= 6 and stats["lost_frames"] == 0, stats
+    assert stats["retries"] >= 2 * 6 and stats["resend_answers"] >= 2 * 6, stats
     assert stats["duplicates"] == 0 and stats["seq_mismatch"] == 0, stats
     a, b = load_recording(prompt), load_recording(late)
     for topic in (ch.PLANT_STATE, ch.CONTROLLER_TELEMETRY):
         for col, values in a.topic(topic).items():
             np.testing.assert_array_equal(values, b.topic(topic)[col], err_msg=f"{topic}.{col}")
     timing = b.topic(ch.TIMING)
-    slow = timing["retries"] > 0
-    assert int(slow.sum()) == 6 and np.all(timing["rtt_us"][slow] >= 300e3)
+    injected = np.isin(timing["seq"], np.arange(100, 3000, 500))
+    assert int(injected.sum()) == 6
+    assert np.all(timing["retries"][injected] == 2) and np.all(timing["rtt_us"][injected] >= 300e3)
     integrity = check_recording(late).integrity
     assert integrity.ok and not integrity.problems, integrity.problems
-    assert integrity.timing["late_answers"] == 6
+    assert integrity.timing["late_answers"] == stats["late_answers"]
 
 
 def test_a_lossy_link_completes_with_its_lost_frames_counted_as_a_link_problem(tmp_path):

@@ -1,4 +1,5 @@
-"""Every back-EMF estimator of the library closes the loop on the C stub: standstill -> 500 rpm
+"""Every back-EMF estimator of the library closes the loop on the C stub's firmware (in the
+engine's process: --link sil, the stub's rows, tests/test_sil.py): standstill -> 500 rpm
 on Gong's motor (Table I), held. The scenario is gong_g2_500rpm with the estimator swapped and its
 gains left to the library's rules (firmware_stub/est_smo.py), which the bench sends over CONFIG."""
 import numpy as np
@@ -39,7 +40,7 @@ def scenario_for(estimator: str):
 ])
 def test_each_back_emf_estimator_closes_the_loop_at_500rpm(tmp_path, estimator, pee_rms_max_rad):
     out = tmp_path / f"{estimator}.mcap"
-    result = run_scenario(scenario_for(estimator), out_path=out, progress=False)
+    result = run_scenario(scenario_for(estimator), link_spec="sil", out_path=out, progress=False)
     assert result.ok, result.error
     rec = load_recording(out)
     state = rec.topic(ch.PLANT_STATE)

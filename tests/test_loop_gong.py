@@ -27,7 +27,7 @@ def g6_runs(tmp_path_factory):
         path = tmp_path_factory.mktemp(f"g6_{comp}") / "g6.mcap"
         scn = derive_scenario("gong_g67_delay_comp", f"g6_2000_{comp}",
                               (("controller.params.DELAY_COMP_ENABLE", comp),))
-        result = run_scenario(scn, out_path=path, progress=False)
+        result = run_scenario(scn, link_spec="sil", out_path=path, progress=False)
         assert result.ok, result.error
         out[comp] = _window(load_recording(path), 1.7, 2.2)
     return out
@@ -57,7 +57,8 @@ def test_iq_is_set_by_the_load_not_by_the_compensation(g6_runs):
 
 def test_tanh_smo_reverses_through_zero(tmp_path):
     path = tmp_path / "rev.mcap"
-    result = run_scenario(load_scenario("beyond_reversal"), out_path=path, progress=False)
+    result = run_scenario(load_scenario("beyond_reversal"), link_spec="sil", out_path=path,
+                          progress=False)
     assert result.ok, result.error
     n, pee, _ = _window(load_recording(path), 2.0, 2.5)
     assert abs(np.mean(n) + 500.0) < 5.0                 # at -500 rpm ...

@@ -33,7 +33,8 @@ def test_initial_position_and_polarity_from_standstill(tmp_path, angle_deg, bias
     """Both polarity tests (Hou's HF-only one and the d-bias option) on the plant with
     saturation and the ADC, without dead time (with it: the next test)."""
     out = tmp_path / "h3.mcap"
-    result = run_scenario(h3(angle_deg, False, bias_a), out_path=out, progress=False)
+    result = run_scenario(h3(angle_deg, False, bias_a), link_spec="sil", out_path=out,
+                          progress=False)
     assert result.ok, result.error
     rec = load_recording(out)
     telem, state = rec.topic(ch.CONTROLLER_TELEMETRY), rec.topic(ch.PLANT_STATE)
@@ -54,7 +55,7 @@ def test_hous_polarity_test_with_the_scenarios_compensation(tmp_path, angle_deg)
     the per-period peaks, whose ADC noise (sd 0.011 per period) buried the 0.0016 signal
     (135, 180 deg: STARTUP_FAILED, undecided)."""
     out = tmp_path / "h3.mcap"
-    result = run_scenario(h3(angle_deg, True), out_path=out, progress=False)
+    result = run_scenario(h3(angle_deg, True), link_spec="sil", out_path=out, progress=False)
     assert result.ok, result.error
     rec = load_recording(out)
     telem, state = rec.topic(ch.CONTROLLER_TELEMETRY), rec.topic(ch.PLANT_STATE)
@@ -76,10 +77,12 @@ def test_dead_time_defeats_hous_polarity_test_and_tilts_the_ellipse(tmp_path):
     HF-only polarity test cannot decide (the controller faults, never guesses), and the d-bias
     test decides right but the angle is off by ~13 deg (docs/claims.md, H3)."""
     out = tmp_path / "pure.mcap"
-    result = run_scenario(h3(135, True, 0.0, residual=1.0), out_path=out, progress=False)
+    result = run_scenario(h3(135, True, 0.0, residual=1.0), link_spec="sil", out_path=out,
+                          progress=False)
     assert not result.ok and "STARTUP_FAILED" in result.error
     out = tmp_path / "bias.mcap"
-    result = run_scenario(h3(135, True, 2.4, residual=1.0), out_path=out, progress=False)
+    result = run_scenario(h3(135, True, 2.4, residual=1.0), link_spec="sil", out_path=out,
+                          progress=False)
     assert result.ok, result.error
     rec = load_recording(out)
     telem, state = rec.topic(ch.CONTROLLER_TELEMETRY), rec.topic(ch.PLANT_STATE)
@@ -93,7 +96,7 @@ def test_hfi_holds_10_and_50_rpm_under_full_load(tmp_path):
     """hou_h1_hfi without dead time (with it Hou's polarity test does not start: above)."""
     out = tmp_path / "h1.mcap"
     scn = derive_scenario("hou_h1_hfi", "h1_nodt", (("plant.inverter_nonlinear", False),))
-    result = run_scenario(scn, out_path=out, progress=False)
+    result = run_scenario(scn, link_spec="sil", out_path=out, progress=False)
     assert result.ok, result.error
     rec = load_recording(out)
     state, telem = rec.topic(ch.PLANT_STATE), rec.topic(ch.CONTROLLER_TELEMETRY)

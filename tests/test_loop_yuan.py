@@ -26,7 +26,7 @@ def runs(tmp_path_factory):
     out = {}
     for name in ("yuan_y4_10rpm", "yuan_y4_10rpm_comp"):
         path = tmp_path_factory.mktemp(name) / f"{name}.mcap"
-        result = run_scenario(load_scenario(name), out_path=path, progress=False)
+        result = run_scenario(load_scenario(name), link_spec="sil", out_path=path, progress=False)
         assert result.ok, result.error
         out[name] = spectrum(path)
     return out

@@ -294,3 +294,62 @@ def test_helpers_see_the_same_file_through_links(tmp_path):
     with pytest.raises(FileExistsError):
         write_text_aside(f, "two", replace=False)
     assert f.read_text() == "one" and not list(tmp_path.glob(".f.txt.*"))
+
+
+# -- 26.5: a claims run or a campaign beside another one in the same folder -----------------------
+
+HOLD_LOCK = ("import sys, time; from pathlib import Path; from hil_bench.sweep.folder import "
+             "FolderLock\nFolderLock(Path(sys.argv[1]), sys.argv[2]).__enter__()\n"
+             "print('held', flush=True); time.sleep(600)\n")
+
+
+def _hold(folder: Path, command: str) -> subprocess.Popen:
+    """Another process holding ``folder``'s writer lock, as a running claims run or campaign."""
+    folder.mkdir(parents=True, exist_ok=True)
+    p = subprocess.Popen([sys.executable, "-c", HOLD_LOCK, str(folder), command],
+                         stdout=subprocess.PIPE, text=True)
+    assert p.stdout.readline().strip() == "held"
+    return p
+
+
+def test_claim_folder_takes_the_default_or_one_beside_it(tmp_path):
+    from hil_bench.sweep.folder import FolderBusy, claim_folder
+
+    default = tmp_path / "reports" / "claims"
+    folder, lock, note = claim_folder(None, default, "bench claims")
+    with lock:
+        assert folder == default and note == ""
+        beside, lock2, note2 = claim_folder(None, default, "bench claims")   # held: one beside
+        with lock2:
+            assert beside != default and beside.parent == default.parent
+            assert beside.name.startswith("claims-") and beside.name.endswith(f"-{os.getpid()}")
+            assert f"{default} is being written by another bench claims" in note2
+            assert str(beside) in note2
+        with pytest.raises(FolderBusy, match="another bench claims is writing this folder"):
+            claim_folder(default, default, "bench claims")     # --out given: refused
+    assert claim_folder(None, default, "bench claims")[0] == default    # released: free again
+
+
+def test_a_claims_run_beside_a_running_one_writes_its_own_folder(tmp_path):
+    """Two `bench claims --run` in one folder: the second writes reports/claims-<time>-<pid>
+    (before: both wrote reports/claims, their recordings under the same names)."""
+    holder = _hold(tmp_path / "reports" / "claims", "bench claims")
+    try:
+        r = subprocess.run([sys.executable, "-m", "hil_bench", "claims", "--run", "--only", "G2",
+                            "--no-progress"], cwd=tmp_path, capture_output=True, text=True,
+                           timeout=600)
+        assert r.returncode == 0, r.stderr
+        assert "reports/claims is being written by another bench claims" in r.stderr
+        made = [p for p in (tmp_path / "reports").iterdir() if p.name.startswith("claims-")]
+        assert len(made) == 1 and (made[0] / "report.md").exists()
+        assert (made[0] / "recordings" / "G2.mcap").exists()
+        assert not (tmp_path / "reports" / "claims" / "report.md").exists()
+        # with --out naming the held folder: refused in one line, nothing run
+        r = subprocess.run([sys.executable, "-m", "hil_bench", "claims", "--run", "--only", "G2",
+                            "--out", "reports/claims", "--no-progress"], cwd=tmp_path,
+                           capture_output=True, text=True, timeout=600)
+        assert r.returncode == 2 and "another bench claims is writing this folder" in r.stderr
+        assert "Traceback" not in r.stderr
+    finally:
+        holder.kill()
+        holder.wait()

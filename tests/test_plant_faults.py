@@ -34,12 +34,12 @@ OFF = -1.0
 TH0 = 0.3
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def gong():
     return load_profile("gong2020")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def hou():
     return load_profile("hou2021")
 

@@ -220,10 +220,8 @@ def test_a_stalled_recorder_is_killed_and_said(tmp_path):
 
     th = threading.Thread(target=stop)
     th.start()
-    t0 = time.monotonic()
-    result = runner.run()
+    result = runner.run()   # a bench that never gave up would hang here: pytest-timeout fails it
     th.join()
-    assert time.monotonic() - t0 < 30.0
     assert result.cycles_done == result.cycles_planned        # the engine never blocked for good
     assert result.error is not None and "stalled" in result.error and str(out) in result.error
     assert result.link_stats["rows_dropped"] > 0
@@ -239,9 +237,7 @@ def test_disk_full_is_one_clear_line_and_what_fits_stays_readable(tmp_path):
         pytest.skip("cannot mount a tmpfs here")
     try:
         out = disk / "full.mcap"
-        t0 = time.monotonic()
-        result = run_scenario(scenario(3.0), out_path=out, progress=False)
-        assert time.monotonic() - t0 < 30.0
+        result = run_scenario(scenario(3.0), out_path=out, progress=False)   # returns: no hang
         assert result.error is not None
         assert "No space left on device" in result.error and str(out) in result.error
         rec = load_recording(partial_path(out))
@@ -286,3 +282,52 @@ def test_chunk_indexes_kept_on_disk_give_the_same_file():
     summary = make_reader(io.BytesIO(spilled)).get_summary()
     assert len(summary.chunk_indexes) > 20
     assert sum(1 for _ in make_reader(io.BytesIO(spilled)).iter_messages()) == 3000
+
+
+def _policy_and_nice(pid: int) -> tuple[int, int]:
+    return os.sched_getscheduler(pid), os.getpriority(os.PRIO_PROCESS, pid)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="lowering a nice value back to 0 needs root")
+def test_a_real_time_recorder_finishes_the_file_at_normal_priority(tmp_path):
+    """In real time the recorder yields to every other task (SCHED_BATCH, nice 19). Once the
+    engine is done that only starves it on a busy host (seen: 'stalled ... while finishing' beside
+    four CPU hogs): foreground() puts it back to SCHED_OTHER, nice 0, and close() does so first."""
+    from hil_bench.record.recorder import ProcessRecorder
+
+    rec = ProcessRecorder(tmp_path / "bg.mcap", background=True)
+    assert _policy_and_nice(rec.pid) == (os.SCHED_BATCH, 19)
+    rec.foreground()
+    assert _policy_and_nice(rec.pid) == (os.SCHED_OTHER, 0)
+    rec.close()
+    assert (tmp_path / "bg.mcap").exists()
+
+
+def test_a_starved_recorder_is_working_a_stopped_one_is_not(tmp_path):
+    """What tells a recorder that a busy host starves (runnable, waiting for a CPU: it is waited
+    for) from a stuck one (stopped or blocked, no CPU used: it is killed and said)."""
+    from hil_bench.record.recorder import ProcessRecorder, process_cpu_s, process_runnable
+
+    spin = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        cpu = process_cpu_s(spin.pid)
+        while process_cpu_s(spin.pid) <= cpu:     # it has run at least once
+            time.sleep(0.01)
+        assert process_runnable(spin.pid)
+        spin.send_signal(signal.SIGSTOP)
+        while process_runnable(spin.pid):         # the stop takes effect
+            time.sleep(0.01)
+        assert not process_runnable(spin.pid)
+    finally:
+        spin.kill()
+        spin.wait()
+    rec = ProcessRecorder(tmp_path / "idle.mcap")
+    os.kill(rec.pid, signal.SIGSTOP)
+    try:
+        while process_runnable(rec.pid):          # the stop takes effect
+            time.sleep(0.01)
+        assert rec._working(0.0)[0]               # it did use CPU since 0
+        assert not rec._working(rec._cpu_s())[0]  # but none since, and it is stopped
+    finally:
+        os.kill(rec.pid, signal.SIGCONT)
+        rec.close()

@@ -147,7 +147,10 @@ def test_faults_act_the_same_in_process_and_on_the_pty(tmp_path):
     scn = parse_scenario(FAULTS, Path("sil_faults.toml"))
     check_against_profile(scn)
     stub, sil, rec_stub, rec_sil = _assert_same_run(scn, tmp_path)
-    assert sil.link_stats["retries"] == stub.link_stats["retries"] >= 2
+    # lost frames are decided by what arrived: the same; re-sends also count answers a busy host
+    # made late on the pty (a timing statistic, docs/protocol.md 6.5): never fewer than SIL's
+    assert sil.link_stats["lost_frames"] == stub.link_stats["lost_frames"] >= 2
+    assert stub.link_stats["retries"] >= sil.link_stats["retries"] >= 2
     for key in ("crc_errors", "cobs_errors", "duplicates", "faults_injected", "seq_mismatch"):
         assert sil.link_stats[key] == stub.link_stats[key], key
     # the controller saw the same rejected frames (its heartbeat reports them)

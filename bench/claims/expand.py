@@ -125,16 +125,21 @@ def vary_quantity(q: Quantity, base_run: str, variant: str) -> Quantity:
 
 # -- rules as the TOML states them ---------------------------------------------------------------
 
-RULE_FIELDS = ("rule", "bound", "range", "inclusive", "rule_source")
+#: the words-table entry of an ordering without a size (common.toml [[words]])
+ORDERING = "better / faster / less / falls"
+
+RULE_FIELDS = ("rule", "bound", "range", "inclusive", "rule_source", "words")
 
 
 def rule_of(spec: dict[str, Any], paper_value: Any, where: str) -> Rule:
     """A rule from its TOML fields: ``rule = "at_most"`` (``bound``, default the paper's value),
     ``"within"`` (``range = [lo, hi]``, lo <= x < hi; ``inclusive = true``: hi too, to 1e-9) or
     ``"compared"``; ``rule_source``: the paper's words, section, table."""
-    kind, source = spec.get("rule"), spec.get("rule_source")
+    kind, source, words = spec.get("rule"), spec.get("rule_source"), spec.get("words", "")
     if not isinstance(source, str) or not source:
         raise ValueError(f"{where}: rule_source missing (the paper's words, section, table)")
+    if not isinstance(words, str):
+        raise ValueError(f"{where}: words must be an entry of the words table (common.toml)")
     extra = [k for k in ("bound", "range", "inclusive") if k in spec]
     if kind == "at_most":
         bound = spec.get("bound", paper_value)
@@ -142,16 +147,16 @@ def rule_of(spec: dict[str, Any], paper_value: Any, where: str) -> Rule:
             raise ValueError(f"{where}: rule at_most needs a number (bound, or a numeric paper_value)")
         if set(extra) - {"bound"}:
             raise ValueError(f"{where}: rule at_most takes bound only, not {extra}")
-        return at_most(bound, source)
+        return at_most(bound, source, words)
     if kind == "within":
         lo, hi = spec.get("range", (None, None))
         if not all(isinstance(v, (int, float)) for v in (lo, hi)) or set(extra) - {"range", "inclusive"}:
             raise ValueError(f"{where}: rule within needs range = [lo, hi] (and inclusive = true)")
-        return within(lo, hi + 1e-9 if spec.get("inclusive") else hi, source)
+        return within(lo, hi + 1e-9 if spec.get("inclusive") else hi, source, words)
     if kind == "compared":
         if extra:
             raise ValueError(f"{where}: rule compared takes no {', '.join(extra)}")
-        return compared(source)
+        return compared(source, words)
     raise ValueError(f"{where}: rule must be at_most, within or compared, got {kind!r}")
 
 
@@ -193,16 +198,32 @@ def _vary(run: Run, variant: str) -> Run:
     return vary_run(run, variant) if variant else run
 
 
+def _smallest_fall(rows: list[dict], harmonics: list) -> tuple[float, str]:
+    """The smallest relative fall (off - on) / off over a compensation table's values, and where
+    it is (Yuan IV.C calls every one of them a significant decrease)."""
+    falls = [((off - on) / off, f"{name} at {row['rpm']} rpm {off:g} -> {on:g} %")
+             for row in rows for (name, _), off, on in zip(harmonics, row["off"], row["on"])]
+    return min(falls)
+
+
 def compensation_table(spec: Spec) -> Expansion:
     """Yuan Y4: per speed, the phase current's THD, 5th and 7th without and with compensation
     (runs ``Y4.<rpm>.off`` / ``.on``, the claim's plain runs), then the same on each variant run;
-    one relation per harmonic and copy: it falls with the compensation."""
-    spec.unknown(("harmonics", "rows", "rule", "rule_source", "calibration", "relation"))
+    one relation per harmonic and copy: it falls with the compensation. A relation with
+    ``words`` "significantly decrease from a to b" is sized: the measured relative fall must
+    reach the smallest relative fall the paper calls significant in its table (min_fall)."""
+    spec.unknown(("harmonics", "rows", "rule", "rule_source", "calibration", "relation", "words"))
     harmonics = spec.get("harmonics")          # [[name, metric], ...]
     calib = spec.get("calibration", {})
     rel = spec.get("relation")
+    rows = spec.get("rows")
+    min_fall, fall_src = 0.0, ""
+    if rel.get("words") == "significantly decrease from a to b":
+        min_fall, where = _smallest_fall(rows, harmonics)
+        fall_src = (f"the smallest relative fall the paper calls significant in the same sentence: "
+                    f"{where} ({100 * min_fall:.1f} %); each relation's own fall is shown beside")
     qs, rels = [], []
-    for row in spec.get("rows"):
+    for row in rows:
         rpm = row["rpm"]
         for v in _copies(spec):
             loop = f".{v}" if v else ""
@@ -215,11 +236,15 @@ def compensation_table(spec: Spec) -> Expansion:
                                        metric, val, rule_of(spec.table, val, spec.where),
                                        f"Y4.{rpm}.{state}{loop}", diagnostic=bool(v),
                                        calibration=calib.get("text", "") if key == calib.get("key") else ""))
-            for name, _ in harmonics:
+            for (name, _), off, on in zip(harmonics, row["off"], row["on"]):
+                paper = (f"{off:g} -> {on:g} % (-{100 * (off - on) / off:.1f} %)" if min_fall
+                         else rel["paper"])
                 rels.append(Relation(f"Y4.{rpm}{loop}.{name}",
-                                     f"{rpm} rpm: {name} falls with the compensation{sfx}",
+                                     f"{rpm} rpm: {name} falls with the compensation{sfx}"
+                                     + (f" by at least {100 * min_fall:.1f} %" if min_fall else ""),
                                      (f"Y4.{rpm}.on{loop}.{name}", f"Y4.{rpm}.off{loop}.{name}"), "<",
-                                     rel["paper"], rel["source"], bool(v)))
+                                     paper, rel["source"], bool(v), words=rel.get("words", ""),
+                                     min_fall=min_fall, min_fall_source=fall_src))
     return [], qs, rels
 
 
@@ -239,7 +264,7 @@ def y8_run(rpm: float) -> Run:
 def speed_table(spec: Spec) -> Expansion:
     """Yuan Y8 (Table 4): per speed a run (``y8_run``) and its variants, the speed-estimation
     error against the paper's dn."""
-    spec.unknown(("rows", "rule", "rule_source"))
+    spec.unknown(("rows", "rule", "rule_source", "words"))
     runs, qs = [], []
     for row in spec.get("rows"):
         rpm, dn = row["rpm"], row["paper_value"]
@@ -332,12 +357,12 @@ def _g1_switching_study(spec: Spec, rows: list[dict]) -> tuple[list[Quantity], l
                 rels.append(Relation(f"G1.thd.sw{step_us:g}us.{volt}", f"THD falls as m falls, {tag}",
                                      tuple(f"{base}.m{r['m']:g}.thd" for r in rows), ">",
                                      " > ".join(f"{r['thd_percent']:g}" for r in rows) + " %",
-                                     rel["source"], d))
+                                     rel["source"], d, words=ORDERING))
             if what == "amp":
                 rels.append(Relation(f"G1.amp.sw{step_us:g}us.{volt}",
                                      f"EMF amplitude falls as m falls, {tag}",
                                      tuple(f"{base}.m{r['m']:g}.amp" for r in rows), ">",
-                                     rel["amp_paper"], rel["source"], d))
+                                     rel["amp_paper"], rel["source"], d, words=ORDERING))
     return qs, rels
 
 
@@ -453,7 +478,7 @@ def lag_and_iq_table(spec: Spec) -> Expansion:
         iq_rule = spec.rule("iq", r["iq_on"])
         rels.append(Relation(f"G6.iq{rpm:g}", f"{rpm:g} rpm: the controller's i_q falls with the "
                              "compensation", (f"G6.{rpm:g}.on.iq", f"G6.{rpm:g}.off.iq"), "<",
-                             r["iq_relation"], iq_rule.source))
+                             r["iq_relation"], iq_rule.source, words=ORDERING))
     td_s = spec.get("delay_s")
     for r in rows:
         if "lag_rad" not in r:
@@ -507,11 +532,13 @@ def table_iii(spec: Spec) -> Expansion:
         for m in ("sf", "thd"):
             rels.append(Relation(f"G7.{rpm:g}.{m}", f"{rpm:g} rpm: {m.upper()} with < without",
                                  (f"G7.{rpm:g}.on.{m}", f"G7.{rpm:g}.off.{m}"), "<", rel["paper"],
-                                 rel["source"], compared=bool(rel.get("compared", False))))
+                                 rel["source"], compared=bool(rel.get("compared", False)),
+                                 words=rel.get("words", "")))
             rels.append(Relation(f"G7.{rpm:g}.{m}.naive", f"{rpm:g} rpm: {m.upper()} with < "
                                  "Gong's naive baseline [diagnostic]",
                                  (f"G7.{rpm:g}.on.{m}", f"G7.{rpm:g}.naive.{m}"), "<", rel["paper"],
-                                 rel["source"], True, compared=bool(rel.get("compared", False))))
+                                 rel["source"], True, compared=bool(rel.get("compared", False)),
+                                 words=rel.get("words", "")))
     return [], qs, rels
 
 
@@ -531,6 +558,8 @@ TABLES: dict[str, Callable[[Spec], Expansion]] = {
 #: behind the measurement (sampling) point by t_d"); only the ripple and the sample timing change
 SWITCHING_OVERRIDES: tuple = (("plant.inverter", "switching"), ("plant.pwm_load", "immediate"))
 SWITCHING_TAG = " [switching inverter]"
+#: the averaged plant's rows of a claim its switching twins decide
+AVERAGED_TAG = " [averaged plant: diagnostic]"
 SWITCHING_SETUP = ("switching inverter (centre-aligned PWM, carrier valley at the sampling instant, "
                    "dead time and drops at each edge by the current's sign, duties acting at "
                    "t_k + t_d)")
@@ -553,20 +582,27 @@ def switching(spec: Spec, runs: list[Run], quantities: list[Quantity],
     on the switching inverter (run ``<id>.sw``, SWITCHING_OVERRIDES after the run's own); every
     row whose runs are all among them (no study row) is measured on the twins too (key
     ``<key>.sw``, label + " [switching inverter]", the same metric, value, rule, window and
-    source); every relation whose rows all have twins holds between the twins too.
-    ``diagnostic``: the twins are shown beside the averaged rows without deciding the claim (the
-    averaged plant tests the claim there), else they decide it with the rows they twin.
+    source); every derived row whose inputs all have twins is derived from the twins; every
+    relation whose rows all have twins holds between the twins too.
+    ``decides``: the twins decide the claim and the averaged rows (and their relations) become
+    diagnostic, marked [averaged plant]: the claim's quantity depends on the PWM ripple or the
+    sample instants (docs/claims.md, "One inverter policy"). ``diagnostic``: the twins are shown
+    beside the averaged rows, which decide. Neither: both decide.
     ``lifts``: keys of rows whose ``not_reproducible`` reason is the averaged plant's and does not
     hold on the switching plant (their twins are judged). ``shadow``: runs among ``runs`` that
     also run with the duties shadow-loaded at the next carrier extremum (run ``<id>.sw.shadow``,
-    rows ``<key>.sw.shadow``, diagnostic). Returns the added runs, rows and relations, and the
+    rows ``<key>.sw.shadow``, diagnostic). Returns the added runs, rows and relations (the
+    claim's rows and relations with the averaged ones re-marked when ``decides``), and the
     setup's addition."""
-    spec.unknown(("runs", "diagnostic", "lifts", "shadow"))
+    spec.unknown(("runs", "diagnostic", "lifts", "shadow", "decides"))
     ids = list(spec.get("runs"))
-    diagnostic = spec.get("diagnostic")
+    decides = spec.get("decides", False)
+    diagnostic = spec.get("diagnostic", not decides)
     lifts, shadow = list(spec.get("lifts", [])), list(spec.get("shadow", []))
-    if not isinstance(diagnostic, bool):
-        raise ValueError(f"{spec.where}.diagnostic: true or false")
+    if not isinstance(diagnostic, bool) or not isinstance(decides, bool):
+        raise ValueError(f"{spec.where}.diagnostic / decides: true or false")
+    if decides and diagnostic:
+        raise ValueError(f"{spec.where}: decides = true and diagnostic = true contradict")
     by_id = {r.id: r for r in runs}
     missing = [r for r in ids if r not in by_id]
     if missing:
@@ -586,13 +622,23 @@ def switching(spec: Spec, runs: list[Run], quantities: list[Quantity],
                          "the switching runs")
 
     def twin(q: Quantity, suffix: str, tag: str, diag: bool) -> Quantity:
+        # the plant was fitted on the averaged inverter: a twin of a calibration row is a check
         return dataclasses.replace(q, key=q.key + suffix, what=q.what + tag,
                                    run=_twin_runs(q, suffix), diagnostic=q.diagnostic or diag,
-                                   not_reproducible="" if q.key in lifts else q.not_reproducible)
+                                   not_reproducible="" if q.key in lifts else q.not_reproducible,
+                                   calibration="")
 
     out_runs = [_then(by_id[r], ".sw", SWITCHING_OVERRIDES, "switching inverter") for r in ids]
     out_qs = [twin(q, ".sw", SWITCHING_TAG, diagnostic) for q in twinned]
     keys = {q.key for q in twinned}
+    for q in quantities:                     # derived rows whose inputs all have twins
+        p = dict(q.params)
+        if q.metric == "derived" and p.get("a") in keys and p.get("b") in keys:
+            p = {**p, "a": p["a"] + ".sw", "b": p["b"] + ".sw"}
+            out_qs.append(dataclasses.replace(q, key=q.key + ".sw", what=q.what + SWITCHING_TAG,
+                                              params=tuple(p.items()),
+                                              diagnostic=q.diagnostic or diagnostic))
+            keys.add(q.key)
     out_rels = [dataclasses.replace(rel, key=rel.key + ".sw", what=rel.what + SWITCHING_TAG,
                                     keys=tuple(k if k.startswith("#") else k + ".sw"
                                                for k in rel.keys),
@@ -601,5 +647,17 @@ def switching(spec: Spec, runs: list[Run], quantities: list[Quantity],
                 if all(k in keys for k in rel.keys if not k.startswith("#"))]
     out_runs += [_then(by_id[r], ".sw.shadow", SHADOW_OVERRIDES, SHADOW_LABEL) for r in shadow]
     out_qs += [twin(q, ".sw.shadow", SHADOW_TAG, True) for q in rows_on(shadow)]
-    setup = "rows marked [switching inverter]: the same runs on the " + SWITCHING_SETUP
+    if decides:                              # the averaged rows and relations: diagnostic now
+        moved = {k for k in keys}
+        quantities[:] = [dataclasses.replace(q, what=q.what + AVERAGED_TAG, diagnostic=True,
+                                             not_reproducible=q.not_reproducible)
+                         if q.key in moved and not q.diagnostic else q for q in quantities]
+        twinned_rels = {rel.key for rel in relations
+                        if all(k in keys for k in rel.keys if not k.startswith("#"))}
+        relations[:] = [dataclasses.replace(rel, what=rel.what + AVERAGED_TAG, diagnostic=True)
+                        if rel.key in twinned_rels and not rel.diagnostic else rel
+                        for rel in relations]
+    setup = ("rows marked [switching inverter]: the same runs on the " + SWITCHING_SETUP
+             + ("; they decide the claim, the averaged plant's rows are diagnostic" if decides
+                else ""))
     return (out_runs, out_qs, out_rels), setup

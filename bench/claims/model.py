@@ -57,11 +57,12 @@ METRIC_DEFINITIONS: dict[str, tuple[str, str]] = {
     "pee_mean_rad": ("rad", "mean wrap(theta_hat - theta) in the window (the lag or lead)"),
     "emf_thd_percent": ("%", "distortion of the estimated e_alpha: everything but DC and the "
                              "fundamental (THD+N: the chattering too, up to Nyquist) over the "
-                             "fundamental, by FFT over the longest whole number of electrical "
-                             "periods ending at the window's end (rectangular window)"),
-    "emf_amplitude_v": ("V", "fundamental amplitude of the estimated e_alpha (same FFT)"),
-    "phase_current_amp_a": ("A", "fundamental amplitude of the true phase-a current (same FFT)"),
-    "current_thd_percent": ("%", "THD (harmonics 2..50) of the true phase-a current (same FFT)"),
+                             "fundamental, by least squares on the true electrical angle over "
+                             "the longest whole number of revolutions ending at the window's end "
+                             "(locked to the rotor: no leakage when the speed drifts)"),
+    "emf_amplitude_v": ("V", "fundamental amplitude of the estimated e_alpha (same fit)"),
+    "phase_current_amp_a": ("A", "fundamental amplitude of the true phase-a current (same fit)"),
+    "current_thd_percent": ("%", "THD (harmonics 2..50) of the true phase-a current (same fit)"),
     "current_h5_percent": ("%", "5th harmonic of the true phase-a current / fundamental"),
     "current_h7_percent": ("%", "7th harmonic of the true phase-a current / fundamental"),
     "iq_mean_a": ("A", "mean true q-axis current in the window (the plant's frame)"),
@@ -90,6 +91,15 @@ METRIC_DEFINITIONS: dict[str, tuple[str, str]] = {
 }
 
 
+#: the metrics that describe a steady state: measured only on a window whose speed is steady
+#: (hil_bench.papers.metrics.steadiness), unless the row is a transient by design (``transient``)
+#: or the metric reads an event (its params name t_event_s / t_step_s)
+STEADY_METRICS = frozenset({
+    "speed_band_hat_rpm", "speed_band_true_rpm", "speed_est_error_rpm", "pee_max_rad",
+    "pee_mean_rad", "emf_thd_percent", "emf_amplitude_v", "phase_current_amp_a",
+    "current_thd_percent", "current_h5_percent", "current_h7_percent", "iq_mean_a",
+    "iq_ctrl_mean_a", "chattering_a", "delay_estimate_us", "harmonic_extraction_pp"})
+
 #: the two metric names that are no recording's: a study's value, a value derived from two rows
 PSEUDO_METRICS = ("study", "derived")
 
@@ -102,6 +112,7 @@ class Rule:
     source: str                    # where the rule comes from: the paper's words, section, table
     lo: float = -math.inf
     hi: float = math.inf
+    words: str = ""                # the entry of the words table it reads (bench/claims/common.toml)
 
     def verdict(self, measured: float) -> str:
         if self.kind == "compared":
@@ -122,16 +133,16 @@ class Rule:
         return "value compared, no pass/fail"
 
 
-def at_most(bound: float, source: str) -> Rule:
-    return Rule("at_most", source, hi=bound)
+def at_most(bound: float, source: str, words: str = "") -> Rule:
+    return Rule("at_most", source, hi=bound, words=words)
 
 
-def within(lo: float, hi: float, source: str) -> Rule:
-    return Rule("within", source, lo=lo, hi=hi)
+def within(lo: float, hi: float, source: str, words: str = "") -> Rule:
+    return Rule("within", source, lo=lo, hi=hi, words=words)
 
 
-def compared(source: str) -> Rule:
-    return Rule("compared", source)
+def compared(source: str, words: str = "") -> Rule:
+    return Rule("compared", source, words=words)
 
 
 # -- claims ------------------------------------------------------------------------------------------
@@ -171,6 +182,12 @@ class Quantity:
     not_reproducible: str = ""                   # why the paper's number cannot come out here
     definition: str = ""                         # a bench definition the measurement rests on
     calibration: str = ""                        # the plant was fitted to this number: how
+    transient: bool = False                      # the window is a transient by the paper's
+                                                 # design (no steady-state check)
+    comparator: str = ""                         # the row measures the bench's reconstruction of
+                                                 # a method the paper only compares against (its
+                                                 # run's ``comparator`` text): it decides the
+                                                 # claim only through the relations
 
     @property
     def runs(self) -> tuple[str, ...]:
@@ -185,6 +202,13 @@ class Quantity:
         if self.metric in METRIC_DEFINITIONS:
             return METRIC_DEFINITIONS[self.metric][0]
         return dict(self.params).get("unit", "")
+
+    @property
+    def needs_steady(self) -> bool:
+        """Whether the row's window must be steady state (``STEADY_METRICS``)."""
+        p = dict(self.params)
+        return (self.metric in STEADY_METRICS and not self.transient
+                and "t_event_s" not in p and "t_step_s" not in p)
 
     def verdict(self, measured: float) -> str:
         """The rule's verdict alone (no run state, no operating point)."""
@@ -218,13 +242,19 @@ class Relation:
     source: str
     diagnostic: bool = False
     tol: float = 0.0
-    compared: bool = False       # the paper reports the two values ("slightly better"): the
-                                 # ordering is shown, no pass/fail (verdict COMPARED)
+    compared: bool = False       # the ordering is shown, no pass/fail (verdict COMPARED)
+    words: str = ""              # the entry of the words table it reads (common.toml [[words]])
+    min_fall: float = 0.0        # a sized ordering ("significantly decrease from a to b"): the
+                                 # relative change each step of the chain must reach (0..1)
+    min_fall_source: str = ""    # where that size comes from
 
     def __post_init__(self):
         # the label must say what the operator tests ("<=" under a "<" would pass a tie)
         if self.op in ("<", ">") and ("<=" in self.what or ">=" in self.what):
             raise ValueError(f"{self.key}: label {self.what!r} does not match operator {self.op!r}")
+        if self.min_fall and (self.op not in ("<", ">") or not self.min_fall_source):
+            raise ValueError(f"{self.key}: a size to reach (min_fall) needs an ordering and "
+                             "min_fall_source")
 
 
 @dataclass(frozen=True)
@@ -238,6 +268,7 @@ class Claim:
     studies: tuple[str, ...] = ()
     setup: str = ""               # what the runs switch on, which estimator closes the loop
     notes: str = ""
+    plant: str = ""               # which plant and which compensation decide the claim, and why
 
     @property
     def scenarios(self) -> tuple[str, ...]:

@@ -3,6 +3,7 @@ paper (``yuan2020.toml``, ``hou2021.toml``, ``gong2020.toml``; shared texts in `
 and expanded by the named rules of ``expand.py``. Format: docs/claims.md, "The registry".
 
     python -m hil_bench.claims.registry --dump   # the whole registry as JSON
+    python -m hil_bench.claims.registry --words  # the words table (docs/claims.md) as markdown
     python -m hil_bench.claims.registry --dump > tests/golden/claims_registry.json
 
 The golden dump is what tests/test_claims_registry.py compares with: a change of a claim, a rule,
@@ -27,9 +28,9 @@ HERE = Path(__file__).resolve().parent
 FILES = ("common.toml", "yuan2020.toml", "hou2021.toml", "gong2020.toml")
 
 _TEXT_REF = re.compile(r"\{([A-Z][A-Z0-9_]*)\}")
-_CLAIM_FIELDS = ("paper", "text", "setup", "notes", "studies", "variants", "runs", "quantities",
-                 "relations", "switching")
-_RUN_FIELDS = ("id", "scenario", "overrides", "label", "sign_smo")
+_CLAIM_FIELDS = ("paper", "plant", "text", "setup", "notes", "studies", "variants", "runs",
+                 "quantities", "relations", "switching")
+_RUN_FIELDS = ("id", "scenario", "overrides", "label", "sign_smo", "comparator")
 _TUPLE_FIELDS = ("window_s", "at_speed_window_s")
 _QUANTITY_FIELDS = tuple(f.name for f in dataclasses.fields(Quantity)
                          if f.name not in ("rule",)) + expand.RULE_FIELDS
@@ -38,6 +39,72 @@ _RELATION_FIELDS = tuple(f.name for f in dataclasses.fields(Relation))
 
 class RegistryError(ValueError):
     """A claims file that cannot be read: names the file, the claim and the field."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Words:
+    """An entry of the words table (common.toml [[words]]): the papers' words, the shape of the
+    statement they make, the rule (or relation test) every row reading them has, and why."""
+
+    id: str
+    shape: str
+    rule: str          # at_most | within | compared (a row) ; ordering | sized | equal (a relation)
+    reading: str
+
+
+#: the rules a words entry may give: a row's rule kinds, then a relation's tests
+WORD_RULES = ("at_most", "within", "compared", "ordering", "sized", "equal")
+_WORD_FIELDS = ("id", "shape", "rule", "reading")
+
+
+def _words(docs: dict[str, dict]) -> dict[str, Words]:
+    out: dict[str, Words] = {}
+    for name, doc in docs.items():
+        for i, t in enumerate(doc.get("words", ())):
+            where = f"{name} [[words]][{i}]"
+            _check(t, _WORD_FIELDS, where)
+            missing = [f for f in _WORD_FIELDS if not isinstance(t.get(f), str) or not t.get(f)]
+            if missing:
+                raise RegistryError(f"{where}: {', '.join(missing)} missing")
+            if t["rule"] not in WORD_RULES:
+                raise RegistryError(f"{where}: rule must be one of {', '.join(WORD_RULES)}, got "
+                                    f"{t['rule']!r}")
+            if t["id"] in out:
+                raise RegistryError(f"{where}: words {t['id']!r} defined twice")
+            out[t["id"]] = Words(**t)
+    return out
+
+
+def relation_test(rel: Relation) -> str:
+    """What a relation tests, in the words table's terms: equal, sized, ordering or compared."""
+    if rel.op == "=":
+        return "equal"
+    if rel.compared:
+        return "compared"
+    return "sized" if rel.min_fall else "ordering"
+
+
+def check_words(claims: dict[str, "Claim"], words: dict[str, Words]) -> None:
+    """Every row and relation names an entry of the words table, and has the rule (the test)
+    that entry gives: the same words get the same rule in every paper."""
+    for c in claims.values():
+        for q in c.quantities:
+            w = words.get(q.rule.words)
+            if w is None:
+                raise RegistryError(f"{c.id} {q.key}: words {q.rule.words!r} is no entry of the "
+                                    f"words table (common.toml [[words]]: "
+                                    f"{', '.join(sorted(words))})")
+            if w.rule != q.rule.kind:
+                raise RegistryError(f"{c.id} {q.key}: the words {w.id!r} give the rule {w.rule}, "
+                                    f"the row has {q.rule.kind}")
+        for rel in c.relations:
+            w = words.get(rel.words)
+            if w is None:
+                raise RegistryError(f"{c.id} relation {rel.key}: words {rel.words!r} is no entry "
+                                    "of the words table (common.toml [[words]])")
+            if w.rule != relation_test(rel):
+                raise RegistryError(f"{c.id} relation {rel.key}: the words {w.id!r} give the test "
+                                    f"{w.rule}, the relation has {relation_test(rel)}")
 
 
 def _texts(docs: dict[str, dict]) -> dict[str, str]:
@@ -117,6 +184,7 @@ def _claim(cid: str, t: dict, where: str) -> Claim:
         if v not in expand.VARIANTS:
             raise RegistryError(f"{where}: unknown variant {v!r}; known: {', '.join(expand.VARIANTS)}")
     base: list[tuple[Run, str]] = [_run(r, f"{where}.runs[{i}]") for i, r in enumerate(t.get("runs", ()))]
+    comparators = {r["id"]: r["comparator"] for r in t.get("runs", ()) if r.get("comparator")}
     sign_smo = {r.id: s for r, s in base}
     runs = [r for r, _ in base] + [expand.vary_run(r, v, s) for v in variants for r, s in base
                                    if expand.applies(v, s)]
@@ -136,6 +204,14 @@ def _claim(cid: str, t: dict, where: str) -> Claim:
                     quantities += [expand.vary_quantity(q, run, v) for q in block]
         i = j
     relations = [_relation(r, f"{where}.relations[{i}]") for i, r in enumerate(t.get("relations", ()))]
+    if comparators:                     # rows on a comparator run and on its variants
+        def comparator_of(q: Quantity) -> str:
+            for rid in q.runs:
+                for base_id, text in comparators.items():
+                    if rid == base_id or rid.startswith(base_id + "."):
+                        return text
+            return ""
+        quantities = [dataclasses.replace(q, comparator=comparator_of(q)) for q in quantities]
     for name, fn in expand.TABLES.items():
         if name in t:
             try:
@@ -160,7 +236,7 @@ def _claim(cid: str, t: dict, where: str) -> Claim:
         setup = f"{setup}; {also}" if setup else also
     try:
         return Claim(cid, t["paper"], t["text"], tuple(quantities), tuple(runs), tuple(relations),
-                     tuple(t.get("studies", ())), setup, t.get("notes", ""))
+                     tuple(t.get("studies", ())), setup, t.get("notes", ""), t.get("plant", ""))
     except KeyError as exc:
         raise RegistryError(f"{where}: {exc.args[0]} missing") from None
 
@@ -203,20 +279,29 @@ def load(folder: Path = HERE) -> dict[str, Claim]:
         except tomllib.TOMLDecodeError as exc:
             raise RegistryError(f"{path}: {exc}") from None
     texts = _texts(docs)
+    words = _words(docs)
     claims: dict[str, Claim] = {}
     for name, doc in docs.items():
         for cid, t in doc.items():
-            if cid == "texts":
+            if cid in ("texts", "words"):
                 continue
             if cid in claims:
                 raise RegistryError(f"{name}: claim {cid} is defined twice")
             where = f"{name} [{cid}]"
             claims[cid] = _claim(cid, _substitute(t, texts, where), where)
     _validate(claims)
+    check_words(claims, words)
     return claims
 
 
+def load_words(folder: Path = HERE) -> dict[str, Words]:
+    """The words table (common.toml [[words]]), by id, in its order."""
+    docs = {name: tomllib.loads((folder / name).read_text()) for name in FILES}
+    return _words(docs)
+
+
 CLAIMS: dict[str, Claim] = load()
+WORDS: dict[str, Words] = load_words()
 
 
 def all_runs(claim_ids=None) -> dict[str, Run]:
@@ -259,11 +344,54 @@ def dump(claims: dict[str, Claim] | None = None) -> str:
     return json.dumps([_plain(c) for c in (claims or CLAIMS).values()], indent=1) + "\n"
 
 
+_RULE_TEXT = {"at_most": "bound: PASS if measured <= x", "within": "PASS if a <= measured <= b",
+              "compared": "COMPARED: shown beside, no pass/fail",
+              "ordering": "the ordering checked (PASS / FAIL / NOT RESOLVED)",
+              "sized": "the ordering checked and its relative size must reach the paper's",
+              "equal": "PASS if |a - b| < the stated tolerance"}
+
+
+def _clean(text: str) -> str:
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def words_quotes(claims: dict[str, Claim] | None = None) -> dict[str, list[tuple[str, str]]]:
+    """Per words entry the quotes of the rows and relations that read them (claim ids, source),
+    the paper's rows only (no diagnostic copy), each distinct source once, in registry order."""
+    out: dict[str, dict[str, list[str]]] = {}
+    for c in (claims or CLAIMS).values():
+        items = [(q.rule.words, q.rule.source) for q in c.quantities if not q.diagnostic]
+        items += [(r.words, r.source) for r in c.relations if not r.diagnostic]
+        for w, src in items:
+            ids = out.setdefault(w, {}).setdefault(_clean(src), [])
+            if c.id not in ids:
+                ids.append(c.id)
+    return {w: [(", ".join(ids), src) for src, ids in d.items()] for w, d in out.items()}
+
+
+def words_table(claims: dict[str, Claim] | None = None,
+                words: dict[str, Words] | None = None) -> str:
+    """docs/claims.md's table 'One reading of the papers' words', from the registry: per entry of
+    the words table its shape, rule and reading, and the quotes of every row that reads it."""
+    quotes = words_quotes(claims)
+    lines = ["| the papers' words | shape | rule | reading | where (claims: the rule's source) |",
+             "|---|---|---|---|---|"]
+    for w in (words or WORDS).values():
+        where = "; ".join(f"{ids}: {src}" for ids, src in quotes.get(w.id, [])) or "(no row)"
+        lines.append(f"| {_clean(w.id)} | {_clean(w.shape)} | {_clean(_RULE_TEXT[w.rule])} | "
+                     f"{_clean(w.reading)} | {where} |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dump", action="store_true", help="print the whole registry as JSON")
+    ap.add_argument("--words", action="store_true",
+                    help="print the words table as markdown (docs/claims.md)")
     args = ap.parse_args(argv)
-    if args.dump:
+    if args.words:
+        print(words_table(), end="")
+    elif args.dump:
         print(dump(), end="")
     else:
         for c in CLAIMS.values():

@@ -1012,6 +1012,7 @@ class Runner:
             e.request_stop()
             e.join()
             result.cycles_done = e.cycles_done
+        rec.foreground()   # real time is over: the recorder finishes the file at normal priority
         if e is not None and hasattr(self, "session"):
             # STOP through the engine's link, counted with the run's frames
             stopped = e.send(*self.session.command_frame(Command.STOP, 0.0, seq=e.cmd_seq))

@@ -147,28 +147,35 @@ def chosen(run: Run, bw: Bandwidth) -> float | None:
     return bw.chosen(setup.controller) if bw.applies(setup.estimator) else None
 
 
-def tag(bw: Bandwidth, s: float) -> str:
-    """A point in a run id: 'bw.pllx0.25'."""
-    return f"bw.{bw.name}x{s:g}"
+def tag(bw: Bandwidth, s: float, residual: float | None = None) -> str:
+    """A point in a run id: 'bw.pllx0.25' (at the scenario's residual), 'bw.pllx0.25.r0' (at 0 %)."""
+    return f"bw.{bw.name}x{s:g}" + ("" if residual is None else f".r{100 * residual:g}")
 
 
-def variant(run: Run, bw: Bandwidth, s: float) -> Run:
+def variant(run: Run, bw: Bandwidth, s: float, residual: float | None = None) -> Run:
     """``run`` with ``bw`` at s x its chosen value (the run itself when its estimator has no
-    such bandwidth)."""
+    such bandwidth), at the scenario's compensation residual or at ``residual``."""
+    from .residual import KEY
     setup = _setup(run)
+    extra_ov = () if residual is None else ((KEY, residual),)
+    res_label = "" if residual is None else f", compensation residual {100 * residual:g} %"
     if not bw.applies(setup.estimator):
-        return run
+        if residual is None:
+            return run
+        return derived_run(run, f"r{100 * residual:g}", extra_ov,
+                           f"compensation residual {100 * residual:g} %")
     value = bw.chosen(setup.controller)
     extra = ""
     if bw is PLL:
         extra = f", zeta {_pll(setup.controller)[1]:.3g}"
-    return derived_run(run, tag(bw, s), bw.overrides(setup.controller, s),
-                       f"{bw.label} {s * value:g} rad/s ({s:g} x the chosen {value:g}{extra})")
+    return derived_run(run, tag(bw, s, residual), bw.overrides(setup.controller, s) + extra_ov,
+                       f"{bw.label} {s * value:g} rad/s ({s:g} x the chosen {value:g}{extra})"
+                       + res_label)
 
 
-def claim_at(c: Claim, bw: Bandwidth, s: float) -> Claim:
+def claim_at(c: Claim, bw: Bandwidth, s: float, residual: float | None = None) -> Claim:
     """The claim measured on its runs with ``bw`` at s x: its non-diagnostic rows."""
-    return claim_on(c, lambda run: variant(run, bw, s))
+    return claim_on(c, lambda run: variant(run, bw, s, residual))
 
 
 @dataclass
@@ -177,6 +184,7 @@ class Sweep:
     bandwidth: str
     scales: list[float]
     chosen: dict[str, float]          # run id -> the value it chose, rad/s (the runs swept)
+    residual: float | None = None     # None: the scenarios' residual
 
     @property
     def bw(self) -> Bandwidth:
@@ -184,7 +192,13 @@ class Sweep:
 
     @property
     def key(self) -> str:
-        return f"{self.claim}.{self.bandwidth}"
+        return f"{self.claim}.{self.bandwidth}" + ("" if self.residual is None else
+                                                   f".r{100 * self.residual:g}")
+
+    @property
+    def at(self) -> str:
+        return ("at the scenarios' residual" if self.residual is None else
+                f"at {100 * self.residual:g} % residual")
 
 
 @dataclass
@@ -193,10 +207,17 @@ class Plan:
     runs: list[Run] = field(default_factory=list)
 
 
+#: the residuals every sweep runs at: the scenarios' own, and exact compensation (at 5 % every Y
+#: point stalled: issue 27, 6)
+SWEEP_RESIDUALS: tuple[float | None, ...] = (None, 0.0)
+
+
 def plan(claims: list[str] | None = None, scales: tuple[float, ...] = SCALES,
-         sweeps: tuple[tuple[str, str], ...] = SWEEPS) -> Plan:
-    """The sweeps of ``claims`` (default: every claim of ``SWEEPS``) and the runs they add (the
-    runs a sweep leaves as they are are the claim's own, run by the report anyway)."""
+         sweeps: tuple[tuple[str, str], ...] = SWEEPS,
+         residuals: tuple[float | None, ...] = SWEEP_RESIDUALS) -> Plan:
+    """The sweeps of ``claims`` (default: every claim of ``SWEEPS``), at each of ``residuals``
+    (None: the scenarios' residual), and the runs they add (the runs a sweep leaves as they are
+    are the claim's own, run by the report anyway)."""
     pl = Plan()
     seen: set[str] = set()
     for cid, name in sweeps:
@@ -208,13 +229,14 @@ def plan(claims: list[str] | None = None, scales: tuple[float, ...] = SCALES,
         swept = {k: v for k, v in swept.items() if v is not None}
         if not swept:
             raise ValueError(f"{cid}: no run of its verdict has the {bw.label}")
-        pl.sweeps.append(Sweep(cid, name, sorted(set(scales)), swept))
         own = {r.id for r in c.runs}
-        for s in scales:
-            for run in claim_at(c, bw, s).runs:
-                if run.id not in own and run.id not in seen:
-                    seen.add(run.id)
-                    pl.runs.append(run)
+        for res in residuals:
+            pl.sweeps.append(Sweep(cid, name, sorted(set(scales)), swept, res))
+            for s in scales:
+                for run in claim_at(c, bw, s, res).runs:
+                    if run.id not in own and run.id not in seen:
+                        seen.add(run.id)
+                        pl.runs.append(run)
     return pl
 
 
@@ -259,13 +281,14 @@ def measure(pl: Plan, rep, judge: Judge) -> dict[str, list[Point]]:
     for sw in pl.sweeps:
         pts = []
         for s in sw.scales:
-            c = claim_at(CLAIMS[sw.claim], sw.bw, s)
+            c = claim_at(CLAIMS[sw.claim], sw.bw, s, sw.residual)
             verdict, rows = judge(c, rep.outcomes)
             rec = {}
+            t = tag(sw.bw, s, sw.residual)
             for run in c.runs:
-                if run.id.startswith(tag(sw.bw, s) + "."):
+                if run.id.startswith(t + "."):
                     o = rep.outcomes.get(run.id)
-                    base = run.id[len(tag(sw.bw, s)) + 1:]
+                    base = run.id[len(t) + 1:]
                     rec[base] = recorded_value(o.recording, sw.bw) if o else None
             pts.append(Point(s, verdict, rows, rec))
         out[sw.key] = pts
@@ -279,8 +302,8 @@ def evaluate(pl: Plan, rep, judge: Judge) -> dict[str, Any]:
     for sw in pl.sweeps:
         pts = points[sw.key]
         rng = holds_range(pts)
-        p = plot_bandwidth(rep, f"bandwidth_{sw.claim}_{sw.bandwidth}",
-                           f"{sw.claim} vs {sw.bw.label}: " + (
+        p = plot_bandwidth(rep, _plot_name(sw),
+                           f"{sw.claim} vs {sw.bw.label} {sw.at}: " + (
                                "does not hold at the chosen value" if rng is None else
                                f"holds for {rng[0]:g} .. {rng[1]:g} x the chosen"),
                            f"{sw.bw.label} / the chosen value ({_chosen_text(sw)})", pts)
@@ -290,6 +313,10 @@ def evaluate(pl: Plan, rep, judge: Judge) -> dict[str, Any]:
 
 
 # -- writing --------------------------------------------------------------------------------------
+
+def _plot_name(sw: Sweep) -> str:
+    return f"bandwidth_{sw.key.replace('.', '_')}"
+
 
 def _chosen_text(sw: Sweep) -> str:
     vals = sorted(set(sw.chosen.values()))
@@ -388,7 +415,7 @@ INTRO = ("The papers' estimator gains are lost, so the bench chose them (each ru
 
 
 def _sweep_title(sw: Sweep) -> str:
-    return f"{sw.claim} vs {sw.bw.label} (chosen: {_chosen_text(sw)})"
+    return f"{sw.claim} vs {sw.bw.label} {sw.at} (chosen: {_chosen_text(sw)})"
 
 
 def markdown(rep) -> list[str]:
@@ -402,7 +429,7 @@ def markdown(rep) -> list[str]:
               "| " + " | ".join(_md(c) for c in head) + " |", "|" + "---|" * len(head)]
         L += ["| " + " | ".join(_md(c) for c in r) + " |" for r in rows]
         L.append("")
-        p = plots.get(f"bandwidth_{sw.claim}_{sw.bandwidth}")
+        p = plots.get(_plot_name(sw))
         if p is not None:
             L += [f"![{p.stem}]({p.relative_to(rep.out_dir)})", ""]
     return L
@@ -428,13 +455,14 @@ def html_section(rep, img) -> list[str]:
                 f"<td class='{h.escape(_verdict_class(c))}'>{h.escape(c)}</td>" for c in r)
                 + "</tr>")
         H.append("</table>")
-        p = plots.get(f"bandwidth_{sw.claim}_{sw.bandwidth}")
+        p = plots.get(_plot_name(sw))
         if p is not None:
             H.append(img(p))
     return H
 
 
-_VERDICTS = ("NOT REPRODUCIBLE", "NOT RESOLVED", "COMPARED", "INVALID", "PARTLY", "PASS", "FAIL")
+_VERDICTS = ("NOT REPRODUCIBLE", "NOT RESOLVED", "COMPARED", "INVALID", "PARTLY", "PASS", "FAIL",
+             "UNTESTED", "DEPENDS")
 
 
 def _verdict_class(cell: str) -> str:
@@ -451,6 +479,7 @@ def to_json(out: dict) -> dict:
         rng = holds_range(pts)
         res[sw.key] = {
             "claim": sw.claim, "bandwidth": sw.bandwidth, "label": sw.bw.label,
+            "residual": sw.residual,
             "chosen_rad_s": sw.chosen, "holds_scales": list(rng) if rng else None,
             "holds": holds_text(sw, pts),
             "points": [{"scale": p.scale, "verdict": p.verdict, "recorded_rad_s": p.recorded,

@@ -27,6 +27,14 @@ from hil_bench.record import channels as ch
 
 from . import metrics
 
+
+def _savefig(fig, path) -> None:
+    """The figure written aside (a temporary name beside it) and renamed into place."""
+    import os
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
+    fig.savefig(tmp, dpi=90)
+    os.replace(tmp, path)
+
 SPEEDS_RPM = (5, 10, 20, 50, 100, 200, 500, 1000, 2000, 3000)
 SPEEDS_QUICK = (10, 100, 1000, 3000)
 SMOS = ("SMO_SIGN", "SMO_SIGMOID", "SMO_TANH")
@@ -278,7 +286,7 @@ def _plots(out, rep):
     fig.suptitle("Beyond the papers: every estimator from 5 to 3000 rpm", fontsize=10)
     fig.tight_layout()
     p = rep.out_dir / "plots" / "beyond_error_vs_speed.png"
-    fig.savefig(p, dpi=90)
+    _savefig(fig, p)
     plt.close(fig)
     paths.append(p)
 
@@ -302,7 +310,7 @@ def _plots(out, rep):
     ax.grid(alpha=0.3)
     fig.tight_layout()
     p = rep.out_dir / "plots" / "beyond_initial_position.png"
-    fig.savefig(p, dpi=90)
+    _savefig(fig, p)
     plt.close(fig)
     paths.append(p)
 
@@ -324,7 +332,7 @@ def _plots(out, rep):
                  "gong2020, HFI 50 rpm hou2021", fontsize=10)
     fig.tight_layout()
     p = rep.out_dir / "plots" / "beyond_sensitivity.png"
-    fig.savefig(p, dpi=90)
+    _savefig(fig, p)
     plt.close(fig)
     paths.append(p)
 
@@ -352,7 +360,7 @@ def _plots(out, rep):
                  "settings; SMO_SIGN.k25: fixed k = 25 V; HFI +-50 rpm hou2021)", fontsize=10)
     fig.tight_layout()
     p = rep.out_dir / "plots" / "beyond_reversal.png"
-    fig.savefig(p, dpi=90)
+    _savefig(fig, p)
     plt.close(fig)
     paths.append(p)
     return paths

@@ -17,7 +17,8 @@ Controller (a Python copy of the firmware stub's defaults, firmware_stub/src/con
   * currents from plant.sample() at t_k (ADC off here: exact), angle advanced by w_e Ts/2 for
     the voltage (it acts from t_k + t_d over the period), min-max (SVPWM) duties on the nominal
     bus; no dead-time compensation.
-THD: hil_bench.papers.metrics.harmonic_spectrum of the plant's true phase-a current sampled at t_k, over
+THD: hil_bench.papers.metrics.locked_spectrum of the plant's true phase-a current sampled at t_k
+(least squares on its true angle), over
 the last ``periods`` whole fundamental periods (harmonics 2..50).
 """
 from __future__ import annotations
@@ -32,7 +33,7 @@ import numpy as np
 from hil_bench.plant_rt.plant import Plant
 from hil_bench.plant_rt.profile import MotorProfile, load_profile
 
-from .metrics import harmonic_spectrum
+from .metrics import locked_spectrum
 
 RPM = 2.0 * math.pi / 60.0
 S3 = math.sqrt(3.0)
@@ -108,7 +109,8 @@ def run_foc(plant: Plant, speed_ref_rad_s: float, n_periods: int, *, load_nm: fl
             iq_max_a: float | None = None, id_ref_a: float = 0.0,
             cur_bw_rad_s: float | None = None) -> np.ndarray:
     """Ideal-encoder FOC of the stub's design for n_periods; returns the true phase currents
-    (n, 3) at the sampling instants t_1 .. t_n and the speed (n,) as a (n, 4) array."""
+    (n, 3) at the sampling instants t_1 .. t_n, the speed and the true electrical angle at the
+    same instants as a (n, 5) array."""
     prof = plant.params
     g = stub_gains(prof, prof.v_dc_v,
                    iq_max_a if iq_max_a is not None else 3.0 * plant.profile.rated["current_a"],
@@ -121,7 +123,7 @@ def run_foc(plant: Plant, speed_ref_rad_s: float, n_periods: int, *, load_nm: fl
     plant.set_initial(0.3, speed_ref_rad_s)
     plant.set_load_torque(load_nm)
     ts, p, vdc = prof.ts_s, prof.pole_pairs, prof.v_dc_v
-    out = np.empty((n_periods, 4))
+    out = np.empty((n_periods, 5))
     for k in range(n_periods):
         m = plant.sample()
         s = plant.snapshot()  # ideal encoder: true angle and speed at t_k
@@ -142,7 +144,7 @@ def run_foc(plant: Plant, speed_ref_rad_s: float, n_periods: int, *, load_nm: fl
         c, sn = math.cos(thp), math.sin(thp)
         plant.step(*duties_min_max(v_d * c - v_q * sn, v_d * sn + v_q * c, vdc))
         s = plant.snapshot()
-        out[k] = (s.i_a_a, s.i_b_a, s.i_c_a, s.omega_m_rad_s)
+        out[k] = (s.i_a_a, s.i_b_a, s.i_c_a, s.omega_m_rad_s, s.theta_e_rad)
     return out
 
 
@@ -167,7 +169,7 @@ def measure_thd(prof: MotorProfile, rpm: float, load_nm: float, *, settle_s: flo
     n = int(round((settle_s + periods / f1) / prof.ts_s))
     rec = run_foc(plant, rpm * RPM, n, load_nm=load_nm, cur_bw_rad_s=cur_bw_rad_s)
     n_win = int(round(periods / f1 / prof.ts_s))
-    spec = harmonic_spectrum(rec[-n_win:, 0], 1.0 / prof.ts_s, f1)
+    spec = locked_spectrum(rec[-n_win:, 0], rec[-n_win:, 4], 1.0 / prof.ts_s)
     h = spec.harmonics
     fund = spec.fundamental_amplitude
     speed = rec[-n_win:, 3] / RPM

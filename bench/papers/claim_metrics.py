@@ -147,10 +147,12 @@ def _pee_mean(c: Context) -> float:
 
 
 def _emf_spectrum(c: Context, field: str = "e_alpha_v") -> metrics.Spectrum:
-    e = c.windowed(c.estimate_topic, field)
+    """The estimated EMF's harmonics locked to the rotor: least squares on the plant's true
+    electrical angle at the estimate's own cycles (metrics.locked_spectrum)."""
+    e, theta = c.estimate_and_truth(field, "theta_e_rad")
     if not np.all(np.isfinite(e)):
         raise MetricUnavailable(f"{c.source} reported no EMF in the window")
-    return metrics.harmonic_spectrum(e, 1.0 / c.ts_s, c.electrical_hz())
+    return metrics.locked_spectrum(e, theta, 1.0 / c.ts_s)
 
 
 def _emf_thd(c: Context) -> float:
@@ -162,8 +164,10 @@ def _emf_amplitude(c: Context) -> float:
 
 
 def _current_spectrum(c: Context) -> metrics.Spectrum:
-    return metrics.harmonic_spectrum(c.windowed(ch.PLANT_STATE, "i_a_a"), 1.0 / c.ts_s,
-                                     c.electrical_hz())
+    """The true phase-a current's harmonics locked to the rotor (least squares on the true
+    electrical angle of the same cycles, metrics.locked_spectrum)."""
+    return metrics.locked_spectrum(c.windowed(ch.PLANT_STATE, "i_a_a"),
+                                   c.windowed(ch.PLANT_STATE, "theta_e_rad"), 1.0 / c.ts_s)
 
 
 def _phase_current_amp(c: Context) -> float:
@@ -320,7 +324,7 @@ _EXTRACTION_CACHE: dict = {}
 def _harmonic_extraction_pp(c: Context, order: int, extractor: str, m: int = 96) -> float:
     """Yuan Table 3: the 5th or 7th harmonic of the phase current as extracted by the controller's
     angle-synchronous SDFT/GSDFT (harm_comp, M samples per electrical period, true angle), in %
-    of the fundamental (FFT over the window), the extractor's output at the end of the window."""
+    of the fundamental (locked to the rotor over the window), the extractor's output at the end of the window."""
     key = (str(c.rec.path), c.window_s, extractor, m)
     if key not in _EXTRACTION_CACHE:
         _EXTRACTION_CACHE.clear()     # one recording at a time

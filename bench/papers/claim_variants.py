@@ -12,8 +12,9 @@ from typing import Callable
 
 from hil_bench.claims.model import Claim, Run
 
-#: the verdicts under which a claim holds at a point of a study
-HOLDS = ("PASS", "COMPARED")
+#: the verdicts under which a claim holds at a point of a study (PARTLY: every pass/fail row
+#: passed, some rows had no verdict of their own, e.g. NOT RESOLVED)
+HOLDS = ("PASS", "COMPARED", "PARTLY")
 
 #: how the report judges one claim on the runs' outcomes: (verdict, rows); the report hands its
 #: own (report.judge_claim), so the studies do not import the report that imports them

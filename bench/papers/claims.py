@@ -9,7 +9,10 @@ Verdicts: PASS, FAIL, COMPARED (value compared, no pass/fail), INVALID (the benc
 measure: the run broke, the window is empty), NOT REPRODUCIBLE (reason given), NOT RESOLVED (a
 relation whose difference is below the resolution of what it was measured from, e.g. one LSB of
 the controller's telemetry), CALIBRATION (the plant was fitted to this number: the row is the
-calibration's input, shown, no verdict). A claim that does not reproduce is a result to show,
+calibration's input, shown, no verdict), UNTESTED (a relation against a comparator the bench
+reconstructed from a paper's citation, which did not hold its operating point: no verdict on the
+paper), DEPENDS (a claim's verdict that changes over the plausible range of a number the paper
+does not give: bench/papers/assumptions.py). A claim that does not reproduce is a result to show,
 never something to tune away.
 """
 from __future__ import annotations
@@ -36,7 +39,7 @@ from .claim_metrics import (
 )
 
 VERDICTS = ("PASS", "FAIL", "COMPARED", "INVALID", "NOT REPRODUCIBLE", "NOT RESOLVED",
-            "CALIBRATION")
+            "CALIBRATION", "UNTESTED", "DEPENDS")
 
 #: operating-point check of a speed window (a bench definition, not a paper's rule)
 OPERATING_POINT_DEF = ("bench definition: the window holds its operating point when the true mean "
@@ -72,6 +75,21 @@ def applicable(claim: Claim, rec, scn, estimator: bool = True):
     if m is None:
         return None, []
     return m, [conditions.window_of(q, m.run) for q in conditions.rows_on(claim, m.run)]
+
+
+def steadiness_note(ctx: Context) -> str:
+    """'' if the true speed is steady in the window (metrics.steadiness, a bench definition:
+    metrics.STEADY_DEF), else why not, worded as an operating point not held: a figure of a
+    steady state measured on a settling transient is not the paper's figure."""
+    try:
+        n = ctx.windowed(ch.PLANT_STATE, "speed_rpm")
+    except MetricUnavailable as exc:
+        return str(exc)
+    s = metrics.steadiness(n)
+    if s.steady:
+        return ""
+    return (f"the drive did not hold a steady speed in the window {ctx.window_s[0]:g}..."
+            f"{ctx.window_s[1]:g} s: {s.text()} ({metrics.STEADY_DEF})")
 
 
 def operating_point_note(ctx: Context, ref_rpm: float) -> str:
@@ -214,6 +232,12 @@ def run_failure(rec: Recording,
     return "INVALID", f"the run ended early: {err}"
 
 
+def comparator_note(q: Quantity, why: str) -> str:
+    """Why a comparator's row is UNTESTED: the bench's reconstruction did not hold the point."""
+    return (f"untested: the bench's comparator did not hold its operating point ({q.comparator}); "
+            + why)
+
+
 def measure(q: Quantity, ctx: Context) -> tuple[float, str, str]:
     """(value, verdict, note) of one quantity on one recording's context."""
     return measure_with_resolution(q, ctx)[:3]
@@ -233,6 +257,8 @@ def measure_with_resolution(q: Quantity, ctx: Context) -> tuple[float, str, str,
     except MetricAtLeast as exc:
         value, at_least = exc.value, str(exc)
     except MetricUnavailable as exc:
+        if kind == "FAIL" and q.comparator:
+            return math.nan, "UNTESTED", comparator_note(q, why), 0.0
         if kind:
             return math.nan, kind, why, 0.0
         return math.nan, "INVALID", str(exc), 0.0
@@ -250,16 +276,25 @@ def measure_with_resolution(q: Quantity, ctx: Context) -> tuple[float, str, str,
     if q.calibration:
         return value, "CALIBRATION", q.calibration + ("; " + why if why else ""), res
     if kind == "FAIL" and not math.isfinite(value):
+        if q.comparator:
+            return value, "UNTESTED", comparator_note(q, why), res
         return value, "FAIL", why, res        # the drive faulted before the window
     if q.not_reproducible:
         return value, "NOT REPRODUCIBLE", q.not_reproducible, res
+    why_op = ""
     if q.at_speed_rpm is not None:
         octx = qctx.with_window(q.at_speed_window_s) if q.at_speed_window_s else qctx
         why_op = operating_point_note(octx, q.at_speed_rpm)
-        if why_op:
-            return (value, "FAIL" if q.rule.kind != "compared" else "COMPARED",
-                    why_op + ("; " + why if why else ""), res)
+    if not why_op and q.needs_steady:
+        why_op = steadiness_note(qctx)
+    if why_op:
+        if q.comparator:
+            return value, "UNTESTED", comparator_note(q, why_op + ("; " + why if why else "")), res
+        return (value, "FAIL" if q.rule.kind != "compared" else "COMPARED",
+                why_op + ("; " + why if why else ""), res)
     if kind == "FAIL":
+        if q.comparator:
+            return value, "UNTESTED", comparator_note(q, why), res
         return value, "FAIL" if q.rule.kind != "compared" else "COMPARED", why, res
     if at_least and q.rule.kind == "at_most":
         return value, "FAIL", why, res        # already beyond its bound
@@ -291,21 +326,28 @@ def evaluate(claim: Claim, ctx: Context, scn=None) -> list[QuantityResult]:
 
 def relate(rel: Relation, values: dict[str, float], not_reproducible: frozenset = frozenset(),
            off_point: frozenset = frozenset(),
-           resolutions: dict[str, float] | None = None) -> tuple[tuple[float, ...], str, str]:
+           resolutions: dict[str, float] | None = None,
+           untested: dict[str, str] | None = None) -> tuple[tuple[float, ...], str, str]:
     """Check a relation on the measured values; a relation over a quantity that is NOT
     REPRODUCIBLE is not reproducible either. An ordering ("<", ">") between two values whose
     difference is below the resolution of either (``resolutions``: one LSB of what they were
     measured from) is NOT RESOLVED, unless another pair of the chain is resolved and wrong
-    (FAIL)."""
+    (FAIL). A relation over a row of the paper's method that did not hold its operating point
+    FAILs; over a comparator's row that did not (``untested``: key -> why) it is UNTESTED: the
+    bench's reconstruction of a method the paper only cites is not the paper's claim."""
     resolutions = resolutions or {}
+    untested = untested or {}
     vals = tuple(float(k[1:]) if k.startswith("#") else values.get(k, math.nan) for k in rel.keys)
     nr = [k for k in rel.keys if k in not_reproducible]
     if nr:
         return vals, "NOT REPRODUCIBLE", f"{', '.join(nr)} not reproducible on this bench"
-    off = [k for k in rel.keys if k in off_point]
+    off = [k for k in rel.keys if k in off_point and k not in untested]
     if off:
         return vals, "FAIL", (f"{', '.join(off)}: the drive did not hold the operating point, so "
                               "the comparison does not hold either")
+    unt = [k for k in rel.keys if k in untested]
+    if unt:
+        return vals, "UNTESTED", "; ".join(f"{k}: {untested[k]}" for k in unt)
     if not all(math.isfinite(v) for v in vals):
         missing = [k for k, v in zip(rel.keys, vals) if not math.isfinite(v)]
         return vals, "FAIL", f"no measured value for {', '.join(missing)}"
@@ -334,6 +376,12 @@ def relate(rel: Relation, values: dict[str, float], not_reproducible: frozenset 
         return vals, "FAIL", ""
     if unresolved:
         return vals, "NOT RESOLVED", "; ".join(unresolved)
+    if rel.min_fall:
+        falls = [abs(a - b) / abs(b if rel.op == "<" else a) for a, b in zip(vals, vals[1:])]
+        short = min(falls)
+        note = (f"falls by {100 * short:.1f} %, the paper's size to reach {100 * rel.min_fall:.1f} % "
+                f"({rel.min_fall_source})")
+        return vals, "PASS" if short >= rel.min_fall else "FAIL", note
     return vals, "PASS", ""
 
 

@@ -5,6 +5,7 @@ steady-state window takes the samples whose time lies in [t0, t1].
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -70,58 +71,156 @@ def holds_speed(mean_rpm: float, ref_rpm: float) -> bool:
 
 @dataclass(frozen=True)
 class Spectrum:
-    """Harmonic analysis of one signal over an integer number of fundamental periods."""
+    """Harmonic analysis of one signal over a whole number of electrical revolutions."""
 
-    fundamental_hz: float
-    periods: int
+    fundamental_hz: float             # mean electrical frequency over the revolutions (NaN: no fs)
+    periods: int                      # whole revolutions of the angle the fit ran over
     fundamental_amplitude: float
-    harmonics: dict[int, float]       # order -> amplitude (orders 2..max_order)
+    harmonics: dict[int, float]       # order -> amplitude (orders 2..max_order below Nyquist)
     thd_percent: float                # sqrt(sum of harmonic^2) / fundamental
-    thd_n_percent: float              # everything but DC and the fundamental bin / fundamental
+    thd_n_percent: float              # everything but DC and the fundamental / fundamental
+    phases_rad: dict[int, float] = dataclasses.field(default_factory=dict)  # order -> phase
 
     def harmonic_percent(self, order: int) -> float:
         return 100.0 * self.harmonics.get(order, math.nan) / self.fundamental_amplitude
 
 
+def locked_spectrum(x: np.ndarray, theta_e_rad: np.ndarray, fs_hz: float | None = None,
+                    max_order: int = 50) -> Spectrum:
+    """Harmonics of x locked to the rotor: least squares on the electrical angle.
+
+    ``theta_e_rad`` is the true electrical angle at the instants of the samples (wrapped or not;
+    it is unwrapped here and must turn one way). The samples are cut to the longest whole number
+    P of revolutions ending at the last sample (each sample standing for the angle step after
+    it, so that N samples of one revolution at a constant speed are a whole one, as an FFT
+    counts them), and x is fitted by
+
+        x = c0 + sum_h (a_h cos h theta + b_h sin h theta),   h = 1 .. H
+
+    H = max_order, lowered to the orders below Nyquist (h times the largest angle step per sample
+    below pi). Amplitudes are peak values, A_h = hypot(a_h, b_h). THD counts the fitted orders
+    2..H; THD+N is the RMS of everything the DC and the fundamental leave (harmonics beyond H,
+    noise, anything not periodic in the angle) as a peak value, sqrt(2 mean(r^2)), over A_1.
+
+    Unlike an FFT cut on the window's mean frequency, this does not leak when the speed drifts or
+    a revolution is not a whole number of samples: a harmonic of the angle is a column of the
+    fit whatever the speed did (tests/test_metrics.py). ``fs_hz`` (optional) only gives
+    ``fundamental_hz``, the mean electrical frequency over the revolutions."""
+    x = np.asarray(x, dtype=float)
+    th = np.asarray(theta_e_rad, dtype=float)
+    if x.shape != th.shape or x.ndim != 1:
+        raise ValueError(f"signal and angle must be 1-D of one length, got {x.shape} and {th.shape}")
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(th))):
+        raise ValueError("signal or angle has non-finite samples")
+    if x.size < 3:
+        raise ValueError(f"window holds {x.size} samples, less than one revolution")
+    th = np.unwrap(th)
+    if th[-1] < th[0]:                     # turning backwards: the same fit on -theta
+        th = -th
+    step = np.diff(th)
+    if np.any(step < -1e-9):
+        raise ValueError("the electrical angle does not turn one way in the window: no harmonic "
+                         "of it to fit")
+    # each sample stands for the step that follows it: N samples of a constant speed span
+    # N steps (the FFT's convention), so a revolution of N samples is a whole one
+    dstep = (th[-1] - th[0]) / (th.size - 1)
+    span = th[-1] - th[0] + dstep
+    periods = int(math.floor(span / TWO_PI + 1e-9))
+    if periods < 1:
+        raise ValueError(f"window holds {span / TWO_PI:.3g} electrical revolutions, less than one")
+    first = int(np.searchsorted(th, th[-1] + dstep - TWO_PI * periods - 1e-6 * dstep))
+    seg, ang = x[first:], th[first:]
+    largest_step = float(np.max(np.diff(ang))) if ang.size > 1 else math.pi
+    nyquist = int(math.floor((math.pi - 1e-12) / largest_step)) if largest_step > 0 else max_order
+    top = max(1, min(max_order, nyquist))
+    cols = [np.ones_like(ang)]
+    for h in range(1, top + 1):
+        cols += [np.cos(h * ang), np.sin(h * ang)]
+    basis = np.stack(cols, axis=1)
+    coef = np.linalg.lstsq(basis, seg, rcond=None)[0]
+    amp = {h: float(math.hypot(coef[2 * h - 1], coef[2 * h])) for h in range(1, top + 1)}
+    phase = {h: float(math.atan2(-coef[2 * h], coef[2 * h - 1])) for h in range(1, top + 1)}
+    fund = amp[1]
+    harmonics = {h: a for h, a in amp.items() if h >= 2}
+    thd = 100.0 * math.sqrt(sum(a * a for a in harmonics.values())) / fund if fund > 0 else math.nan
+    rest = seg - basis[:, :3] @ coef[:3]
+    thd_n = 100.0 * math.sqrt(2.0 * float(np.mean(rest ** 2))) / fund if fund > 0 else math.nan
+    f1 = periods * fs_hz / len(seg) if fs_hz else math.nan
+    return Spectrum(f1, periods, fund, harmonics, thd, thd_n, phase)
+
+
 def harmonic_spectrum(x: np.ndarray, fs_hz: float, fundamental_hz: float,
                       max_order: int = 50) -> Spectrum:
-    """THD by FFT over the longest whole number of fundamental periods at the end of x.
-
-    The samples are cut to P whole periods (P = floor(len * f1 / fs)) so that harmonic h falls
-    on FFT bin h*P (rectangular window, no leakage for a stationary periodic signal). THD counts
-    harmonics 2..max_order below Nyquist; THD+N counts every bin except DC and the fundamental.
-    Amplitudes are peak values.
-    """
-    x = np.asarray(x, dtype=float)
-    if not np.all(np.isfinite(x)):
-        raise ValueError("signal has non-finite samples")
+    """The spectrum of x locked to a constant-frequency angle 2 pi f1 t (``locked_spectrum``):
+    for a signal whose frequency is known to be constant (a synthetic trajectory, a study at a
+    fixed speed). Over a whole number of periods of a whole number of samples it equals the FFT's
+    bins; it does not leak when a period is not a whole number of samples. Claims on recordings
+    use ``locked_spectrum`` on the plant's true angle (the speed drifts)."""
     if fundamental_hz <= 0:
         raise ValueError(f"fundamental must be > 0 Hz, got {fundamental_hz!r}")
-    samples_per_period = fs_hz / fundamental_hz
-    periods = int(math.floor(len(x) / samples_per_period))
-    if periods < 1:
+    x = np.asarray(x, dtype=float)
+    if x.size * fundamental_hz / fs_hz < 1.0 - 1e-9:
         raise ValueError(f"window holds {len(x)} samples, less than one period "
-                         f"({samples_per_period:.1f} samples) of {fundamental_hz:.3g} Hz")
-    n = int(round(periods * samples_per_period))
-    seg = x[-n:]
-    spec = np.fft.rfft(seg) / n
-    amp = 2.0 * np.abs(spec)
-    amp[0] /= 2.0
-    fund = float(amp[periods])
-    harmonics = {}
-    for h in range(2, max_order + 1):
-        b = h * periods
-        if b >= len(amp) - 1:
-            break
-        harmonics[h] = float(amp[b])
-    thd = 100.0 * math.sqrt(sum(a * a for a in harmonics.values())) / fund if fund > 0 else math.nan
-    rest = np.delete(amp[1:], periods - 1)
-    thd_n = 100.0 * float(np.sqrt(np.sum(rest ** 2))) / fund if fund > 0 else math.nan
-    return Spectrum(fundamental_hz, periods, fund, harmonics, thd, thd_n)
+                         f"({fs_hz / fundamental_hz:.1f} samples) of {fundamental_hz:.3g} Hz")
+    theta = TWO_PI * fundamental_hz * np.arange(x.size) / fs_hz
+    return locked_spectrum(x, theta, fs_hz, max_order)
 
 
 def fundamental_amplitude(x: np.ndarray, fs_hz: float, fundamental_hz: float) -> float:
     return harmonic_spectrum(x, fs_hz, fundamental_hz, max_order=1).fundamental_amplitude
+
+
+# -- steadiness of a window ----------------------------------------------------------------------
+
+#: the steadiness rule's floor: half the finest print precision of the papers' speed figures
+#: (Yuan's +-1.5 rpm, Gong's +-7.5 rpm are printed to 0.1 rpm), plus a hundredth of the smallest
+#: speed fluctuation the papers quote relative to their speed (Gong's +-24 rpm at 2000 rpm: 1.2 %)
+#: times the speed: a settling tail below it changes no comparison with a printed number
+STEADY_FLOOR_RPM = 0.05
+STEADY_FLOOR_REL = 1.0e-4
+#: how much wider than its second half's band the whole window may be (the extremes of a
+#: stationary signal differ from half to half; a decaying transient's do by more)
+STEADY_FACTOR = 2.0
+
+
+@dataclass(frozen=True)
+class Steadiness:
+    steady: bool
+    band_rpm: float          # max |n - mean of the second half| over the second half
+    whole_rpm: float         # the same over the whole window
+    limit_rpm: float         # STEADY_FACTOR x band + STEADY_FLOOR_RPM + STEADY_FLOOR_REL |mean|
+
+    def text(self) -> str:
+        return (f"the true speed keeps {self.band_rpm:.3g} rpm about its mean in the window's "
+                f"second half but {self.whole_rpm:.3g} rpm over the whole window (limit "
+                f"{self.limit_rpm:.3g} rpm)")
+
+
+STEADY_DEF = (f"bench definition: a window is steady when the true speed over the whole window "
+              f"stays within {STEADY_FACTOR:g} x the band it keeps in the window's second half "
+              f"(about that half's mean) + {STEADY_FLOOR_RPM:g} rpm + {100 * STEADY_FLOOR_REL:g} % "
+              f"of the speed: the settling-time idea (a transient has settled once the signal "
+              f"stays in the band of its final value, Ogata, Modern Control Engineering, 5-3) "
+              f"with the final band measured, not assumed; {STEADY_FLOOR_RPM:g} rpm is half the "
+              f"papers' finest printed speed step (0.1 rpm), {100 * STEADY_FLOOR_REL:g} % a "
+              f"hundredth of the smallest relative speed fluctuation they quote (Gong's +-24 rpm "
+              f"at 2000 rpm, 1.2 %)")
+
+
+def steadiness(speed_rpm: np.ndarray) -> Steadiness:
+    """Whether a window is steady state (``STEADY_DEF``): a decaying transient (a settling after
+    a start-up or a step) is wider in the first half than in the second; a stationary ripple is
+    not."""
+    n = np.asarray(speed_rpm, float)
+    n = n[np.isfinite(n)]
+    if n.size < 4:
+        return Steadiness(False, math.nan, math.nan, math.nan)
+    second = n[n.size // 2:]
+    mid = float(np.mean(second))
+    band = float(np.max(np.abs(second - mid)))
+    whole = float(np.max(np.abs(n - mid)))
+    limit = STEADY_FACTOR * band + STEADY_FLOOR_RPM + STEADY_FLOOR_REL * abs(mid)
+    return Steadiness(whole <= limit, band, whole, limit)
 
 
 # -- estimation error ----------------------------------------------------------------------------

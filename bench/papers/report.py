@@ -76,6 +76,7 @@ class Row:
     diagnostic: bool = False
     value: float = math.nan
     is_relation: bool = False
+    comparator: bool = False      # a row of the bench's comparator: decides through relations only
 
 
 @dataclass
@@ -89,10 +90,21 @@ class Report:
     plots: dict[str, list[Path]] = field(default_factory=dict)
     beyond: dict[str, Any] = field(default_factory=dict)
     residual: dict[str, Any] = field(default_factory=dict)
+    assumptions: dict[str, Any] = field(default_factory=dict)
+    comparators: dict[str, Any] = field(default_factory=dict)
     bandwidth: dict[str, Any] = field(default_factory=dict)
     wall_s: float = 0.0
     jobs: int = 1
     command: str = ""       # the exact command that produced the report
+
+
+def _write_aside(path: Path, text: str) -> Path:
+    """Write ``text`` to a temporary name beside ``path`` and rename it into place: a reader
+    sees the old file or the new one, never half of one."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+    return path
 
 
 # -- running --------------------------------------------------------------------------------------
@@ -315,13 +327,16 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
                                                             isinstance(q.paper_value, str) else ""),
                                  measured, q.unit,
                                  "no verdict" if q.calibration else q.rule.text(),
-                                 _source_cell(q), verdict, note, q.diagnostic, v)))
+                                 _source_cell(q), verdict, note, q.diagnostic, v,
+                                 comparator=bool(q.comparator))))
         order = {q.key: i for i, q in enumerate(c.quantities)}
         rows += [r for _, r in sorted(qrows, key=lambda x: order[x[0].key])]
         nr = frozenset(r.key for _, r in qrows if r.verdict == "NOT REPRODUCIBLE")
         off = frozenset(r.key for _, r in qrows if "did not hold" in r.note)
+        untested = {r.key: "the comparator did not hold its operating point" for _, r in qrows
+                    if r.verdict == "UNTESTED"}
         for rel in c.relations:
-            vals, verdict, note = relate(rel, values, nr, off, resolutions)
+            vals, verdict, note = relate(rel, values, nr, off, resolutions, untested)
             sym = {"<": " < ", ">": " > ", "=": " = "}[rel.op]
             rows.append(Row(c.id, rel.key, rel.what, rel.paper,
                             sym.join(_fmt(v) for v in vals), "",
@@ -351,15 +366,19 @@ def judge_claim(claim: Claim, outcomes: dict) -> tuple[str, list]:
 
 
 def claim_verdict(rows: list[Row]) -> str:
-    """A claim's summary over its non-diagnostic rows: FAIL if any fails, INVALID if any could
-    not be measured, PASS if every pass/fail row passed, else COMPARED / NOT REPRODUCIBLE."""
-    vs = [r.verdict for r in rows if not r.diagnostic and r.verdict != "CALIBRATION"]
+    """A claim's summary over its non-diagnostic rows (a comparator's rows count only through
+    the relations over them): FAIL if any fails, INVALID if any could not be measured, PASS if
+    every pass/fail row passed (PARTLY if some rows had no verdict of their own: not
+    reproducible, not resolved, untested), else NOT REPRODUCIBLE / UNTESTED / NOT RESOLVED /
+    COMPARED."""
+    vs = [r.verdict for r in rows if not r.diagnostic and not r.comparator
+          and r.verdict != "CALIBRATION"]
     for v in ("FAIL", "INVALID"):
         if v in vs:
             return v
     if "PASS" in vs:
         return "PASS" if all(v in ("PASS", "COMPARED") for v in vs) else "PARTLY"
-    for v in ("NOT REPRODUCIBLE", "NOT RESOLVED"):
+    for v in ("NOT REPRODUCIBLE", "UNTESTED", "NOT RESOLVED"):
         if v in vs:
             return v
     return "COMPARED"
@@ -390,7 +409,8 @@ DEFINITIONS_TEXT = (
 
 #: the order in which a claim's verdict picks the row that decides it
 _DECIDES = {"FAIL": ("FAIL",), "INVALID": ("INVALID",), "NOT REPRODUCIBLE": ("NOT REPRODUCIBLE",),
-            "NOT RESOLVED": ("NOT RESOLVED",), "PARTLY": ("NOT REPRODUCIBLE", "NOT RESOLVED"),
+            "NOT RESOLVED": ("NOT RESOLVED",), "UNTESTED": ("UNTESTED",),
+            "PARTLY": ("NOT REPRODUCIBLE", "UNTESTED", "NOT RESOLVED"),
             "PASS": ("PASS",), "COMPARED": ("COMPARED",)}
 
 
@@ -406,7 +426,7 @@ def claim_summary(c: Claim, rows: list[Row]) -> tuple[str, str, str, str]:
     REPRODUCIBLE, INVALID), the drive's fault under the claim's set-up, a finding about the
     paper (FAIL against the paper's own rule), or a value the paper gives without a bound."""
     verdict = claim_verdict(rows)
-    main = [r for r in rows if not r.diagnostic and r.verdict != "CALIBRATION"]
+    main = [r for r in rows if not r.diagnostic and not r.comparator and r.verdict != "CALIBRATION"]
     pick = None
     for want in _DECIDES.get(verdict, ()):
         # a relation states the claim's ranking: it decides before a single row where it holds
@@ -425,6 +445,8 @@ def claim_summary(c: Claim, rows: list[Row]) -> tuple[str, str, str, str]:
         reason = f"the bench could not measure {what}: {_first_clause(pick.note)}"
     elif pick.verdict == "NOT RESOLVED":
         reason = f"telemetry resolution ({what}): {_first_clause(pick.note)}"
+    elif pick.verdict == "UNTESTED":
+        reason = f"untested ({what}): {_first_clause(pick.note)}"
     elif pick.verdict == "FAIL" and "ended early" in pick.note:
         reason = (f"the drive faulted under the claim's set-up ({_first_clause(c.setup, 120)}): "
                   f"{_short_fault(pick.note)}")
@@ -440,6 +462,26 @@ def claim_summary(c: Claim, rows: list[Row]) -> tuple[str, str, str, str]:
         reason = (f"reported value, no bound in the paper: {what} ({_first_clause(pick.source, 140)})"
                   + (f"; {_first_clause(pick.note, 120)}" if pick.note else ""))
     return verdict, pick.paper, pick.measured, reason
+
+
+def summary_row(rep: "Report", c: Claim, rows: list[Row]) -> tuple[str, str, str, str, str]:
+    """(verdict, the assumption it rests on, paper, measured, what decides it) of the summary
+    table: the verdict across the claim's assumptions where the report ran them
+    (bench/papers/assumptions.py: DEPENDS with the threshold where the verdict moves over the
+    plausible range of a number the paper does not give), else the claim's own; a comparator
+    study's finding joins the reason of a claim whose relations it left untested."""
+    from .assumptions import summary as assumption_summary
+    v, paper, measured, reason = claim_summary(c, rows)
+    across, assumption = assumption_summary(rep.assumptions, c.id)
+    if across is not None and across != v:
+        reason = (f"{across} across its assumptions (at the scenarios' values: {v}); " + reason)
+        v = across
+    if rep.comparators and any(r.verdict == "UNTESTED" for r in rows if not r.diagnostic):
+        from .comparators import finding
+        f = finding(rep.comparators, c.id)
+        if f:
+            reason += f"; comparator study: {f}"
+    return v, assumption, paper, measured, reason
 
 
 #: the estimator settings a report states per run (CONFIG as recorded), with their meaning
@@ -544,19 +586,25 @@ def write_markdown(rep: Report) -> Path:
           "pass/fail; **NOT REPRODUCIBLE**: the reason is given; **INVALID**: the bench could "
           "not measure; **NOT RESOLVED**: a relation whose difference is below the resolution of "
           "what it was measured from; **CALIBRATION**: the plant was fitted to this number, so "
-          "the row is the fit's input (no verdict). Rows marked *diagnostic* are not the paper's "
-          "setup (e.g. dead time off, to locate a failure) and do not count for the claim.", ""]
+          "the row is the fit's input (no verdict); **UNTESTED**: a relation against the bench's "
+          "reconstruction of a method the paper only cites (a comparator), which did not hold its "
+          "operating point; **DEPENDS**: the verdict changes over the plausible range of a number "
+          "the paper does not give (the assumption column names it and the threshold). Rows "
+          "marked *diagnostic* are not the paper's setup (e.g. dead time off, to locate a "
+          "failure) and do not count for the claim.", ""]
     L += [RESOLUTION_TEXT, "", DEFINITIONS_TEXT, ""]
-    L += ["| claim | verdict | paper | measured | what decides it | claim |",
-          "|---|---|---|---|---|---|"]
+    L += ["| claim | verdict | the assumption it rests on | paper | measured | what decides it "
+          "| claim |", "|---|---|---|---|---|---|---|"]
     by_claim = {c.id: [r for r in rep.rows if r.claim == c.id] for c in rep.claims}
     for c in rep.claims:
-        v, paper, measured, reason = claim_summary(c, by_claim[c.id])
-        L.append(f"| [{c.id}](#{c.id.lower()}) | {v} | {_md_cell(paper)} | {_md_cell(measured)} "
-                 f"| {_md_cell(reason)} | {_md_cell(c.text)} |")
+        v, assumption, paper, measured, reason = summary_row(rep, c, by_claim[c.id])
+        L.append(f"| [{c.id}](#{c.id.lower()}) | {v} | {_md_cell(assumption)} | {_md_cell(paper)} "
+                 f"| {_md_cell(measured)} | {_md_cell(reason)} | {_md_cell(c.text)} |")
     L.append("")
     for c in rep.claims:
         L += [f"## {c.id}", "", f"**{c.paper}.** {c.text}", ""]
+        if c.plant:
+            L += [f"Plant and compensation that decide: {c.plant}.", ""]
         if c.setup:
             L += [f"Setup: {c.setup}.", ""]
         if c.notes:
@@ -587,6 +635,12 @@ def write_markdown(rep: Report) -> Path:
             L.append("")
         for p in rep.plots.get(c.id, []):
             L += [f"![{c.id}]({p.relative_to(rep.out_dir)})", ""]
+    if rep.assumptions:
+        from .assumptions import markdown as assumptions_md
+        L += assumptions_md(rep)
+    if rep.comparators:
+        from .comparators import markdown as comparators_md
+        L += comparators_md(rep)
     if rep.residual:
         from .residual import markdown as residual_md
         L += residual_md(rep)
@@ -597,7 +651,7 @@ def write_markdown(rep: Report) -> Path:
         from .beyond import markdown as beyond_md
         L += beyond_md(rep)
     path = rep.out_dir / "report.md"
-    path.write_text("\n".join(L) + "\n")
+    _write_aside(path, "\n".join(L) + "\n")
     return path
 
 
@@ -609,7 +663,8 @@ th { background: #eee; }
 .PASS { background: #c8f0c8; } .FAIL { background: #f6c4c4; } .COMPARED { background: #e8e8f8; }
 .INVALID { background: #f6e0a8; } .NOT_REPRODUCIBLE { background: #ead8f0; }
 .PARTLY { background: #f0f0b0; } .NOT_RESOLVED { background: #dde8ee; }
-.CALIBRATION { background: #eeeeee; }
+.CALIBRATION { background: #eeeeee; } .UNTESTED { background: #e4e4d4; }
+.DEPENDS { background: #f8dcb0; }
 tr.diag td { color: #666; font-style: italic; }
 img { max-width: 100%; border: 1px solid #ccc; margin: 0.5em 0; }
 code { background: #f4f4f4; }
@@ -632,20 +687,25 @@ def write_html(rep: Report) -> Path:
              "no pass/fail (the paper gives no bound and no resolution); NOT REPRODUCIBLE (reason "
              "given); INVALID: the bench could not measure; NOT RESOLVED: a relation whose "
              "difference is below the resolution of what it was measured from; CALIBRATION: the "
-             "plant was fitted to this number (no verdict). <i>Diagnostic</i> rows are not the "
-             "paper's setup and do not count.</p>")
+             "plant was fitted to this number (no verdict); UNTESTED: a relation against the "
+             "bench's reconstruction of a method the paper only cites, which did not hold its "
+             "operating point; DEPENDS: the verdict changes over the plausible range of a number "
+             "the paper does not give (the assumption column names it and the threshold). "
+             "<i>Diagnostic</i> rows are not the paper's setup and do not count.</p>")
     H.append(f"<p>{e(RESOLUTION_TEXT)}</p><p>{e(DEFINITIONS_TEXT)}</p>")
     by_claim = {c.id: [r for r in rep.rows if r.claim == c.id] for c in rep.claims}
-    H.append("<table><tr><th>claim</th><th>verdict</th><th>paper</th><th>measured</th>"
-             "<th>what decides it</th><th>claim</th></tr>")
+    H.append("<table><tr><th>claim</th><th>verdict</th><th>the assumption it rests on</th>"
+             "<th>paper</th><th>measured</th><th>what decides it</th><th>claim</th></tr>")
     for c in rep.claims:
-        v, paper, measured, reason = claim_summary(c, by_claim[c.id])
+        v, assumption, paper, measured, reason = summary_row(rep, c, by_claim[c.id])
         H.append(f"<tr><td><a href='#{c.id}'>{c.id}</a></td><td class='{_css_class(v)}'>{v}</td>"
-                 f"<td>{e(paper)}</td><td>{e(measured)}</td><td>{e(reason)}</td>"
-                 f"<td>{e(c.text)}</td></tr>")
+                 f"<td>{e(assumption)}</td><td>{e(paper)}</td><td>{e(measured)}</td>"
+                 f"<td>{e(reason)}</td><td>{e(c.text)}</td></tr>")
     H.append("</table>")
     for c in rep.claims:
         H.append(f"<h2 id='{c.id}'>{c.id}</h2><p><b>{e(c.paper)}.</b> {e(c.text)}</p>")
+        if c.plant:
+            H.append(f"<p>Plant and compensation that decide: {e(c.plant)}.</p>")
         if c.setup:
             H.append(f"<p>Setup: {e(c.setup)}.</p>")
         if c.notes:
@@ -665,6 +725,12 @@ def write_html(rep: Report) -> Path:
                 f"<li><code>{e(ids)}</code>: {e(text)}</li>" for ids, text in settings) + "</ul>")
         for p in rep.plots.get(c.id, []):
             H.append(_img(p))
+    if rep.assumptions:
+        from .assumptions import html_section as assumptions_html
+        H += assumptions_html(rep, _img)
+    if rep.comparators:
+        from .comparators import html_section as comparators_html
+        H += comparators_html(rep, _img)
     if rep.residual:
         from .residual import html_section as residual_html
         H += residual_html(rep, _img)
@@ -676,7 +742,7 @@ def write_html(rep: Report) -> Path:
         H += html_section(rep, _img)
     H.append("</body></html>")
     path = rep.out_dir / "report.html"
-    path.write_text("\n".join(H))
+    _write_aside(path, "\n".join(H))
     return path
 
 
@@ -719,6 +785,18 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
         residual_plan = rs.plan(ids)
         for r in residual_plan.runs:
             runs.setdefault(r.id, r)
+    assumptions_plan = None
+    if residual:          # the assumptions' axes share the residual study's switch and runs
+        from . import assumptions as asm
+        assumptions_plan = asm.plan(ids)
+        for r in assumptions_plan.runs:
+            runs.setdefault(r.id, r)
+    comparators_plan = None
+    if residual:
+        from . import comparators as cmp
+        comparators_plan = cmp.plan(ids)
+        for r in comparators_plan.runs:
+            runs.setdefault(r.id, r)
     bandwidth_plan = None
     if bandwidth:
         from . import bandwidth as bw
@@ -754,12 +832,20 @@ def run_report(out_dir: Path, only: list[str] | None = None, jobs: int | None = 
             rep.outcomes.update(execute({r.id: r for r in extra}, out_dir / "recordings", jobs,
                                         console, reuse=reuse, scheduler=scheduler))
         rep.residual = rs.evaluate(residual_plan, rep, judge_claim)
-        (out_dir / "residual.json").write_text(json.dumps(rs.to_json(rep.residual), indent=1))
+        _write_aside(out_dir / "residual.json", json.dumps(rs.to_json(rep.residual), indent=1))
         rep.residual["refine_s"] = time.monotonic() - t_res
+    if assumptions_plan is not None and assumptions_plan.claims:
+        from . import assumptions as asm
+        rep.assumptions = asm.evaluate(assumptions_plan, rep, judge_claim, claim_verdict)
+        _write_aside(out_dir / "assumptions.json", json.dumps(asm.to_json(rep.assumptions), indent=1))
+    if comparators_plan is not None and comparators_plan.points:
+        from . import comparators as cmp
+        rep.comparators = cmp.evaluate(comparators_plan, rep, measure_claims)
+        _write_aside(out_dir / "comparators.json", json.dumps(cmp.to_json(rep.comparators), indent=1))
     if bandwidth_plan is not None and bandwidth_plan.sweeps:
         from . import bandwidth as bw
         rep.bandwidth = bw.evaluate(bandwidth_plan, rep, judge_claim)
-        (out_dir / "bandwidth.json").write_text(json.dumps(bw.to_json(rep.bandwidth), indent=1))
+        _write_aside(out_dir / "bandwidth.json", json.dumps(bw.to_json(rep.bandwidth), indent=1))
     if beyond_plan is not None:
         from . import beyond as by
         rep.beyond = by.evaluate(beyond_plan, rep)

@@ -8,6 +8,7 @@ then).
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 from typing import Callable
 
@@ -25,9 +26,29 @@ from . import metrics  # noqa: E402
 DPI = 90
 
 
-def _load(rep, run_id):
+def deciding_id(rep, run_id: str) -> str:
+    """The run that decides in place of ``run_id``: its switching twin ``<id>.sw`` where the
+    claim's verdict rows read the twin (docs/claims.md, "One inverter policy"), else the run."""
+    ids = getattr(rep, "_deciding_runs", None)
+    if ids is None:
+        ids = {r for c in rep.claims for q in c.quantities if not q.diagnostic for r in q.runs}
+        rep._deciding_runs = ids
+    return run_id + ".sw" if run_id + ".sw" in ids else run_id
+
+
+def _values(rep, claim: str) -> dict:
+    """A claim's measured values by key, the deciding twin's value under the averaged row's key
+    where the switching plant decides (``<key>.sw``)."""
+    out = {r.key: r.value for r in rep.rows if r.claim == claim}
+    out.update({r.key[:-3]: r.value for r in rep.rows
+                if r.claim == claim and r.key.endswith(".sw") and not r.diagnostic})
+    return out
+
+
+def _load(rep, run_id, deciding: bool = True):
+    """The recording of a run (of its deciding twin, ``deciding_id``), None if there is none."""
     from hil_bench.record.recording import load_recording
-    out = rep.outcomes.get(run_id)
+    out = rep.outcomes.get(deciding_id(rep, run_id) if deciding else run_id)
     if out is None or not out.recording.exists():
         return None
     try:
@@ -37,10 +58,13 @@ def _load(rep, run_id):
 
 
 def _save(fig, rep, name) -> Path:
+    """The figure as plots/<name>.png, written aside and renamed into place."""
     path = rep.out_dir / "plots" / f"{name}.png"
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
     fig.tight_layout()
-    fig.savefig(path, dpi=DPI)
+    fig.savefig(tmp, dpi=DPI)
     plt.close(fig)
+    os.replace(tmp, path)
     return path
 
 
@@ -121,7 +145,7 @@ def _two_method_speed(rep, name, runs, t_range, bands_for, title):
     fig, axes = plt.subplots(2, len(runs), figsize=(6 * len(runs), 6.5), squeeze=False)
     for j, (rid, label) in enumerate(runs):
         rec = _load(rep, rid)
-        _speed_panel(axes[0][j], rec, *t_range, f"{label} ({rid})",
+        _speed_panel(axes[0][j], rec, *t_range, f"{label} ({deciding_id(rep, rid)})",
                      _ref_fn(rec) if rec is not None else None)
         _error_panel(axes[1][j], rec, *t_range, f"{label}: speed-estimation error",
                      bands_for(rid))
@@ -192,8 +216,7 @@ def plot_y4(rep):
             if rec is None:
                 continue
             st = _win(rec, ch.PLANT_STATE, *w)
-            f_e = abs(np.mean(st["omega_e_rad_s"])) / (2 * math.pi)
-            s = metrics.harmonic_spectrum(st["i_a_a"], 1e4, f_e)
+            s = metrics.locked_spectrum(st["i_a_a"], st["theta_e_rad"], 1e4)
             bars[state] = [100 * s.harmonics.get(h, 0) / s.fundamental_amplitude for h in
                            range(2, 20)]
             ax_t.plot(st["t_s"], st["i_a_a"], lw=0.8,
@@ -214,7 +237,8 @@ def plot_y4(rep):
         ax.set_xticks(h)
         ax.set_xlabel("harmonic order")
         ax.set_ylabel("% of fundamental")
-        ax.set_title(f"{rpm} rpm: spectrum (FFT over whole periods of the window)", fontsize=9)
+        ax.set_title(f"{rpm} rpm: spectrum (least squares on the true angle, whole revolutions)",
+                     fontsize=9)
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
     fig.suptitle("Y4: phase current without / with Yuan's 5th/7th compensation", fontsize=10)
@@ -280,13 +304,12 @@ def plot_y7(rep):
 
 def plot_y8(rep):
     from hil_bench.claims.registry import Y8_SPEEDS
-    rows = {r.key: r for r in rep.rows if r.claim == "Y8"}
+    rows = _values(rep, "Y8")
     fig, ax = plt.subplots(figsize=(8, 4))
     speeds = [s for s, _ in Y8_SPEEDS]
     ax.plot(speeds, [dn for _, dn in Y8_SPEEDS], "ks--", label="paper Table 4 (dn)")
     for sfx, lab in (("", "bench, dead time on"), (".nodt", "bench, dead time off (diagnostic)")):
-        ax.plot(speeds, [rows[f"Y8.{s:g}rpm{sfx}"].value if f"Y8.{s:g}rpm{sfx}" in rows else np.nan
-                         for s in speeds], "o-", label=lab)
+        ax.plot(speeds, [rows.get(f"Y8.{s:g}rpm{sfx}", np.nan) for s in speeds], "o-", label=lab)
     ax.set_yscale("log")
     ax.set_xlabel("speed [rpm]")
     ax.set_ylabel("max |n^ - n| [rpm]")
@@ -326,7 +349,7 @@ def plot_h3(rep):
             rid = f"H3.{method}.{a:g}deg" + (".nodt" if diag else "")
             rec = _load(rep, rid)
             v = np.nan
-            out = rep.outcomes.get(rid)
+            out = rep.outcomes.get(deciding_id(rep, rid))
             if rec is not None and out is not None and not out.error:   # a fault: no point
                 te = rec.topic(ch.CONTROLLER_TELEMETRY)
                 e = metrics.wrap_pi(np.asarray(te["pee_rad"])[np.asarray(te["t_s"])
@@ -405,7 +428,7 @@ def plot_g2(rep):
 
 
 def plot_g3(rep):
-    return _steady(rep, "G3", "G3", (1.5, 2.0), 0.05, "G3 (Fig. 9): 2000 rpm, tanh SMO, ideal plant")
+    return _steady(rep, "G3", "G3", (2.0, 2.5), 0.05, "G3 (Fig. 9): 2000 rpm, tanh SMO, ideal plant")
 
 
 def _dynamics(rep, name, rid, window, title, pee_bound):
@@ -456,7 +479,7 @@ def plot_g6(rep):
                        label={"off": "compensation off", "on": "compensation on",
                               "naive": "Gong's naive baseline"}[state])
         ax.legend(fontsize=7)
-    rows = {r.key: r.value for r in rep.rows if r.claim == "G6"}
+    rows = _values(rep, "G6")
     speeds = [500, 2000, 3000]
     axes[2].bar(np.arange(3) - 0.2, [rows.get(f"G6.{s}.off.iq", np.nan) for s in speeds], 0.4,
                 label="controller's i_q without")
@@ -474,7 +497,7 @@ def plot_g6(rep):
 
 
 def plot_g7(rep):
-    rows = {r.key: r.value for r in rep.rows if r.claim == "G7"}
+    rows = _values(rep, "G7")
     fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
     paper = {"sf": ((35, 33), (54, 51)), "thd": ((1.25, 1.23), (0.64, 0.62)),
              "pee": ((0.2, 0.2), (0.1, 0.1))}
@@ -494,7 +517,7 @@ def plot_g7(rep):
 
 
 def plot_g8(rep):
-    return _dynamics(rep, "G8", "G8", (1.4, 3.2), "G8 (Fig. 16): load 2 N m at 1.6 s, unload 2.0 s, "
+    return _dynamics(rep, "G8", "G8", (1.4, 3.6), "G8 (Fig. 16): load 2 N m at 1.6 s, unload 2.0 s, "
                      "1200 rpm 2.4 s, 1000 rpm 2.8 s", 0.15)
 
 
@@ -566,11 +589,160 @@ def plot_angle(rep, c) -> Path | None:
     return _save(fig, rep, f"{c.id}_angle")
 
 
+# -- spectra locked to the rotor (issue 27, 6) ------------------------------------------------------
+
+SPECTRUM_ORDERS = 13
+
+
+def _locked(rec, topic: str, field: str, window) -> "metrics.Spectrum | None":
+    """The spectrum (orders 1..13) of ``field`` of ``topic`` over ``window``, locked to the
+    plant's true electrical angle at the same cycles (metrics.locked_spectrum, as the claims'
+    metrics); None where the recording has no such column or the window no revolution."""
+    if rec is None or topic not in rec.topics or field not in rec.topics[topic]:
+        return None
+    cols = rec.topics[topic]
+    t = np.asarray(cols["t_s"], float)
+    m = (t >= window[0]) & (t <= window[1])
+    x = np.asarray(cols[field], float)[m]
+    st = rec.topics[ch.PLANT_STATE]
+    ts = np.asarray(st["t_s"], float)
+    idx = np.clip(np.searchsorted(ts, t[m]), 0, len(ts) - 1)
+    th = np.asarray(st["theta_e_rad"], float)[idx]
+    ok = np.isfinite(x)
+    try:
+        return metrics.locked_spectrum(x[ok], th[ok], None, SPECTRUM_ORDERS)
+    except ValueError:
+        return None
+
+
+def _window_of(rec, default):
+    from hil_bench.scenario import scenario_of
+    try:
+        return tuple(scenario_of(rec).metrics_window_s)
+    except Exception:  # noqa: BLE001
+        return default
+
+
+def _spectrum_panel(ax, items, title, marks=()):
+    """Bars of the orders 1..13 in % of each item's fundamental (log scale), one colour per
+    item; ``marks``: (label, {order: %}) drawn as markers (the paper's or an extractor's)."""
+    orders = np.arange(1, SPECTRUM_ORDERS + 1)
+    items = [(lab, sp) for lab, sp in items if sp is not None]
+    if not items:
+        ax.text(0.5, 0.5, "no spectrum (no recording or no revolution in the window)",
+                ha="center", va="center", transform=ax.transAxes, fontsize=8)
+    width = 0.8 / max(len(items), 1)
+    for k, (lab, sp) in enumerate(items):
+        vals = [100.0] + [max(sp.harmonic_percent(int(h)), 1e-6) for h in orders[1:]]
+        ax.bar(orders + (k - (len(items) - 1) / 2) * width, vals, width,
+               label=f"{lab}: A1 {sp.fundamental_amplitude:.3g}, THD {sp.thd_percent:.3g} %, "
+                     f"THD+N {sp.thd_n_percent:.3g} %")
+    for (lab, pts), mk in zip(marks, ("kx", "k+", "r^", "bv")):
+        ax.plot(list(pts), list(pts.values()), mk, ms=9, label=lab)
+    ax.set_yscale("log")
+    ax.set_xticks(orders)
+    ax.set_xlabel("harmonic order (of the rotor's electrical angle)")
+    ax.set_ylabel("% of the fundamental")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6)
+    ax.grid(alpha=0.3, axis="y", which="both")
+
+
+def _spectra_figure(rep, name, emf, cur, title, emf_marks=(), cur_marks=()):
+    fig, axes = plt.subplots(1, 2, figsize=(15, 4.2))
+    _spectrum_panel(axes[0], emf, "estimated back EMF e_alpha", emf_marks)
+    _spectrum_panel(axes[1], cur, "phase-a current (true)", cur_marks)
+    fig.suptitle(title + " - spectra locked to the rotor, orders 1-13", fontsize=10)
+    return [_save(fig, rep, f"{name}_spectrum")]
+
+
+def spectra_g1(rep):
+    from hil_bench.claims.registry import G1_MS
+    rec = _load(rep, "G1")
+    w = _window_of(rec, (1.0, 1.5)) if rec is not None else (1.0, 1.5)
+    emf = [(f"m = {m:g}", _locked(rec, ch.REFERENCE_PREFIX + f"SMO_TANH:m{m:g}", "e_alpha_v", w))
+           for m, _ in G1_MS]
+    return _spectra_figure(rep, "G1", emf, [("G1", _locked(rec, ch.PLANT_STATE, "i_a_a", w))],
+                           "G1 (Fig. 7): the four observers at 500 rpm (paper THD 41.5 / 18.6 / "
+                           "9.5 / 1.7 %)")
+
+
+def _spectra_steady(rep, name, paper_thd):
+    rec = _load(rep, name)
+    w = _window_of(rec, (0.0, 0.0)) if rec is not None else (0.0, 0.0)
+    emf = [("host reference (float64)", _locked(rec, ch.REFERENCE_PREFIX + "SMO_TANH",
+                                                "e_alpha_v", w)),
+           ("controller telemetry (0.01 V)", _locked(rec, ch.CONTROLLER_TELEMETRY, "e_alpha_v", w))]
+    return _spectra_figure(rep, name, emf, [(name, _locked(rec, ch.PLANT_STATE, "i_a_a", w))],
+                           f"{name}: tanh SMO, ideal plant (paper EMF THD {paper_thd} %)")
+
+
+def spectra_g2(rep):
+    return _spectra_steady(rep, "G2", 1.7)
+
+
+def spectra_g3(rep):
+    return _spectra_steady(rep, "G3", 0.8)
+
+
+def spectra_g7(rep):
+    emf, cur = [], []
+    for rpm in (500, 2000):
+        for state in ("off", "on"):
+            rec = _load(rep, f"G67.{rpm}.{state}")
+            w = _window_of(rec, (0.0, 0.0)) if rec is not None else (0.0, 0.0)
+            lab = f"{rpm} rpm, compensation {state}"
+            emf.append((lab, _locked(rec, ch.CONTROLLER_TELEMETRY, "e_alpha_v", w)))
+            cur.append((lab, _locked(rec, ch.PLANT_STATE, "i_a_a", w)))
+    return _spectra_figure(rep, "G7", emf, cur, "G7 (Table III): experiment (paper EMF THD 1.25 / "
+                           "1.23 % at 500 rpm, 0.64 / 0.62 % at 2000 rpm)")
+
+
+def spectra_y4(rep):
+    out = []
+    paper = {10: ({5: 4.08, 7: 4.11}, {5: 2.18, 7: 2.61}), 50: ({5: 4.62, 7: 4.36},
+                                                              {5: 1.71, 7: 1.77})}
+    for rpm in (10, 50):
+        cur = []
+        for state in ("off", "on"):
+            rec = _load(rep, f"Y4.{rpm}.{state}")
+            w = _window_of(rec, (0.0, 0.0)) if rec is not None else (0.0, 0.0)
+            cur.append((f"compensation {state}", _locked(rec, ch.PLANT_STATE, "i_a_a", w)))
+        fig, ax = plt.subplots(figsize=(9, 4.2))
+        _spectrum_panel(ax, cur, f"Y4 (Fig. {18 if rpm == 10 else 20}-{19 if rpm == 10 else 21}): "
+                        f"phase-a current at {rpm} rpm; the encoder closes the loop (no EMF "
+                        "estimate)", (("paper, without", paper[rpm][0]),
+                                      ("paper, with", paper[rpm][1])))
+        out.append(_save(fig, rep, f"Y4_{rpm}rpm_spectrum"))
+    return out
+
+
+def spectra_y7(rep):
+    rows = _values(rep, "Y7")
+    rec = _load(rep, "Y4.10.off")
+    cur = [("locked fit", _locked(rec, ch.PLANT_STATE, "i_a_a", (0.9, 4.0)))]
+    fig, ax = plt.subplots(figsize=(9, 4.2))
+    _spectrum_panel(ax, cur, "Y7 (Table 3): the 10 rpm phase current, and the 5th/7th the "
+                    "angle-synchronous extractors read", (
+                        ("SDFT (harm_comp)", {5: rows.get("Y7.sdft.5", np.nan),
+                                              7: rows.get("Y7.sdft.7", np.nan)}),
+                        ("GSDFT (harm_comp)", {5: rows.get("Y7.gsdft.5", np.nan),
+                                               7: rows.get("Y7.gsdft.7", np.nan)})))
+    return [_save(fig, rep, "Y7_spectrum")]
+
+
+#: the claims whose papers show spectra (Gong Fig. 7-9, Yuan Fig. 18-21 and Table 3)
+SPECTRA: dict[str, Callable] = {"G1": spectra_g1, "G2": spectra_g2, "G3": spectra_g3,
+                                "G7": spectra_g7, "Y4": spectra_y4, "Y7": spectra_y7}
+
+
 def plot_claims(rep) -> dict[str, list[Path]]:
     out: dict[str, list[Path]] = {}
     for c in rep.claims:
         fn = PLOTS.get(c.id)
+        sp = SPECTRA.get(c.id)
         for what, draw in (("plot", (lambda c=c, fn=fn: fn(rep)) if fn else None),
+                           ("spectrum plot", (lambda sp=sp: sp(rep)) if sp else None),
                            ("angle plot", lambda c=c: [p for p in [plot_angle(rep, c)] if p])):
             if draw is None:
                 continue

@@ -159,5 +159,6 @@ def write_markdown(rg: Rungs, claims) -> Path:
                      f"| {cells} |")
     path = rg.out_dir / "rungs.md"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n")
+    from .report import _write_aside
+    _write_aside(path, "\n".join(lines) + "\n")
     return path

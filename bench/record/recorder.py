@@ -72,7 +72,14 @@ WORKING_LIMIT_S = 600.0
 
 
 def process_cpu_s(pid: int) -> float | None:
-    """User + system CPU time [s] of a process (/proc/PID/stat), None if it cannot be read."""
+    """CPU time [s] a process has used: /proc/PID/schedstat (nanoseconds), else user + system
+    from /proc/PID/stat (clock ticks of 10 ms, where a starved process's few milliseconds a
+    second may not show); None if neither can be read."""
+    try:
+        with open(f"/proc/{pid}/schedstat", "rb") as f:
+            return int(f.read().split()[0]) * 1e-9
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         with open(f"/proc/{pid}/stat", "rb") as f:
             stat = f.read().decode(errors="replace")
@@ -80,6 +87,17 @@ def process_cpu_s(pid: int) -> float | None:
         return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
     except (OSError, ValueError, IndexError):
         return None
+
+
+def process_runnable(pid: int) -> bool:
+    """The process waits for a CPU or runs (state R): a busy host starves it, it is not stuck
+    (a stopped process is T, a blocked one S or D)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            stat = f.read().decode(errors="replace")
+        return stat[stat.rfind(")") + 2:].split()[0] == "R"
+    except (OSError, IndexError):
+        return False
 FINISH_TIMEOUT_S = 60.0   #: ... and with the ring empty, to write the file's summary
 EXIT_WAIT_S = 5.0         #: a recorder whose pipe closed is reaped within this (SIGKILL under load)
 _REC_HEADER = struct.Struct("<IHHq")
@@ -970,6 +988,7 @@ class ProcessRecorder:
         self.error: str | None = None
         #: the live view's end-of-run figures (live_view.LiveView.stats), once closed
         self.live_stats: dict | None = None
+        self.background = background
         first = self._request(None, "start", timeout_s=10.0)
         if first[0] != "ready":
             self._proc.join(5.0)
@@ -1033,12 +1052,31 @@ class ProcessRecorder:
         """CPU time [s] the recorder process has used (None: unknown)."""
         return process_cpu_s(self._proc.pid)
 
+    def _working(self, cpu_before: float | None) -> tuple[bool, float | None]:
+        """(whether the recorder worked since ``cpu_before``: it used CPU, or it is runnable and
+        waits for a CPU a busy host gives to others; its CPU time now)."""
+        now = self._cpu_s()
+        used = now is not None and cpu_before is not None and now > cpu_before
+        return used or process_runnable(self._proc.pid), now
+
+    def foreground(self) -> None:
+        """Undo ``background`` (real time is over: no deadline left to yield to): normal policy
+        and priority, so that a busy host does not starve the recorder while it finishes the
+        file. Best effort: without the privilege to lower a nice value it stays at 19."""
+        if not self.background:
+            return
+        try:
+            os.sched_setscheduler(self._proc.pid, os.SCHED_OTHER, os.sched_param(0))
+            os.setpriority(os.PRIO_PROCESS, self._proc.pid, 0)
+        except OSError:
+            pass
+
     def _request(self, msg, what: str, timeout_s: float = 10.0):
         """Send a control message (None: only wait) and wait for its answer. A recorder that
         died (closed pipe: EOFError, BrokenPipeError), or that is alive but neither answers nor
-        uses any CPU for ``timeout_s`` (stuck), is a RecorderError that names it, never a
-        traceback. One that uses CPU is working (a busy host starves it, it is not lost) and is
-        waited for, up to WORKING_LIMIT_S."""
+        uses any CPU nor waits for one for ``timeout_s`` (stuck), is a RecorderError that names
+        it, never a traceback. One that uses CPU, or is runnable, is working (a busy host starves
+        it, it is not lost) and is waited for, up to WORKING_LIMIT_S."""
         try:
             if msg is not None:
                 self._conn.send(msg)
@@ -1046,11 +1084,11 @@ class ProcessRecorder:
             while not self._conn.poll(timeout_s):
                 if not self._proc.is_alive():
                     raise EOFError
-                now = self._cpu_s()
-                if now is None or cpu is None or now <= cpu or time.monotonic() - start > WORKING_LIMIT_S:
+                working, now = self._working(cpu)
+                if not working or time.monotonic() - start > WORKING_LIMIT_S:
                     raise RecorderError(f"recorder process (pid {self._proc.pid}) for {self.path} "
                                         f"does not answer ({what}: nothing for {timeout_s:g} s and "
-                                        f"no CPU used, or working for more than "
+                                        f"no CPU used or waited for, or working for more than "
                                         f"{WORKING_LIMIT_S:g} s)")
                 cpu = now
             return self._conn.recv()
@@ -1141,12 +1179,14 @@ class ProcessRecorder:
             return
         self.closed = True
         lib.rec_ring_close(self.ring)
+        self.foreground()   # the engine is done: finishing the file has no deadline to yield to
         reply = None
         pipe_closed = False
         try:
             self._conn.send(("close",))
             # the recorder drains what is left; it is stalled only if it makes no progress: no
-            # record drained and no CPU used (a recorder a busy host starves still uses some)
+            # record drained, no CPU used and none waited for (a recorder a busy host starves
+            # is runnable, and still uses some)
             pending = lib.rec_ring_pending(self.ring)
             last_progress = time.monotonic()
             cpu = self._cpu_s()
@@ -1159,8 +1199,8 @@ class ProcessRecorder:
                 elif not self._proc.is_alive():
                     break
                 now_pending = lib.rec_ring_pending(self.ring)
-                now_cpu = self._cpu_s()
-                if now_pending < pending or (now_cpu is not None and cpu is not None and now_cpu > cpu):
+                working, now_cpu = self._working(cpu)
+                if now_pending < pending or working:
                     pending = now_pending
                     last_progress = time.monotonic()
                 cpu = now_cpu
@@ -1177,7 +1217,7 @@ class ProcessRecorder:
                 self._proc.kill()
                 self._proc.join(5.0)
                 self.error = (f"recorder process (pid {self._proc.pid}) stalled: nothing "
-                              f"written and no CPU used for {STALL_TIMEOUT_S:g} s while finishing "
+                              f"written and no CPU used or waited for in {STALL_TIMEOUT_S:g} s while finishing "
                               f"{self.path}; it was killed; {self._leftover()}")
             else:
                 self.error = (f"recorder process (pid {self._proc.pid}) for {self.path} died "

@@ -39,14 +39,17 @@ def new_out_dir(root: Path, name: str) -> Path:
 
 
 class FolderLock:
-    """``with FolderLock(out_dir):`` this process is the folder's only sweep (FolderBusy if
-    another holds it)."""
+    """``with FolderLock(out_dir):`` this process is the folder's only writer (FolderBusy if
+    another holds it); ``command`` names the writer in the message ("bench sweep")."""
 
-    def __init__(self, out_dir: Path):
+    def __init__(self, out_dir: Path, command: str = "bench sweep"):
         self.path = out_dir / LOCK
+        self.command = command
         self.fd = -1
 
     def __enter__(self) -> "FolderLock":
+        if self.fd >= 0:
+            return self              # already held (claim_folder takes it before the ``with``)
         self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
         try:
             fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -57,7 +60,7 @@ class FolderLock:
                 holder = ""
             os.close(self.fd)
             self.fd = -1
-            raise FolderBusy(f"{self.path.parent}: another bench sweep is writing this folder"
+            raise FolderBusy(f"{self.path.parent}: another {self.command} is writing this folder"
                              f"{f' ({holder})' if holder else ''}; wait for it to end, or give "
                              f"another --out") from None
         try:
@@ -74,4 +77,30 @@ class FolderLock:
             self.fd = -1
 
 
-__all__ = ["FolderBusy", "FolderLock", "new_out_dir", "LOCK"]
+def claim_folder(out: Path | None, default: Path, command: str) -> tuple[Path, FolderLock, str]:
+    """The report folder of a ``bench claims`` or ``bench campaign`` run and its held lock.
+
+    With ``--out`` (``out``) that folder, refused (FolderBusy) while another writer holds it.
+    Without, the command's default folder (``reports/claims``, ``reports/campaigns/<name>``, the
+    folder the docs name and ``--reuse`` finds), or, while another run holds it, a new folder
+    beside it named as a sweep's (``<default>-<time to the ms>-<pid>``): two runs started together
+    both finish, each in its own folder. The third value is a note for the console ("" if none).
+    Release the lock with ``lock.__exit__()`` or use it as a context manager."""
+    folder = out if out is not None else default
+    folder.mkdir(parents=True, exist_ok=True)
+    lock = FolderLock(folder, command)
+    try:
+        lock.__enter__()
+        return folder, lock, ""
+    except FolderBusy as busy:
+        if out is not None:
+            raise
+        folder = new_out_dir(default.parent, default.name)
+        lock = FolderLock(folder, command)
+        lock.__enter__()
+        return folder, lock, (f"{default} is being written by another {command} "
+                              f"({str(busy).split('(', 1)[-1].split(')')[0]}); this one writes "
+                              f"{folder}")
+
+
+__all__ = ["FolderBusy", "FolderLock", "claim_folder", "new_out_dir", "LOCK"]

@@ -115,10 +115,8 @@ int elf_add(elf_t *f, const elf_config_t *cfg, int link_kind, char *why, size_t 
         return -1;
     }
     f->cfg[f->n] = *cfg;
-    f->rng[f->n] = splitmix64(cfg->seed ^ (0x51ED2700ULL + (uint64_t)(unsigned)f->n));
-    if (f->rng[f->n] == 0u) {
-        f->rng[f->n] = 1u;
-    }
+    f->seed[f->n] = splitmix64(cfg->seed ^ (0x51ED2700ULL + (uint64_t)(unsigned)f->n));
+    f->rng[f->n] = f->seed[f->n] != 0u ? f->seed[f->n] : 1u;
     f->n++;
     return 0;
 }
@@ -130,23 +128,44 @@ static int in_window(const elf_config_t *c, long k)
     return k >= c->cycle_on && (c->cycle_off <= c->cycle_on || k < c->cycle_off);
 }
 
+/** Is this a frame of another cycle than the present one (a cycle message, 0x100..0x1FF, whose
+ *  seq, its first two octets, is not the cycle's)? */
+static int other_cycle(const elf_t *f, uint16_t id, const uint8_t *data, uint16_t dlc)
+{
+    return id >= 0x100u && id < 0x200u && dlc >= 2u &&
+           (uint16_t)((unsigned)data[0] | ((unsigned)data[1] << 8)) != f->seq;
+}
+
 /** The first per-frame fault of direction dir that acts on this frame (its probability drawn),
- *  or -1. Every matching fault draws, so the draws do not depend on which one acts. */
-static int acting_fault(elf_t *f, int dir, uint16_t id)
+ *  or -1. Every matching fault draws, so the draws do not depend on which one acts; each draw
+ *  (and the fault's further draws for this frame: a bit's place, a delay's jitter) comes from the
+ *  fault's seed, the cycle, the direction and the frame's place among the frames of this cycle
+ *  the fault met, never from how many frames came before (elf_begin_cycle). */
+static int acting_fault(elf_t *f, int dir, uint16_t id, const uint8_t *data, uint16_t dlc)
 {
     int i, acting = -1;
+    if (other_cycle(f, id, data, dlc)) {
+        return -1;
+    }
     for (i = 0; i < f->n; ++i) {
         const elf_config_t *c = &f->cfg[i];
+        const int d = dir == ELF_TO_CONTROLLER ? 0 : 1;
         double u;
         if (c->kind == ELF_STALL || c->kind == ELF_GARBAGE || !(c->direction & dir) ||
             (c->frame_id >= 0 && (uint16_t)c->frame_id != id) || !in_window(c, f->cycle) ||
             (c->count != 0u && f->acted[i] >= c->count)) {
             continue;
         }
+        f->rng[i] = splitmix64(f->seed[i] ^ splitmix64((uint64_t)f->cycle) ^
+                               ((uint64_t)(unsigned)d << 62) ^ ((uint64_t)f->occ[i][d]++ << 32));
+        if (f->rng[i] == 0u) {
+            f->rng[i] = 1u;
+        }
         u = next_unit(&f->rng[i]);
         f->matched[i]++;
         if (acting < 0 && u < c->probability) {
             acting = i;
+            f->place = f->occ[i][d] - 1u;
         }
     }
     if (acting >= 0) {
@@ -177,10 +196,12 @@ static int stall_index(const elf_t *f, int64_t now_ns, int dir)
 
 /* ---- the cycle --------------------------------------------------------------------------------- */
 
-void elf_begin_cycle(elf_t *f, eng_link_t *l, long k, int64_t now_ns)
+void elf_begin_cycle(elf_t *f, eng_link_t *l, long k, uint16_t seq, int64_t now_ns)
 {
     int i;
     f->cycle = k;
+    f->seq = seq;
+    memset(f->occ, 0, sizeof f->occ);
     for (i = 0; i < f->n; ++i) {
         elf_config_t *c = &f->cfg[i];
         if (f->once_done[i] || k < c->cycle_on) {
@@ -258,21 +279,21 @@ int elf_tx(elf_t *f, eng_link_t *l, uint16_t id, const uint8_t *data, uint16_t d
         report(f, i, ELF_TO_CONTROLLER, "stall_drop", &fr, 0.0);
         return 0;
     }
-    i = acting_fault(f, ELF_TO_CONTROLLER, id);
+    i = acting_fault(f, ELF_TO_CONTROLLER, id, data, dlc);
     if (i >= 0) {
         const elf_config_t *c = &f->cfg[i];
         switch (c->kind) {
         case ELF_DROP:
-            report(f, i, ELF_TO_CONTROLLER, "drop", &fr, 0.0);
+            report(f, i, ELF_TO_CONTROLLER, "drop", &fr, (double)f->place);
             return 0;
         case ELF_DUPLICATE:
-            report(f, i, ELF_TO_CONTROLLER, "duplicate", &fr, 0.0);
+            report(f, i, ELF_TO_CONTROLLER, "duplicate", &fr, (double)f->place);
             rc = emit_tx(f, l, &fr, now_ns);
             rc |= emit_tx(f, l, &fr, now_ns);
             return rc;
         case ELF_REORDER:
             if (!f->tx_hold_valid) {
-                report(f, i, ELF_TO_CONTROLLER, "reorder", &fr, 0.0);
+                report(f, i, ELF_TO_CONTROLLER, "reorder", &fr, (double)f->place);
                 f->tx_hold = fr;
                 f->tx_hold_valid = 1;
                 return 0;
@@ -389,20 +410,20 @@ void elf_rx_pump(elf_t *f, eng_link_t *l, int64_t now_ns)
             report(f, i, ELF_FROM_CONTROLLER, "stall_drop", &fr, 0.0);
             continue;
         }
-        i = acting_fault(f, ELF_FROM_CONTROLLER, fr.id);
+        i = acting_fault(f, ELF_FROM_CONTROLLER, fr.id, fr.data, fr.dlc);
         if (i >= 0) {
             const elf_config_t *c = &f->cfg[i];
             switch (c->kind) {
             case ELF_DROP:
-                report(f, i, ELF_FROM_CONTROLLER, "drop", &fr, 0.0);
+                report(f, i, ELF_FROM_CONTROLLER, "drop", &fr, (double)f->place);
                 continue;
             case ELF_DUPLICATE:
-                report(f, i, ELF_FROM_CONTROLLER, "duplicate", &fr, 0.0);
+                report(f, i, ELF_FROM_CONTROLLER, "duplicate", &fr, (double)f->place);
                 emit_rx(f, &fr, due);
                 break; /* and once more below */
             case ELF_REORDER:
                 if (!f->rx_hold_valid) {
-                    report(f, i, ELF_FROM_CONTROLLER, "reorder", &fr, 0.0);
+                    report(f, i, ELF_FROM_CONTROLLER, "reorder", &fr, (double)f->place);
                     f->rx_hold = fr;
                     f->rx_hold_valid = 1;
                     continue;

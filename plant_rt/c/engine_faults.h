@@ -82,7 +82,10 @@ typedef void (*elf_report_fn)(void *ctx, int fault_index, int direction, const c
 
 typedef struct {
     elf_config_t cfg[ENGINE_MAX_LINK_FAULTS];
-    uint64_t rng[ENGINE_MAX_LINK_FAULTS];
+    uint64_t seed[ENGINE_MAX_LINK_FAULTS];     /* each fault's seeded state */
+    uint64_t rng[ENGINE_MAX_LINK_FAULTS];      /* its draws for the frame at hand (or a burst) */
+    uint32_t occ[ENGINE_MAX_LINK_FAULTS][2];   /* frames of this cycle it met, per direction */
+    uint32_t place;                            /* the acting frame's place among them (0: first) */
     uint32_t acted[ENGINE_MAX_LINK_FAULTS];    /* frames (or bursts) acted on */
     uint64_t matched[ENGINE_MAX_LINK_FAULTS];  /* frames that met its window, direction and
                                                 * message (each one drew against probability) */
@@ -90,6 +93,7 @@ typedef struct {
     int once_done[ENGINE_MAX_LINK_FAULTS];     /* STALL / GARBAGE happened */
     int n;
     long cycle;                                /* the engine's present cycle */
+    uint16_t seq;                              /* ... and its seq (a replay's is the capture's) */
     /* to the controller: reorder hold, delay line */
     int tx_hold_valid;
     eng_frame_t tx_hold;
@@ -106,8 +110,13 @@ typedef struct {
 void elf_init(elf_t *f, elf_report_fn report, void *ctx);
 /** Add a fault; 0, or -1 with why (too many, bad values, not possible on this link kind). */
 int elf_add(elf_t *f, const elf_config_t *cfg, int link_kind, char *why, size_t why_len);
-/** The engine starts cycle k (STALL starts, GARBAGE goes out at cycle_on). */
-void elf_begin_cycle(elf_t *f, eng_link_t *l, long k, int64_t now_ns);
+/** The engine starts cycle k, whose frames carry `seq` (STALL starts, GARBAGE goes out at
+ *  cycle_on). A per-frame fault acts only on the frames of the present cycle (a cycle message of
+ *  another seq: an answer to a re-send of an earlier cycle, a late one, is let through), and draws
+ *  for a frame from its seed, the cycle, the direction and the frame's place among the frames of
+ *  the cycle it met: the same frames get the same draws in every run with that seed, however many
+ *  other frames a busy host's re-sends add (docs/faults.md). */
+void elf_begin_cycle(elf_t *f, eng_link_t *l, long k, uint16_t seq, int64_t now_ns);
 /** A frame the bench sends: faults applied, then queued on the link (0 or 1, 2 times), held
  *  (reorder) or put on the delay line. 0, or -1 if the link's burst is full. */
 int elf_tx(elf_t *f, eng_link_t *l, uint16_t id, const uint8_t *data, uint16_t dlc, int64_t now_ns);

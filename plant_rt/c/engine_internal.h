@@ -120,7 +120,7 @@ int eng_pop(engine_t *e, eng_frame_t *f);
 int eng_poll(engine_t *e, int64_t deadline_ns);
 void eng_link_fault_acted(void *ctx, int i, int dir, const char *action, uint16_t id,
                           const uint8_t *data, uint16_t dlc, double value);
-void eng_faults_begin_cycle(engine_t *e, long k);
+void eng_faults_begin_cycle(engine_t *e, long k, uint16_t seq);
 
 /* engine_cycle.c: one cycle's pieces */
 void eng_begin_cycle(engine_t *e, cycle_t *c, long k);

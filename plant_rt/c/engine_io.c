@@ -126,9 +126,9 @@ void eng_link_fault_acted(void *ctx, int i, int dir, const char *action, uint16_
 }
 
 /** The start of cycle k, after its scenario events: link faults that start now. */
-void eng_faults_begin_cycle(engine_t *e, long k)
+void eng_faults_begin_cycle(engine_t *e, long k, uint16_t seq)
 {
     if (eng_has_link_faults(e)) {
-        elf_begin_cycle(&e->lf, &e->link, k, eng_now_ns());
+        elf_begin_cycle(&e->lf, &e->link, k, seq, eng_now_ns());
     }
 }

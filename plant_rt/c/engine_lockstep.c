@@ -333,7 +333,7 @@ int eng_run_lockstep(engine_t *e)
             }
             c0 = eng_now_ns();
         }
-        eng_faults_begin_cycle(e, k);
+        eng_faults_begin_cycle(e, k, c.seq);
         if (eng_build_sense(e, &c) != 0) {
             return e->end;
         }

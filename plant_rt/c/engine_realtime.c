@@ -204,7 +204,7 @@ int eng_run_realtime(engine_t *e)
         }
         eng_apply_events(e, &next_event, &c);
         eng_take_inputs(e, &c);
-        eng_faults_begin_cycle(e, k);
+        eng_faults_begin_cycle(e, k, c.seq);
         if (eng_build_sense(e, &c) != 0) {
             return e->end;
         }

@@ -121,7 +121,7 @@ int eng_run_replay_controller(engine_t *e)
         }
         c.replay = row;
         eng_resent_settle(e, k - 1);
-        eng_faults_begin_cycle(e, k);
+        eng_faults_begin_cycle(e, k, c.seq);
         for (i = 0u; i < row->n_frames; ++i) {
             const engine_replay_frame_t *f = &cfg->replay_frames[row->first_frame + i];
             (void)eng_xmit(e, f->id, f->data, f->dlc);

@@ -133,7 +133,9 @@
  *  target: "plant", "link" or "controller"; kind: the fault's kind (open_phase, drop, ...);
  *  direction: "to_controller" / "from_controller" / "both" (link faults), "" otherwise;
  *  action: "on", "off" (plant faults switched), "drop", "duplicate", ... (a link fault acting on
- *  one frame, whose id and seq the text names), "trip" (the controller's FAULT_CTRL: value =
+ *  one frame, whose id and seq the text names; drop / duplicate / reorder: value = the frame's
+ *  place among the frames of its cycle the fault met, 0 = the cycle's first, 1 and on = a
+ *  re-send or its answer), "trip" (the controller's FAULT_CTRL: value =
  *  its code), "trace" (a link fault's evidence once its detection window closed: the counters
  *  that moved, value = seconds from the first injection to the first evidence, NaN = none);
  *  index: the fault's number in the scenario's [[faults]] (-1: none). */
