@@ -76,6 +76,13 @@ def _needs(block: Block) -> str | None:
     return None
 
 
+def _expected_g2_figures() -> list[str]:
+    """The stub's column of the page's "G2 in lockstep" table (what a drive team compares with)."""
+    text = DOC.read_text()
+    table = text[text.index("* **G2 in lockstep**"):].split("\n\n")[1]
+    return [row.split("|")[3].strip() for row in table.splitlines()[2:] if row.strip()]
+
+
 def _checks(cmd: str, out: str) -> list[str]:
     """What the page says each kind of command shows, beyond its exit status."""
     said = " ".join(out.split())
@@ -91,6 +98,10 @@ def _checks(cmd: str, out: str) -> list[str]:
         verdicts = re.findall(r"│ G2 +│.*?│ (PASS|FAIL|COMPARED|INVALID)", out)
         if not verdicts or set(verdicts) - {"PASS", "COMPARED"}:
             wrong.append(f"G2 in lockstep: verdicts {verdicts}, expected PASS / COMPARED")
+        measured = re.findall(r"│ G2 +│[^│]*│[^│]*│ ([^│]*?) +│", out)
+        if measured != _expected_g2_figures():
+            wrong.append(f"G2 in lockstep: the page's 'what to expect' table says "
+                         f"{_expected_g2_figures()}, the run printed {measured}")
     if "--set plant.ts_s=0.001" in cmd:
         rows = re.findall(r"│ (G\d) +│.*?│ (PASS|FAIL|COMPARED|INVALID)", out)
         if not rows or {v for _, v in rows} != {"INVALID"} or "plant.ts_s" not in said:
