@@ -157,6 +157,10 @@ def hil_recordings(pytestconfig: pytest.Config, tmp_path_factory: pytest.TempPat
 
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
+#: ``allow_slow_link`` of the fixtures' runs unless a test says otherwise: a lockstep run on a link
+#: slower than its scenario's rate (G2's 10 kHz on a drive's 3 Mbaud UART) runs slower than real
+#: time and records the same rows (bench run --allow-slow-link); a real-time run is refused as ever
+SLOW_LINK_ALLOWED = True
 
 
 @pytest.fixture
@@ -164,7 +168,8 @@ def hil_run(request: pytest.FixtureRequest, hil_link: HilLink,
             hil_recordings: Path) -> Callable[..., Any]:
     """``hil_run(scenario, overrides=None, **kwargs) -> hil_bench.Result``: run a scenario on
     ``hil_link``, record it under ``hil_recordings`` (named after the test), check it; its
-    measured values become JUnit XML properties. Keyword arguments are ``hil_bench.run``'s."""
+    measured values become JUnit XML properties. Keyword arguments are ``hil_bench.run``'s
+    (``allow_slow_link`` True unless given: SLOW_LINK_ALLOWED)."""
     from hil_bench.api import run
 
     stem = _UNSAFE.sub("_", request.node.nodeid).strip("_")[-120:]
@@ -175,6 +180,7 @@ def hil_run(request: pytest.FixtureRequest, hil_link: HilLink,
         count[0] += 1
         out = kwargs.pop("out", None) or hil_recordings / f"{stem}-{count[0]}.mcap"
         request.node.stash.setdefault(_RECORDINGS, []).append(Path(out))
+        kwargs.setdefault("allow_slow_link", SLOW_LINK_ALLOWED)
         result = run(scenario, link=kwargs.pop("link", hil_link.spec), overrides=overrides,
                      out=out, force=kwargs.pop("force", True), **kwargs)
         _record(request.node.user_properties, result)
@@ -202,6 +208,7 @@ def hil_session(request: pytest.FixtureRequest, hil_link: HilLink,
               **kwargs: Any) -> Any:
         out = kwargs.pop("out", None) or hil_recordings / f"{stem}-s{len(sessions) + 1}.mcap"
         request.node.stash.setdefault(_RECORDINGS, []).append(Path(out))
+        kwargs.setdefault("allow_slow_link", SLOW_LINK_ALLOWED)
         s = Session(scenario, link=kwargs.pop("link", hil_link.spec), overrides=overrides,
                     out=out, force=kwargs.pop("force", True), **kwargs)
         sessions.append(s)

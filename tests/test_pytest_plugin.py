@@ -98,6 +98,24 @@ def test_a_hil_drive_test_is_skipped_on_the_bundled_stub(downstream):
     assert case.find("skipped") is not None
 
 
+def test_a_drive_on_a_slower_link_runs_in_lockstep_as_on_the_stub(tmp_path):
+    """docs/api.md and examples/firmware_ci run the same tests on the stub and with
+    `--hil-link serial:/dev/ttyUSB0@3000000`: G2's 10 kHz does not fit 3 Mbaud in real time, so
+    a lockstep run there is slower than real time, never refused (before: every hil_run and
+    hil_session on such a drive raised RunAborted, "cannot carry this scenario")."""
+    from tests.drive_on_pty import StubOnPty
+
+    (tmp_path / "test_one.py").write_text(
+        "def test_one(hil_run):\n"
+        "    r = hil_run('gong_g2_500rpm', overrides={'scenario.duration_s': 0.2,\n"
+        "                                             'metrics.window_s': [0.1, 0.2]})\n"
+        "    assert r.integrity.ok and r.run.error is None, r.summary()\n")
+    with StubOnPty("serial") as drive:
+        proc = _pytest(tmp_path, "--hil-link", f"serial:{drive.path}@3000000", "test_one.py")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "1 passed" in proc.stdout
+
+
 def test_the_link_kinds():
     from hil_bench.pytest_plugin import HilLink
 

@@ -1,5 +1,6 @@
 """docs/real-drive.md is true (issue 29, item 3): every shell block is either run here or says why not;
-each ``# runs here`` block runs as printed, from a scratch folder that links to the checkout, with the
+each ``# runs here`` block runs as printed, from a scratch folder laid out as the checkout
+(tests/doc_blocks.py, which finds the blocks and runs their commands for every page), with the
 device replaced by a pty whose other end is the C stub (``/dev/ttyUSB0`` in a ``serial:`` link:
 ``hil_stub --port fd:N``; ``/dev/ttyACM0`` in a ``can:slcan:`` link: ``hil_stub --slcan fd:N``), and
 every command exits as the page says; the page's generated tables are current; the F28335-over-SCI
@@ -9,88 +10,29 @@ from __future__ import annotations
 
 import os
 import re
-import shlex
 import shutil
 import subprocess
 import sys
-from dataclasses import dataclass, field
-from pathlib import Path
 
 import pytest
 
-from tests.drive_on_pty import StubOnPty
+from tests.doc_blocks import (NOT_RUN, REPO, RUNS_HERE, Block, run_keeping_real_time,
+                              scratch_folder, shell_blocks)
 
-REPO = Path(__file__).resolve().parents[1]
 DOC = REPO / "docs" / "real-drive.md"
-RUNS_HERE = "# runs here"
-NOT_RUN = "# not run here:"
-#: the device names the page uses, and the stub that stands in for each kind of link
-DEVICE = re.compile(r"(serial|can:slcan):(/dev/tty(?:USB|ACM)\d+)")
-#: a command the page expects to fail says so: ``... # exits 1: why``
-EXITS = re.compile(r"\s+# exits (\d+)\b.*$")
-#: a real-time run that ended early after losing more than this fraction of its periods (missed
-#: DUTY or periods the bench itself lost: the "lost rate" it prints) was ended by the host, not by
-#: the loop: the watchdog, or the drive tripping on duties held too long (tests/test_realtime.py,
-#: LOST_PERIODS_LIMIT: on a shared VM the hypervisor stops the guest for milliseconds at a time)
-LOST_PERIODS_LIMIT = 0.01
-LOST_RATE = re.compile(r"lost rate ([0-9.e+-]+)")
 #: the F28335's SCI rate on the page (LSPCLK 37.5 MHz, BRR 4) and the STM32's USART rate
 F28335_SCI = "@937500"
 
-
-@dataclass
-class Block:
-    line: int                    # where its fence is (1-based)
-    lines: list[str]
-    marker: str = ""
-    commands: list[tuple[str, int]] = field(default_factory=list)   # (command, expected status)
-
-    @property
-    def runs_here(self) -> bool:
-        return self.marker == RUNS_HERE
-
-
-def shell_blocks(text: str) -> list[Block]:
-    """Every fenced ``sh`` block of the page (fences may be indented, inside a list item)."""
-    blocks, current, indent = [], None, 0
-    for n, raw in enumerate(text.splitlines(), 1):
-        stripped = raw.strip()
-        if current is None:
-            if stripped.startswith("```") and stripped[3:].strip() in ("sh", "bash", "shell", "console"):
-                current, indent = Block(n, []), len(raw) - len(raw.lstrip())
-            continue
-        if stripped == "```":
-            blocks.append(current)
-            current = None
-            continue
-        current.lines.append(raw[indent:] if raw[:indent].strip() == "" else raw)
-    assert current is None, f"{DOC.name}:{current.line}: a shell block is not closed"
-    for b in blocks:
-        first = next((ln.strip() for ln in b.lines if ln.strip()), "")
-        b.marker = RUNS_HERE if first == RUNS_HERE else (
-            NOT_RUN if first.startswith(NOT_RUN) and first[len(NOT_RUN):].strip() else "")
-        joined, parts = [], []
-        for ln in b.lines:
-            if not ln.strip() or ln.lstrip().startswith("#"):
-                continue
-            parts.append(ln.rstrip().removesuffix("\\").strip())
-            if not ln.rstrip().endswith("\\"):
-                joined.append(" ".join(parts))
-                parts = []
-        for cmd in joined:
-            m = EXITS.search(cmd)
-            b.commands.append((EXITS.sub("", cmd), int(m.group(1)) if m else 0))
-    return blocks
-
-
-BLOCKS = shell_blocks(DOC.read_text())
-RUNNABLE = [b for b in BLOCKS if b.runs_here]
+BLOCKS = shell_blocks(DOC)
+RUNNABLE = [b for b in BLOCKS if b.runs]
 
 
 def test_every_shell_block_is_run_here_or_says_why_not():
-    unmarked = [b.line for b in BLOCKS if not b.marker]
-    assert not unmarked, (f"{DOC.name}: shell blocks at lines {unmarked} say neither "
-                          f"'{RUNS_HERE}' nor '{NOT_RUN} <why>'")
+    """Every block under one marker: this page runs a block whole or not at all (the general rule
+    and its test: tests/doc_blocks.py, tests/test_docs.py)."""
+    mixed = [b.line for b in BLOCKS if len({c.marker for c in b.commands}) != 1 or not b.marker]
+    assert not mixed, (f"{DOC.name}: shell blocks at lines {mixed} say neither "
+                       f"'{RUNS_HERE}' nor '{NOT_RUN} <why>' on their first line, for all of it")
     assert all(b.commands for b in BLOCKS), "a shell block without a command"
     assert len(RUNNABLE) >= 8 and len(RUNNABLE) < len(BLOCKS)
 
@@ -114,59 +56,31 @@ def test_the_f28335_sci_path_is_on_the_page_at_the_rate_the_part_makes():
     """The F28335's SCI makes 937 500 baud at its reset LSPCLK (37.5 MHz, BRR 4): the page's
     F28335-over-SCI commands use it, the kit with the G2 estimator, G2 in lockstep and the 1 kHz
     scenario in real time among them."""
-    cmds = [c for b in RUNNABLE for c, _ in b.commands if "serial:/dev/ttyUSB0" + F28335_SCI in c]
+    cmds = [c.text for b in RUNNABLE for c in b.commands
+            if "serial:/dev/ttyUSB0" + F28335_SCI in c.text]
     assert any("conformance" in c and "--estimator SMO_TANH" in c for c in cmds)
     assert any("run gong_g2_500rpm " in c and "--allow-slow-link" in c for c in cmds)
     assert any("run gong_g2_serial_1mbaud " in c and "--realtime" in c for c in cmds)
 
 
 # ---- running the blocks -----------------------------------------------------------------------
-
-def _scratch(tmp_path: Path) -> Path:
-    """A folder that looks like the checkout's root for the page's commands (their relative paths),
-    where what they write lands: recordings, a build folder."""
-    for name in ("firmware_stub", "protocol", "cmake", "tools", "tests"):
-        (tmp_path / name).symlink_to(REPO / name)
-    return tmp_path
-
-
-def _stub_args(cmd: str) -> tuple[str, ...]:
-    """A real-time run's stub as the bench would start its own (docs/realtime.md): SCHED_FIFO, on
-    the first CPU (the engine takes the last); a drive has a CPU of its own."""
-    if "--realtime" not in cmd:
-        return ()
-    cpus = sorted(os.sched_getaffinity(0))
-    return ("--rt-priority", "70") + (("--cpu", str(cpus[0])) if len(cpus) > 1 else ())
-
-
-def _as_run_here(cmd: str) -> str:
-    py = shlex.quote(sys.executable)
-    return re.sub(r"(?<![\w/])\.venv/bin/(bench|python)\b",
-                  lambda m: f"{py} -m hil_bench" if m.group(1) == "bench" else py, cmd)
-
-
-def run_command(cmd: str, cwd: Path) -> subprocess.CompletedProcess:
-    """One command of the page, its device replaced by a pty with the stub on it."""
-    m = DEVICE.search(cmd)
-    env = {**os.environ, "COLUMNS": "250"}
-    if m is None:
-        return subprocess.run(["bash", "-c", _as_run_here(cmd)], cwd=cwd, capture_output=True,
-                              text=True, env=env, timeout=900)
-    mode = "serial" if m.group(1) == "serial" else "slcan"
-    with StubOnPty(mode, _stub_args(cmd)) as drive:
-        line = _as_run_here(cmd.replace(m.group(2), drive.path))
-        return subprocess.run(["bash", "-c", line], cwd=cwd, capture_output=True, text=True,
-                              env=env, timeout=900)
-
+# (the folder, the pty with the stub for the device: tests/doc_blocks.py)
 
 def _needs(block: Block) -> str | None:
-    text = " ".join(c for c, _ in block.commands)
+    text = " ".join(c.text for c in block.commands)
     if "pil-qemu" in text or "cortex_m" in text:
         missing = [t for t in ("arm-none-eabi-gcc", "qemu-system-arm") if shutil.which(t) is None]
         if missing and os.environ.get("HIL_REQUIRE_CORTEX_M") != "1":
             return f"{', '.join(missing)} not installed (apt-get install gcc-arm-none-eabi " \
                    f"libnewlib-arm-none-eabi qemu-system-arm)"
     return None
+
+
+def _expected_g2_figures() -> list[str]:
+    """The stub's column of the page's "G2 in lockstep" table (what a drive team compares with)."""
+    text = DOC.read_text()
+    table = text[text.index("* **G2 in lockstep**"):].split("\n\n")[1]
+    return [row.split("|")[3].strip() for row in table.splitlines()[2:] if row.strip()]
 
 
 def _checks(cmd: str, out: str) -> list[str]:
@@ -184,6 +98,10 @@ def _checks(cmd: str, out: str) -> list[str]:
         verdicts = re.findall(r"│ G2 +│.*?│ (PASS|FAIL|COMPARED|INVALID)", out)
         if not verdicts or set(verdicts) - {"PASS", "COMPARED"}:
             wrong.append(f"G2 in lockstep: verdicts {verdicts}, expected PASS / COMPARED")
+        measured = re.findall(r"│ G2 +│[^│]*│[^│]*│ ([^│]*?) +│", out)
+        if measured != _expected_g2_figures():
+            wrong.append(f"G2 in lockstep: the page's 'what to expect' table says "
+                         f"{_expected_g2_figures()}, the run printed {measured}")
     if "--set plant.ts_s=0.001" in cmd:
         rows = re.findall(r"│ (G\d) +│.*?│ (PASS|FAIL|COMPARED|INVALID)", out)
         if not rows or {v for _, v in rows} != {"INVALID"} or "plant.ts_s" not in said:
@@ -194,34 +112,21 @@ def _checks(cmd: str, out: str) -> list[str]:
     return wrong
 
 
-def _host_lost_real_time(cmd: str, proc: subprocess.CompletedProcess) -> bool:
-    """A real-time run that ended early with more than LOST_PERIODS_LIMIT of its periods lost."""
-    if " --realtime" not in cmd or proc.returncode == 0:
-        return False
-    rates = [float(r) for r in LOST_RATE.findall(" ".join(proc.stdout.split()))]
-    return bool(rates) and max(rates) > LOST_PERIODS_LIMIT
-
-
 @pytest.mark.parametrize("block", RUNNABLE, ids=lambda b: f"line{b.line}")
 def test_the_block_runs_as_printed(block, tmp_path):
     why = _needs(block)
     if why:
         pytest.skip(why)
-    cwd = _scratch(tmp_path)
-    for cmd, status in block.commands:
-        proc = run_command(cmd, cwd)
-        if _host_lost_real_time(cmd, proc):           # repeat once, then say the machine could not
-            proc = run_command(cmd, cwd)
-            if _host_lost_real_time(cmd, proc):
-                figures = [ln for ln in proc.stdout.splitlines() if "real time:" in ln]
-                pytest.skip(f"this machine could not keep real time (twice the run lost more "
-                            f"than {LOST_PERIODS_LIMIT:.0%} of its periods and ended early): "
-                            f"{' '.join(figures[:1])}")
-        said = proc.stdout + proc.stderr
-        assert proc.returncode == status, (f"{DOC.name}:{block.line}: `{cmd}` exited "
-                                           f"{proc.returncode}, the page says {status}\n{said[-4000:]}")
+    cwd = scratch_folder(tmp_path)
+    for c in block.commands:
+        cmd, status = c.text, c.status
+        proc = run_keeping_real_time(cmd, cwd)   # (repeated once if the host lost real time)
+        said = proc.stdout
+        assert proc.returncode == status, (f"{DOC.name}:{c.line}: `{cmd}` exited "
+                                           f"{proc.returncode}, the page says {status}\n"
+                                           f"{said[-4000:]}")
         wrong = _checks(cmd, said)
-        assert not wrong, f"{DOC.name}:{block.line}: `{cmd}`: {'; '.join(wrong)}\n{said[-4000:]}"
+        assert not wrong, f"{DOC.name}:{c.line}: `{cmd}`: {'; '.join(wrong)}\n{said[-4000:]}"
 
 
 # ---- the bundled serial scenario ------------------------------------------------------------------

@@ -4,9 +4,10 @@
 # A fresh virtual environment in a temporary folder gets the wheel and its dependencies from
 # PyPI, from that folder (no checkout on any path):
 # 1. the core alone (`pip install <wheel>`, as a user does: README "As a package"): its size (must
-#    stay under CORE_MAX_MB), `bench --version`, `bench run gong_g2_500rpm` (claims must hold:
-#    --strict), `bench check` of that recording, the API's one-liner, and the bundled sweep and
-#    campaign by name saying the extra they need ([cluster]);
+#    stay under CORE_MAX_MB, and within 15 % of README's figure), `bench --version`,
+#    `bench run gong_g2_500rpm` (claims must hold: --strict), `bench check` of that recording, the
+#    API's one-liner, and the bundled sweep and campaign by name saying the extra they need
+#    ([cluster]);
 # 2. then `[all]` into the same environment, its size, and examples/firmware_ci's tests with the
 #    pytest plugin against the bundled stub (their JUnit XML kept in the folder).
 set -euo pipefail
@@ -26,6 +27,14 @@ pip_install "$wheel"
 core_mb=$(du -sm "$scratch/venv" | cut -f1)
 echo "ci: core installed in $(( $(date +%s) - t0 )) s: venv $core_mb MB (du -sm; limit $CORE_MAX_MB MB)"
 [ "$core_mb" -lt "$CORE_MAX_MB" ] || { echo "ci: the core install is $core_mb MB, not under $CORE_MAX_MB MB"; exit 1; }
+# README.md's figure of the core ("| (core) | ... | N MB |", measured the same way) is this one
+# within README_MB_TOLERANCE_PCT: a figure that drifted further is stale, and says so here
+README_MB_TOLERANCE_PCT=${README_MB_TOLERANCE_PCT:-15}
+readme_mb=$(sed -n 's/^| (core) |.*| \([0-9][0-9]*\) MB |$/\1/p' "$repo/README.md")
+[ -n "$readme_mb" ] || { echo "ci: README.md's extras table has no (core) venv size"; exit 1; }
+off=$(( core_mb > readme_mb ? core_mb - readme_mb : readme_mb - core_mb ))
+[ $(( off * 100 )) -le $(( readme_mb * README_MB_TOLERANCE_PCT )) ] \
+    || { echo "ci: README.md says the core venv is $readme_mb MB, it is $core_mb MB (more than $README_MB_TOLERANCE_PCT % off): re-measure it"; exit 1; }
 cp -r "$repo/examples/firmware_ci" "$scratch/firmware_ci"
 cd "$scratch"
 case "$(venv/bin/python -c 'import hil_bench, os; print(os.path.dirname(hil_bench.__file__))')" in
