@@ -79,10 +79,27 @@ def test_pass_or_fail_only_across_the_range_else_depends_with_the_threshold():
     middle = _result([(0.5 * us, "FAIL"), (1.0 * us, "PASS"), (1.78 * us, "PASS"),
                       (3.0 * us, "FAIL")])
     assert middle.threshold() == "holds at dead time 1 us, 1.78 us only"
-    # a claim without pass / fail keeps its own verdict; a broken point does not vote
-    assert asm.verdict_across("UNTESTED", [fails]) == "UNTESTED"
+    # a broken point does not vote, and is named; it never lets a PASS stand for the range
     broken = _result([(0.5 * us, "INVALID"), (1.78 * us, "FAIL")])
     assert asm.verdict_across("FAIL", [broken]) == "FAIL"
+    assert broken.threshold() == ("holds at no dead time measured of 0.5-1.78 us; no pass/fail "
+                                  "at 0.5 us (INVALID)")
+    lone = _result([(0.5 * us, "INVALID"), (1.0 * us, "INVALID"), (1.78 * us, "PASS"),
+                    (2.5 * us, "INVALID"), (3.0 * us, "INVALID")])
+    assert asm.verdict_across("PASS", [lone]) == "INVALID"    # review: was PASS on one point
+    assert lone.threshold().startswith("holds at every dead time measured of 0.5-3 us; no "
+                                       "pass/fail at 0.5 us (INVALID), 1 us (INVALID)")
+    top = _result([(0.5 * us, "PASS"), (1.0 * us, "PASS"), (1.78 * us, "PASS"),
+                   (2.5 * us, "FAIL"), (3.0 * us, "INVALID")])
+    assert asm.verdict_across("PASS", [top]) == "DEPENDS"
+    assert top.threshold() == ("holds for dead time <= 1.78 us (fails from 2.5 us); no pass/fail "
+                               "at 3 us (INVALID)")
+    untested = _result([(0.5 * us, "UNTESTED"), (1.78 * us, "PASS")])
+    assert asm.verdict_across("PASS", [untested]) == "PARTLY"
+    # a claim without pass / fail of its own: a failing point is not hidden behind it
+    assert asm.verdict_across("UNTESTED", [fails]) == "DEPENDS"
+    assert asm.verdict_across("NOT REPRODUCIBLE", [passes]) == "NOT REPRODUCIBLE"
+    assert asm.verdict_across("INVALID", [passes]) == "INVALID"
 
 
 def test_the_comparators_run_the_settings_the_papers_support():
@@ -134,3 +151,15 @@ def test_a_partly_claim_holds_and_a_point_without_pass_fail_does_not_vote():
 def test_an_axis_without_pass_or_fail_says_so():
     nr = _result([(v * 1e-6, "NOT REPRODUCIBLE") for v in (0.5, 1.78, 3.0)])
     assert nr.threshold() == "no pass/fail at any dead time of 0.5-3 us (NOT REPRODUCIBLE)"
+
+
+def test_a_comparator_point_with_invalid_rows_does_not_hold():
+    """Review of issue 27: the study counted a broken run (INVALID rows, no value) as a point
+    where the comparator holds, and the summary said so."""
+    from hil_bench.papers.report import Row
+    bad = Row("Y1", "k", "w", "1", "no value", "rpm", "", "", "INVALID", "run ended early: link lost")
+    good = Row("Y1", "k", "w", "1", "2 rpm", "rpm", "", "", "PASS", "", value=2.0)
+    assert not cmp._measured(bad)
+    assert cmp._measured(good)
+    assert not cmp._measured(Row("Y1", "k", "w", "1", "x", "rpm", "", "", "UNTESTED", "",
+                                 value=2.0))

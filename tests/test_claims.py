@@ -355,3 +355,39 @@ def test_a_comparator_that_faulted_before_its_window_is_untested():
     assert cl.measure(q, ctx)[1] == "FAIL"
     v, verdict, note = cl.measure(dataclasses.replace(q, comparator="the bench's STA"), ctx)
     assert verdict == "UNTESTED" and "OVERCURRENT" in note and "the bench's STA" in note
+
+
+def test_a_relation_over_a_run_cut_short_never_holds():
+    """Review of issue 27: G6's i_q rows on a run the controller ended early (STALL after the
+    window) read COMPARED, and the relation over them PASSed. A row whose run ended early makes
+    its relations FAIL (the controller faulted) or INVALID (the bench broke)."""
+    import dataclasses
+    from pathlib import Path
+
+    from hil_bench.claims.registry import CLAIMS
+    from hil_bench.papers.claim_metrics import Context
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recording import Recording
+    t = np.arange(0, 1.0, 1e-4)
+    w = 2000 / 60 * 2 * math.pi * 4
+
+    def rec(iq, err):
+        return Recording(Path("x.mcap"), metadata={"run": {}, "run_result": {"error": err}},
+                         topics={ch.PLANT_STATE: {"t_s": t, "theta_e_rad": w * t,
+                                                  "speed_rpm": np.full(t.size, 2000.0),
+                                                  "i_q_a": np.full(t.size, iq)}})
+    c = CLAIMS["G6"]
+    rel = next(r for r in c.relations if r.key == "G6.iq2000.sw")
+    values, notes = {}, {}
+    for key, iq in zip(rel.keys, (1.0, 1.1)):
+        q = next(q for q in c.quantities if q.key == key)
+        q = dataclasses.replace(q, metric="iq_mean_a", window_s=(0.5, 0.9), at_speed_rpm=None)
+        ctx = Context(rec(iq, "controller reported fault STALL at seq 9500"), (0.5, 0.9),
+                      2000.0, 4, 1e-4)
+        values[key], verdict, notes[key] = cl.measure(q, ctx)
+        assert verdict == "COMPARED" and "the run ended early" in notes[key]
+    assert cl.relate(rel, values)[1] == "PASS"                 # the values alone would hold
+    ended = {k: "FAIL" for k in rel.keys}
+    v, verdict, note = cl.relate(rel, values, ended=ended)
+    assert verdict == "FAIL" and "ended early" in note
+    assert cl.relate(rel, values, ended={rel.keys[0]: "INVALID"})[1] == "INVALID"

@@ -119,6 +119,21 @@ def test_a_rule_changed_is_one_line(tmp_path):
     ("common.toml", 'id = "about ±x"\nshape = "a band, read off a figure"\nrule = "at_most"',
      'id = "about ±x"\nshape = "a band, read off a figure"\nrule = "compared"',
      "the words 'about ±x' give the rule compared, the row has at_most"),
+    # the numbers of a rule are the paper's (review of issue 27: a bound of 25 rpm for Hou's
+    # "about +-1.5 rpm" loaded, and H1's 21.7 rpm read PASS)
+    ("hou2021.toml", 'paper_value = 1.5\nrule = "at_most"\nwords = "about ±x"\n',
+     'paper_value = 1.5\nrule = "at_most"\nbound = 25.0\nwords = "about ±x"\n',
+     "H1 H1.hfi.10: the bound 25 is not the paper's number 1.5"),
+    ("gong2020.toml", 'range = [33.2, 35.3]\ninclusive = true\nrule_source = "Gong Table II: '
+     'the 15 per-period values span 33.2 .. 35.3 us"\nrun = "G5"\n',
+     'range = [30.0, 35.3]\ninclusive = true\nrule_source = "Gong Table II: '
+     'the 15 per-period values span 33.2 .. 35.3 us"\nrun = "G5"\n',
+     "G5 G5.td: the range [30, 35.3] is not quoted in its source"),
+    ("hou2021.toml", 'keys = ["H1.hfi.10", "H1.smo.10"]\nop = "<"\npaper = "1.5 < 4 rpm"\n'
+     'source = "Hou 4.2"\nwords = "better / faster / less / falls"',
+     'keys = ["H1.hfi.10", "H1.smo.10"]\nop = "<"\npaper = "1.5 < 4 rpm"\n'
+     'source = "Hou 4.2"\nwords = "better / faster / less / falls"\nmin_fall = 0.01\n'
+     'min_fall_source = "mine"', "min_fall, min_fall_source cannot be written in a claims file"),
 ])
 def test_a_bad_file_is_refused_naming_where(tmp_path, name, old, new, message):
     folder = _copy(tmp_path)

@@ -314,3 +314,38 @@ def test_steadiness_flags_a_settling_tail_not_a_stationary_ripple():
     assert not s.steady and s.whole_rpm > 8.5 and "second half" in s.text()
     # a tail below the floor (half the papers' finest printed speed step) is steady
     assert metrics.steadiness(2000 + 0.02 * np.exp(-t / 0.03)).steady
+
+
+def test_locked_spectrum_a_hair_above_an_even_number_of_samples_per_revolution():
+    """Review of issue 27: at 50.0000002 samples per revolution the top fitted order sat at
+    Nyquist, where its sine column is almost zero, and 0.1 % of noise read a THD of 31 %. The
+    orders stop half a step below pi: the same noise reads what it reads at 49.5 samples."""
+    rng = np.random.default_rng(1)
+    for spr in (50.0000002, 50.0, 49.5, 75.0000001):
+        th = 2 * np.pi / spr * np.arange(4000)
+        x = np.cos(th) + 1e-3 * rng.standard_normal(th.size)
+        s = metrics.locked_spectrum(x, th, 1e4)
+        assert max(s.harmonics) * 2 * np.pi / spr < np.pi - 0.4 * 2 * np.pi / spr
+        assert s.thd_percent < 0.05, (spr, s.thd_percent)
+
+
+def test_a_stalled_rotor_fails_its_operating_point_not_the_bench():
+    """A drive that did not turn in a THD row's window has no spectrum to fit: the row FAILs on
+    its operating point (the drive's), it is not INVALID (before: 'cannot compute', INVALID,
+    and dropped from the assumption axes)."""
+    from hil_bench.claims.registry import CLAIMS
+    from hil_bench.papers import claims as cl
+    from hil_bench.record import channels as ch
+    t = np.arange(0, 2.5, 1e-4)
+    theta = np.full(t.size, 0.3)
+    rec = _recording(t, theta, {ch.REFERENCE_PREFIX + "SMO_TANH": {"e_alpha_v": np.zeros(t.size)}})
+    q = next(q for q in CLAIMS["G3"].quantities if q.metric == "emf_thd_percent")
+    assert q.at_speed_rpm is not None or q.needs_steady
+    from hil_bench.papers.claim_metrics import Context
+    ctx = Context(rec, (2.0, 2.5), 2000.0, 4, 1e-4, source=q.source)   # G3's reference
+    value, verdict, note = cl.measure(q, ctx)
+    assert math.isnan(value) and verdict in ("FAIL", "COMPARED"), (verdict, note)
+    assert "did not hold 2000 rpm" in note and "cannot compute" in note
+    # no reference to hold (a standstill test): the metric's own error, INVALID as before
+    _, verdict, note = cl.measure(q, Context(rec, (2.0, 2.5), 0.0, 4, 1e-4, source=q.source))
+    assert verdict == "INVALID" and note.startswith("cannot compute")

@@ -97,6 +97,7 @@ def check_words(claims: dict[str, "Claim"], words: dict[str, Words]) -> None:
             if w.rule != q.rule.kind:
                 raise RegistryError(f"{c.id} {q.key}: the words {w.id!r} give the rule {w.rule}, "
                                     f"the row has {q.rule.kind}")
+            _check_rule_numbers(c.id, q)
         for rel in c.relations:
             w = words.get(rel.words)
             if w is None:
@@ -105,6 +106,25 @@ def check_words(claims: dict[str, "Claim"], words: dict[str, Words]) -> None:
             if w.rule != relation_test(rel):
                 raise RegistryError(f"{c.id} relation {rel.key}: the words {w.id!r} give the test "
                                     f"{w.rule}, the relation has {relation_test(rel)}")
+
+
+def _check_rule_numbers(cid: str, q) -> None:
+    """The numbers of a rule are the paper's: a bound is the paper's number itself (every bound
+    word reads "x bounds the value"), a range quotes both its ends in its source. A bound set
+    apart from the number the paper prints is a tolerance nobody can source."""
+    r = q.rule
+    if r.kind == "at_most":
+        pv = q.paper_value
+        if isinstance(pv, bool) or not isinstance(pv, (int, float)) or not math.isclose(
+                float(pv), r.hi, rel_tol=1e-12, abs_tol=1e-15):
+            raise RegistryError(f"{cid} {q.key}: the bound {r.hi:g} is not the paper's number "
+                                f"{pv!r}: the words {r.words!r} read the paper's x as the bound")
+    elif r.kind == "within":
+        ends = [f"{r.lo:g}", f"{round(r.hi, 9):g}"]
+        missing = [e for e in ends if e not in r.source]
+        if missing:
+            raise RegistryError(f"{cid} {q.key}: the range [{ends[0]}, {ends[1]}] is not quoted "
+                                f"in its source ({r.source!r} lacks {', '.join(missing)})")
 
 
 def _texts(docs: dict[str, dict]) -> dict[str, str]:
@@ -168,6 +188,11 @@ def _quantity(t: dict, where: str) -> Quantity:
 
 def _relation(t: dict, where: str) -> Relation:
     _check(t, _RELATION_FIELDS, where)
+    sized = [k for k in ("min_fall", "min_fall_source") if k in t]
+    if sized:
+        raise RegistryError(f"{where}: {', '.join(sized)} cannot be written in a claims file: a "
+                            "relation's size comes from the paper's own table "
+                            "(expand.compensation_table reads it from the numbers it quotes)")
     try:
         return Relation(**{k: tuple(v) if k == "keys" else v for k, v in t.items()})
     except (TypeError, ValueError) as exc:

@@ -208,27 +208,34 @@ class AxisResult:
 
     def threshold(self) -> str:
         """Where the claim holds on this axis: 'holds for dead time <= 1 us', 'holds nowhere',
-        'holds everywhere', or the holding values listed."""
+        'holds everywhere', or the holding values listed; points that give no pass/fail (a run
+        the bench could not measure, an untested comparator) are named as such, never counted
+        as holding or as failing."""
         pts = sorted(self.points, key=lambda p: p.value)
-        held = [p for p in pts if p.holds]
         a = self.axis
         span = a.fmt_range(pts[0].value, pts[-1].value)
         if all(vote(p.verdict) is None for p in pts):
             return (f"no pass/fail at any {a.name} of {span} ("
                     + ", ".join(dict.fromkeys(p.verdict for p in pts)) + ")")
+        silent = [p for p in pts if vote(p.verdict) is None]
+        note = ("; no pass/fail at " + ", ".join(f"{a.fmt(p.value)} ({p.verdict})"
+                                                  for p in silent)) if silent else ""
+        voting = [p for p in pts if vote(p.verdict) is not None]
+        held = [p for p in voting if p.holds]
+        measured = " measured" if silent else ""
         if not held:
-            return f"holds at no {a.name} of {span}"
-        if len(held) == len(pts):
-            return f"holds at every {a.name} of {span}"
-        idx = [pts.index(p) for p in held]
+            return f"holds at no {a.name}{measured} of {span}{note}"
+        if len(held) == len(voting):
+            return f"holds at every {a.name}{measured} of {span}{note}"
+        idx = [voting.index(p) for p in held]
         contiguous = idx == list(range(idx[0], idx[-1] + 1))
         if contiguous and idx[0] == 0:
             return (f"holds for {a.name} <= {a.fmt(held[-1].value)} (fails from "
-                    f"{a.fmt(pts[idx[-1] + 1].value)})")
-        if contiguous and idx[-1] == len(pts) - 1:
+                    f"{a.fmt(voting[idx[-1] + 1].value)}){note}")
+        if contiguous and idx[-1] == len(voting) - 1:
             return (f"holds for {a.name} >= {a.fmt(held[0].value)} (fails at "
-                    f"{a.fmt(pts[idx[0] - 1].value)} and below)")
-        return f"holds at {a.name} " + ", ".join(a.fmt(p.value) for p in held) + " only"
+                    f"{a.fmt(voting[idx[0] - 1].value)} and below){note}")
+        return f"holds at {a.name} " + ", ".join(a.fmt(p.value) for p in held) + f" only{note}"
 
     def text(self) -> str:
         a = self.axis
@@ -256,16 +263,29 @@ def vote(verdict: str) -> bool | None:
 
 
 def verdict_across(own: str, results: list[AxisResult]) -> str:
-    """A claim's verdict over its axes: its own verdict if that is no pass/fail (or no axis);
-    its own (or FAIL) if every voting point of every axis holds (fails); DEPENDS otherwise."""
-    if own in _NO_PASS_FAIL or not results:
+    """A claim's verdict over its axes (its own verdict is the default point's):
+
+    * no axis, or its own run INVALID: its own verdict;
+    * a point that FAILs is never hidden: FAIL when no point holds, DEPENDS when some do or when
+      its own verdict has no pass/fail (NOT REPRODUCIBLE, UNTESTED, NOT RESOLVED: it fails at
+      some values of the assumption and cannot be judged at the paper's);
+    * every point that gives a pass/fail holds: its own verdict only if every point gave one;
+      a point the bench could not measure (INVALID) makes it INVALID (the range was not
+      measured; the threshold names the point), a point with no pass/fail of its own
+      (UNTESTED, NOT RESOLVED, NOT REPRODUCIBLE) makes a PASS a PARTLY."""
+    if not results or own == "INVALID":
         return own
-    votes = {vote(p.verdict) for r in results for p in r.points} - {None}
-    if votes == {True}:
+    points = [p for r in results for p in r.points]
+    votes = [vote(p.verdict) for p in points]
+    if False in votes:
+        return "DEPENDS" if True in votes or own in _NO_PASS_FAIL else "FAIL"
+    if own in _NO_PASS_FAIL:
         return own
-    if votes == {False}:
-        return "FAIL"
-    return "DEPENDS"
+    if any(p.verdict == "INVALID" for p in points):
+        return "INVALID"
+    if None in votes and own == "PASS":
+        return "PARTLY"
+    return own
 
 
 def evaluate(pl: Plan, rep, judge: Judge, claim_verdict: Callable[[list], str]) -> dict[str, Any]:

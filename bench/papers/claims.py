@@ -238,6 +238,18 @@ def comparator_note(q: Quantity, why: str) -> str:
             + why)
 
 
+def _off_point(q: Quantity, qctx: Context) -> str:
+    """Why the run was not at the quantity's operating point ('' if it was): its speed (the
+    row's at_speed_rpm), then a steady window (needs_steady)."""
+    why_op = ""
+    if q.at_speed_rpm is not None:
+        octx = qctx.with_window(q.at_speed_window_s) if q.at_speed_window_s else qctx
+        why_op = operating_point_note(octx, q.at_speed_rpm)
+    if not why_op and q.needs_steady:
+        why_op = steadiness_note(qctx)
+    return why_op
+
+
 def measure(q: Quantity, ctx: Context) -> tuple[float, str, str]:
     """(value, verdict, note) of one quantity on one recording's context."""
     return measure_with_resolution(q, ctx)[:3]
@@ -263,6 +275,20 @@ def measure_with_resolution(q: Quantity, ctx: Context) -> tuple[float, str, str,
             return math.nan, kind, why, 0.0
         return math.nan, "INVALID", str(exc), 0.0
     except (ValueError, KeyError) as exc:
+        # a rotor that stalled or turned back has no spectrum to fit: the operating point's
+        # failure (the drive's), said before the metric's; a controller fault is the method's
+        if kind == "FAIL":
+            if q.comparator:
+                return math.nan, "UNTESTED", comparator_note(q, why), 0.0
+            return math.nan, "FAIL", f"{why}; cannot compute: {exc}", 0.0
+        if not kind:
+            why_op = _off_point(q, qctx) or (operating_point_note(qctx, qctx.speed_ref_rpm)
+                                             if qctx.speed_ref_rpm else "")
+            if why_op:
+                if q.comparator:
+                    return math.nan, "UNTESTED", comparator_note(q, why_op), 0.0
+                return (math.nan, "FAIL" if q.rule.kind != "compared" else "COMPARED",
+                        f"{why_op}; cannot compute: {exc}", 0.0)
         return math.nan, "INVALID", f"cannot compute: {exc}", 0.0
     res = resolution(q.metric, qctx)
     if kind == "INVALID":
@@ -281,12 +307,7 @@ def measure_with_resolution(q: Quantity, ctx: Context) -> tuple[float, str, str,
         return value, "FAIL", why, res        # the drive faulted before the window
     if q.not_reproducible:
         return value, "NOT REPRODUCIBLE", q.not_reproducible, res
-    why_op = ""
-    if q.at_speed_rpm is not None:
-        octx = qctx.with_window(q.at_speed_window_s) if q.at_speed_window_s else qctx
-        why_op = operating_point_note(octx, q.at_speed_rpm)
-    if not why_op and q.needs_steady:
-        why_op = steadiness_note(qctx)
+    why_op = _off_point(q, qctx)
     if why_op:
         if q.comparator:
             return value, "UNTESTED", comparator_note(q, why_op + ("; " + why if why else "")), res
@@ -327,20 +348,32 @@ def evaluate(claim: Claim, ctx: Context, scn=None) -> list[QuantityResult]:
 def relate(rel: Relation, values: dict[str, float], not_reproducible: frozenset = frozenset(),
            off_point: frozenset = frozenset(),
            resolutions: dict[str, float] | None = None,
-           untested: dict[str, str] | None = None) -> tuple[tuple[float, ...], str, str]:
+           untested: dict[str, str] | None = None,
+           ended: dict[str, str] | None = None) -> tuple[tuple[float, ...], str, str]:
     """Check a relation on the measured values; a relation over a quantity that is NOT
     REPRODUCIBLE is not reproducible either. An ordering ("<", ">") between two values whose
     difference is below the resolution of either (``resolutions``: one LSB of what they were
     measured from) is NOT RESOLVED, unless another pair of the chain is resolved and wrong
     (FAIL). A relation over a row of the paper's method that did not hold its operating point
     FAILs; over a comparator's row that did not (``untested``: key -> why) it is UNTESTED: the
-    bench's reconstruction of a method the paper only cites is not the paper's claim."""
+    bench's reconstruction of a method the paper only cites is not the paper's claim. A relation
+    over a row whose run ended early (``ended``: key -> "FAIL" when the controller faulted,
+    "INVALID" when the bench broke) is FAIL or INVALID whatever its values: a run cut short
+    never makes a relation hold."""
     resolutions = resolutions or {}
     untested = untested or {}
+    ended = ended or {}
     vals = tuple(float(k[1:]) if k.startswith("#") else values.get(k, math.nan) for k in rel.keys)
+    broke = [k for k in rel.keys if ended.get(k) == "INVALID"]
+    if broke:
+        return vals, "INVALID", f"{', '.join(broke)}: the run ended early (the bench)"
     nr = [k for k in rel.keys if k in not_reproducible]
     if nr:
         return vals, "NOT REPRODUCIBLE", f"{', '.join(nr)} not reproducible on this bench"
+    cut = [k for k in rel.keys if ended.get(k) == "FAIL" and k not in untested]
+    if cut:
+        return vals, "FAIL", (f"{', '.join(cut)}: the run ended early (the controller faulted), "
+                              "so the comparison does not hold either")
     off = [k for k in rel.keys if k in off_point and k not in untested]
     if off:
         return vals, "FAIL", (f"{', '.join(off)}: the drive did not hold the operating point, so "

@@ -127,13 +127,20 @@ def _claim_of(c: Claim, run: Run, var: Run) -> Claim:
     return dataclasses.replace(c, quantities=qs, relations=(), runs=(var,))
 
 
+def _measured(row) -> bool:
+    """A comparator's row holds its point: it has a value and a verdict of its own (not
+    UNTESTED: it lost the point; not INVALID: the bench broke, the wrong estimator ran, or there
+    is no value)."""
+    return row.verdict in ("PASS", "FAIL", "COMPARED") and math.isfinite(row.value)
+
+
 def evaluate(pl: Plan, rep, measure_claims: Callable[..., list]) -> dict[str, Any]:
     """Each point's comparator rows, measured by the report's ``measure_claims`` (handed in, so
     this module does not import the report that imports it)."""
     pts = []
     for cid, run, st, plant, var in pl.points:
         rows = measure_claims([_claim_of(CLAIMS[cid], run, var)], rep.outcomes, {}, {})
-        holds = bool(rows) and all(r.verdict != "UNTESTED" for r in rows)
+        holds = bool(rows) and all(_measured(r) for r in rows)
         pts.append(Point(cid, run.id, st, plant, holds, rows))
     return {"points": pts}
 

@@ -131,7 +131,9 @@ def locked_spectrum(x: np.ndarray, theta_e_rad: np.ndarray, fs_hz: float | None 
     first = int(np.searchsorted(th, th[-1] + dstep - TWO_PI * periods - 1e-6 * dstep))
     seg, ang = x[first:], th[first:]
     largest_step = float(np.max(np.diff(ang))) if ang.size > 1 else math.pi
-    nyquist = int(math.floor((math.pi - 1e-12) / largest_step)) if largest_step > 0 else max_order
+    # orders whose largest step stays half a step below pi: at pi itself (a hair above an even
+    # number of samples per revolution) the sine column is almost zero and the fit amplifies noise
+    nyquist = (int(math.floor(math.pi / largest_step - 0.5)) if largest_step > 0 else max_order)
     top = max(1, min(max_order, nyquist))
     cols = [np.ones_like(ang)]
     for h in range(1, top + 1):

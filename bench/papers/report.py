@@ -335,8 +335,10 @@ def measure_claims(claims: list[Claim], outcomes: dict[str, RunOutcome], studies
         off = frozenset(r.key for _, r in qrows if "did not hold" in r.note)
         untested = {r.key: "the comparator did not hold its operating point" for _, r in qrows
                     if r.verdict == "UNTESTED"}
+        ended = {r.key: ("INVALID" if r.verdict == "INVALID" else "FAIL") for _, r in qrows
+                 if "the run ended early" in r.note and r.verdict != "UNTESTED"}
         for rel in c.relations:
-            vals, verdict, note = relate(rel, values, nr, off, resolutions, untested)
+            vals, verdict, note = relate(rel, values, nr, off, resolutions, untested, ended)
             sym = {"<": " < ", ">": " > ", "=": " = "}[rel.op]
             rows.append(Row(c.id, rel.key, rel.what, rel.paper,
                             sym.join(_fmt(v) for v in vals), "",
