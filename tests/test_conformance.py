@@ -193,7 +193,9 @@ def test_one_late_answer_is_named_but_the_drive_is_judged_on_its_typical_answers
         proxy.close()
     item = _time_item(result)
     assert item.ok is True, result.text()
-    assert "1 late (beyond 50 ms): seq 49 1" in item.detail and "median" in item.detail and "p90" in item.detail
+    # seq 49 named with its time (about 125 ms); a busy host may hold back others too, each named
+    assert re.search(r"\d+ late \(beyond 50 ms\): .*seq 49 1\d\d ms", item.detail), item.detail
+    assert "median" in item.detail and "p90" in item.detail
     assert any(i.text.startswith("every SENSE answered") and i.ok for i in result.items)
     assert not rule_failures(result), result.text()
 

@@ -455,6 +455,7 @@ def test_a_suspended_bench_ends_the_run_instead_of_pretending(tmp_path):
                             "PROT_SUM_MAX_A = 0.0\nPROT_STALL_TIME_S = 0.0\nPROT_OPEN_I_MIN_A = 0.0\n"
                             "PROT_STUCK_TIME_S = 0.0\n"))
     out = tmp_path / "suspended.mcap"
+    require_real_time(1e-4)
     proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
@@ -467,9 +468,19 @@ def test_a_suspended_bench_ends_the_run_instead_of_pretending(tmp_path):
     proc.send_signal(signal.SIGCONT)
     stdout, stderr = proc.communicate(timeout=30)
     assert proc.returncode == 1, stderr
-    assert "the clock jumped or the engine was suspended" in stderr
     rec = load_recording(out)
     assert rec.truncated is None
+    if "the clock jumped or the engine was suspended" not in stderr:
+        # the run ended on something else first: a controller the host did not let answer (its
+        # DUTYs missed, the link's writes blocked) says the machine did not keep real time, and
+        # nothing about the engine's clock; anything else fails the test
+        stats = rec.topic(ch.LINK_STATS)
+        cycles = len(rec.topic(ch.PLANT_STATE)["t_s"])
+        lost = (int(stats["missed_duty"][-1]) + int(stats["rt_overruns"][-1])) / max(cycles, 1)
+        if lost > LOST_PERIODS_LIMIT:
+            pytest.skip(f"this machine could not keep real time before the suspension: {lost:.1%} "
+                        f"of {cycles} periods lost; the run ended: {stderr.strip()[-200:]}")
+    assert "the clock jumped or the engine was suspended" in stderr, stderr
 
 
 def test_real_time_cpu_layout(monkeypatch):
@@ -510,20 +521,32 @@ def test_a_link_stall_in_real_time_trips_the_free_running_controller(tmp_path):
     text = scn.text + ('\n[[faults]]\nkind = "stall"\ndirection = "to_controller"\n'
                        'stall_periods = 30\nt_s = 0.8\ndetect_within_s = 0.05\n')
     scn = parse_scenario(text, Path("stall.toml"))
-    for attempt in (1, 2):
-        out.unlink(missing_ok=True)
-        result = run_scenario(scn, out_path=out, progress=False, force=True)
-        rec = load_recording(out)
-        if result.cycles_done * ts >= 0.8:
-            break      # the run got to the stall: what happened then is the test's
-        # it ended before the stall: a host stall tripped the free-running stub's own timeout
-    else:
-        pytest.skip(f"this machine could not keep real time before the stall, twice "
-                    f"({result.error}); see hil_bench.perf.loop")
-    assert "LINK_TIMEOUT" in result.error, result.error
     from hil_bench.record.fault_outcomes import outcomes
 
-    (o,) = outcomes(rec)
+    why = ""
+    for attempt in (1, 2):
+        out.unlink(missing_ok=True)
+        require_real_time(ts)
+        result = run_scenario(scn, out_path=out, progress=False, force=True)
+        rec = load_recording(out)
+        if result.cycles_done * ts < 0.8:
+            # it ended before the stall: a host stall tripped the free-running stub's own timeout
+            why = f"the run ended before the stall: {result.error}"
+            continue
+        (o,) = outcomes(rec)
+        if o.detected and o.trip_s is not None and o.trip_s <= 30 * ts + 0.01:
+            break      # the run got to the stall: what happened then is the test's
+        # the trip came late: a stub the host did not run during the stall measures a longer
+        # gap; it is the test's unless the run lost more periods than the stall's own 30
+        stats = rec.topic(ch.LINK_STATS)
+        lost = (int(stats["missed_duty"][-1]) - 30) / max(result.cycles_done, 1)
+        if lost <= LOST_PERIODS_LIMIT:
+            break
+        why = f"{lost:.1%} of the periods lost beside the stall's 30, the trip at {o.trip_s}"
+    else:
+        pytest.skip(f"this machine could not keep real time, twice ({why}); see "
+                    f"hil_bench.perf.loop")
+    assert "LINK_TIMEOUT" in result.error, result.error
     assert o.kind == "stall" and o.t_on_s == pytest.approx(0.8)
     assert o.detected and o.trip_code == "LINK_TIMEOUT"
     # the stub's timer notices 10 periods without SENSE; the stall is 30: it trips inside it
@@ -564,8 +587,10 @@ def test_an_out_of_range_duty_is_never_applied_in_real_time(tmp_path, update):
     """--inject bad-duty: one DUTY with raw 40000 (> 32768): counted, an /events row, the
     previous duties held -- in real time as in lockstep (the same validation in the engine)."""
     out = tmp_path / "bad.mcap"
-    result = run_scenario(rt_scenario(update, duration=0.2, misses=1_000_000), out_path=out,
-                          progress=False, stub_args=("--inject", "bad-duty@300"))
+    # a host that keeps the stub from answering around cycle 300 decides this run, not the
+    # engine's validation: run_real_time repeats it once, then skips with the figures
+    result = run_real_time(rt_scenario(update, duration=0.2, misses=1_000_000), out,
+                           stub_args=("--inject", "bad-duty@300"))
     rec = load_recording(out)
     events = rec.topic(ch.EVENTS)
     bad = [t for k, t in zip(events["kind"], events["text"]) if k == "bad_duty"]

@@ -14,6 +14,18 @@ static const char *const TRACE_NAMES[ENGINE_TRACE_COUNTERS] = {
     "ctrl_rx_errors", "ctrl_resets", "ctrl_faults", "rtt_over_delay", "lost_frames",
     "late_answers"};
 
+/* Timing statistics, not link problems (docs/protocol.md 6.5): a busy host that answers a cycle
+ * late moves them whatever fault is active, so they are evidence only of a fault that acts on
+ * time itself (a delay); a dropped or stalled frame shows as lost_frames. */
+static const unsigned char TRACE_TIMING[ENGINE_TRACE_COUNTERS] = {
+    [11] = 1u /* retries */, [22] = 1u /* late_answers */};
+
+/** Whether counter `i` is evidence for the fault of trace `t`. */
+static int trace_counts(const engine_trace_t *t, int i)
+{
+    return !TRACE_TIMING[i] || t->delay_s > 0.0;
+}
+
 static void trace_counters(const engine_t *e, const engine_trace_t *t,
                            uint64_t v[ENGINE_TRACE_COUNTERS])
 {
@@ -111,7 +123,7 @@ static void trace_close(engine_t *e, int index, const char *ended)
     trace_counters(e, t, now);
     text[0] = '\0';
     for (i = 0; i < ENGINE_TRACE_COUNTERS; ++i) {
-        if (now[i] > t->snap[i] && n < (int)sizeof text - 48) {
+        if (trace_counts(t, i) && now[i] > t->snap[i] && n < (int)sizeof text - 48) {
             n += snprintf(text + n, sizeof text - (size_t)n, "%s%s +%llu", moved ? ", " : "",
                           TRACE_NAMES[i], (unsigned long long)(now[i] - t->snap[i]));
             moved = 1;
@@ -166,7 +178,7 @@ void eng_traces_step(engine_t *e)
             int j;
             trace_counters(e, t, now);
             for (j = 0; j < ENGINE_TRACE_COUNTERS; ++j) {
-                if (now[j] > t->snap[j]) {
+                if (trace_counts(t, j) && now[j] > t->snap[j]) {
                     t->seen_k = e->cur_k;
                     break;
                 }
