@@ -178,7 +178,9 @@ def test_a_late_controller_is_waited_for_and_its_rows_are_the_prompt_ones(tmp_pa
     timing = b.topic(ch.TIMING)
     injected = np.isin(timing["seq"], np.arange(100, 3000, 500))
     assert int(injected.sum()) == 6
-    assert np.all(timing["retries"][injected] == 2) and np.all(timing["rtt_us"][injected] >= 300e3)
+    # re-sent at 50 and 150 ms before the 300 ms answer (a host that also stalls the stub may add
+    # the next re-send, at 350 ms)
+    assert np.all(timing["retries"][injected] >= 2) and np.all(timing["rtt_us"][injected] >= 300e3)
     integrity = check_recording(late).integrity
     assert integrity.ok and not integrity.problems, integrity.problems
     assert integrity.timing["late_answers"] == stats["late_answers"]

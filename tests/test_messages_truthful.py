@@ -73,14 +73,17 @@ def test_an_answer_merely_late_is_waited_for_and_counted_late(tmp_path):
                           out_path=out, progress=False)
     assert result.ok, result.error
     stats = result.link_stats
-    assert stats["late_answers"] == 1 and stats["lost_frames"] == 0 and stats["retries"] >= 2, stats
+    # cycle 2000 is late; a busy host may make others late too (timing, never a problem)
+    assert stats["late_answers"] >= 1 and stats["lost_frames"] == 0 and stats["retries"] >= 2, stats
     rec = load_recording(out)
     timing = rec.topic(ch.TIMING)
-    (row,) = np.flatnonzero(timing["retries"] > 0)
-    assert timing["seq"][row] == 2000 and timing["rtt_us"][row] >= 0.3e6
+    (row,) = np.flatnonzero(timing["seq"] == 2000)
+    assert timing["retries"][row] >= 2 and timing["rtt_us"][row] >= 0.3e6
+    if stats["late_answers"] == 1:
+        assert list(timing["seq"][timing["retries"] > 0]) == [2000]
     traces = [t for a, t in zip(rec.topic(ch.FAULTS)["action"], rec.topic(ch.FAULTS)["text"])
               if a == "trace"]
-    assert traces and "late_answers +1" in traces[0], traces
+    assert traces and "late_answers +" in traces[0], traces
 
 
 # ---- the handshake ---------------------------------------------------------------------------------
