@@ -23,7 +23,8 @@ from hil_bench.record import channels as ch
 from hil_bench.record.integrity import LINK_COUNTERS, check_integrity
 from hil_bench.record.recorder import partial_path
 from hil_bench.record.recording import Recording, load_recording
-from hil_bench.scenario import load_scenario, parse_scenario
+from hil_bench.scenario import load_scenario
+from tests.short_scenario import short_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -110,28 +111,11 @@ def test_a_bench_killed_mid_run_leaves_a_recording_that_never_passes(tmp_path):
     assert cli_main(["check", str(out), "--strict"]) == 1
 
 
-SHORT = """
-[scenario]
-name = "noisy"
-profile = "gong2020"
-duration_s = 0.2
-[controller]
-estimator = "SMO_SIGN"
-speed_ref_rpm = 300
-[controller.params]
-ALIGN_TIME_S = 0.05
-IF_ACCEL_RAD_S2 = 200.0
-[metrics]
-window_s = [0.0, 0.2]
-{link}
-"""
-
-
 @pytest.mark.parametrize("link, ok", [("", False), ("[link]\nallow = {crc_errors = 100000, "
                                                    "cobs_errors = 100000, bytes_discarded = 100000000, "
                                                    "length_errors = 100000, overruns = 100000, telem_missing = 100000}", True)])
 def test_link_errors_are_problems_unless_the_scenario_allows_them(tmp_path, link, ok):
-    scn = parse_scenario(SHORT.format(link=link), tmp_path / "noisy.toml")
+    scn = short_scenario(0.2, "noisy", extra=link + "\n", source=str(tmp_path / "noisy.toml"))
     out = tmp_path / "noisy.mcap"
     result = Runner(scn, out_path=out, progress=False, stub_args=("--inject", "garbage@100")).run()
     assert result.ok, result.error

@@ -24,6 +24,8 @@ from hil_bench.record import channels as ch
 from hil_bench.record.recorder import partial_path
 from hil_bench.record.recording import load_recording
 from hil_bench.scenario import load_scenario, parse_scenario
+from tests.short_scenario import short_scenario as _short_scenario
+from tests.short_scenario import short_scenario_text
 
 REPO = Path(__file__).resolve().parents[1]
 ALL_TOPICS = {ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.LINK_FRAMES,
@@ -110,24 +112,8 @@ def test_check_recomputes_from_the_file_alone(g2_run, tmp_path):
     assert report.summary["speed_mean_rpm"] == pytest.approx(500.0, abs=2.0)
 
 
-SHORT = """
-[scenario]
-name = "short"
-profile = "gong2020"
-duration_s = {duration}
-[controller]
-estimator = "SMO_SIGN"
-speed_ref_rpm = 300
-[controller.params]
-ALIGN_TIME_S = 0.05
-IF_ACCEL_RAD_S2 = 200.0
-[metrics]
-window_s = [0.0, {duration}]
-"""
-
-
 def short_scenario(duration: float = 0.3, link: str = ""):
-    return parse_scenario(SHORT.format(duration=duration) + link, Path("short.toml"))
+    return _short_scenario(duration, extra=link)
 
 
 @pytest.mark.parametrize("inject, expect", [
@@ -192,7 +178,7 @@ def test_a_lossy_link_completes_with_its_lost_frames_counted_as_a_link_problem(t
     integrity names them a link problem (lost)."""
     from hil_bench.papers.check import check_recording
 
-    text = SHORT.format(duration=0.3) + (
+    text = short_scenario_text(0.3) + (
         "[[faults]]\nkind = \"drop\"\ndirection = \"from_controller\"\nmessage = \"DUTY\"\n"
         "probability = 0.01\ncount = 0\nt_s = 0.05\nuntil_s = 0.3\nseed = 7\n")
     out = tmp_path / "lossy.mcap"
@@ -256,7 +242,7 @@ def test_ctrl_c_finalises_the_recording(tmp_path):
     out = tmp_path / "interrupted.mcap"
     scn = tmp_path / "long.toml"
     # 600 s of plant time (minutes of wall time): the run cannot end by itself before the Ctrl-C
-    scn.write_text(SHORT.format(duration=600.0))
+    scn.write_text(short_scenario_text(600.0))
     # SIGINT at its default in the child whatever this process inherited: a test run started in
     # the background by a shell (`.ci/run &`) ignores SIGINT, the bench would inherit that and
     # Python would not install its KeyboardInterrupt handler (the Ctrl-C would go nowhere)
@@ -334,10 +320,10 @@ def test_reference_estimator_runs_beside_the_controller_on_the_same_samples(g2_r
 
 
 def test_unknown_reference_estimator_is_refused_naming_the_field(tmp_path):
-    text = SHORT.format(duration=0.1) + '\n[reference]\nestimators = ["NOPE"]\n'
+    text = short_scenario_text(0.1) + '\n[reference]\nestimators = ["NOPE"]\n'
     with pytest.raises(RunAborted, match="reference.estimators: unknown estimator 'NOPE'"):
         Runner(parse_scenario(text, Path("r.toml")), out_path=tmp_path / "r.mcap")
-    text = SHORT.format(duration=0.1) + ('\n[reference]\nestimators = ["SMO_SIGN"]\n'
+    text = short_scenario_text(0.1) + ('\n[reference]\nestimators = ["SMO_SIGN"]\n'
                                          '[reference.SMO_SIGN]\nwc_rad_s = 0.0\n')
     with pytest.raises(RunAborted, match="reference.SMO_SIGN: .*invalid configuration"):
         Runner(parse_scenario(text, Path("r.toml")), out_path=tmp_path / "r.mcap")
@@ -348,7 +334,7 @@ def test_recording_survives_the_bench_being_killed(tmp_path):
     file with everything it had received (summary and footer written)."""
     out = tmp_path / "killed.mcap"
     scn = tmp_path / "long.toml"
-    scn.write_text(SHORT.format(duration=30.0))
+    scn.write_text(short_scenario_text(30.0))
     proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)

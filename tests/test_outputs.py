@@ -36,28 +36,12 @@ from hil_bench.record.atomic import (
 )
 from hil_bench.record.recorder import RecorderError, reserve_recording
 from hil_bench.record.recording import load_recording
-from hil_bench.scenario import parse_scenario
+from tests.short_scenario import short_scenario, short_scenario_text
 
 REPO = Path(__file__).resolve().parents[1]
 EX = REPO / "examples" / "captures"
-SHORT = """
-[scenario]
-name = "{name}"
-profile = "gong2020"
-duration_s = {duration}
-[controller]
-estimator = "SMO_SIGN"
-speed_ref_rpm = 300
-[controller.params]
-ALIGN_TIME_S = 0.05
-IF_ACCEL_RAD_S2 = 200.0
-[metrics]
-window_s = [0.0, {duration}]
-"""
-
-
 def scenario(duration=0.1, name="outputs"):
-    return parse_scenario(SHORT.format(duration=duration, name=name), Path("outputs.toml"))
+    return short_scenario(duration, name, source="outputs.toml")
 
 
 def bench(*args, cwd=REPO, timeout=300):
@@ -230,7 +214,7 @@ def test_replay_refuses_its_own_capture_as_out(tmp_path, force):
 @pytest.mark.parametrize("force", [False, True])
 def test_run_refuses_its_scenario_file_as_out(tmp_path, force):
     scn = tmp_path / "s.toml"
-    scn.write_text(SHORT.format(duration=0.1, name="s"))
+    scn.write_text(short_scenario_text(0.1, "s"))
     text = scn.read_text()
     for how, out in _links(tmp_path, scn).items():
         r = bench("run", scn, "--out", out, "--no-progress", *(["--force"] if force else []))
@@ -257,7 +241,7 @@ def test_recover_refuses_its_input_by_any_link(tmp_path, force):
 @pytest.mark.parametrize("force", [False, True])
 def test_layout_refuses_its_scenario_file(tmp_path, force):
     scn = tmp_path / "l.toml"
-    scn.write_text(SHORT.format(duration=0.1, name="l"))
+    scn.write_text(short_scenario_text(0.1, "l"))
     text = scn.read_text()
     for how, out in _links(tmp_path, scn).items():
         r = bench("layout", scn, "-o", out, *(["--force"] if force else []))

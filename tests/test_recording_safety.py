@@ -19,27 +19,11 @@ from hil_bench.loop.runner import Runner, default_recording_path, run_scenario
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import RecorderError, partial_path
 from hil_bench.record.recording import load_recording
-from hil_bench.scenario import parse_scenario
+from tests.short_scenario import short_scenario, short_scenario_text
 
 REPO = Path(__file__).resolve().parents[1]
-SHORT = """
-[scenario]
-name = "{name}"
-profile = "gong2020"
-duration_s = {duration}
-[controller]
-estimator = "SMO_SIGN"
-speed_ref_rpm = 300
-[controller.params]
-ALIGN_TIME_S = 0.05
-IF_ACCEL_RAD_S2 = 200.0
-[metrics]
-window_s = [0.0, {duration}]
-"""
-
-
 def scenario(duration=0.1, name="safety"):
-    return parse_scenario(SHORT.format(duration=duration, name=name), Path("safety.toml"))
+    return short_scenario(duration, name, source="safety.toml")
 
 
 def test_an_existing_recording_is_never_overwritten(tmp_path):
@@ -49,7 +33,7 @@ def test_an_existing_recording_is_never_overwritten(tmp_path):
         run_scenario(scenario(), out_path=out, progress=False)
     assert out.read_bytes() == b"precious" * 1000
     # the issue's case: a bad link spec on top of an existing file still leaves it intact
-    (tmp_path / "s.toml").write_text(SHORT.format(duration=0.1, name="s"))
+    (tmp_path / "s.toml").write_text(short_scenario_text(0.1, "s"))
     proc = subprocess.run([sys.executable, "-m", "hil_bench", "run", str(tmp_path / "s.toml"),
                            "--out", str(out), "--link", "serial:/dev/nonexistnt"],
                           cwd=REPO, capture_output=True, text=True, timeout=60)
