@@ -247,6 +247,9 @@ def test_real_time_closes_the_loop_and_holds_500_rpm(tmp_path, rate_hz, update):
     assert int(np.count_nonzero(timing["missed"])) == result.timing["missed"]
     assert np.nanmedian(timing["rtt_us"]) > 0.0
     assert rec.run["mode"] == "realtime" and rec.run["duty_update"] == update
+    # and every 1000 cycles its /link/stats row at that cycle, in a period the bench lost too
+    stats_at = {int(c) for c in rec.topic(ch.LINK_STATS)["cycles"]}
+    assert set(range(1000, result.cycles_planned + 1, 1000)) <= stats_at, sorted(stats_at)
 
 
 #: the free-running stub: its timer's phase after the first SENSE. A pty carries a frame one way
@@ -279,41 +282,78 @@ def test_free_running_controller_closes_the_loop(tmp_path):
     assert abs(np.median(speed) - 500.0) < 25.0, (speed.min(), speed.max())
 
 
+#: the stub answers each SENSE with TELEM, TELEM_EMF and DUTY, DUTY last
+FRAMES_PER_ANSWER = 3
+#: how far behind (SENSEs sent but not answered) a late answer must be to show that lateness has
+#: no window: the stub is ~270 behind by the end of an undisturbed run
+FAR_BEHIND = 100
+
+
 def test_late_answers_are_counted_and_the_last_duties_held(tmp_path):
     """From cycle 1000 every answer comes 1.5 periods late (the stub falls further behind with
     each): every later period is a miss, every answer that comes is counted as late however many
     periods behind it is (none is a sequence-number mismatch: each answers a period that ended
-    without its DUTY), the duties hold. The watchdog is set out of reach (it has its own test)."""
+    without its DUTY), the duties hold. The watchdog is set out of reach (it has its own test).
+
+    What arrived decides, not the host's pace: between the /link/stats rows at cycle 1000 and the
+    end, every answer that came (its frames, less the heartbeats) is either one of the periods
+    answered in time or a late DUTY. The run is 500 periods past the injection, so every SENSE a
+    stopped stub leaves unread fits in the pty (500 x 30 B; the pty holds 20 kB): a host stall
+    after the injection cannot end the run. The host decided it, and it is repeated once, then
+    skipped with the figures, when more than LOST_PERIODS_LIMIT of the periods before the
+    injection were lost, or when the stub (stopped by the host to the end) never fell FAR_BEHIND:
+    that figure is checked only after every answer that came was found counted."""
     out = tmp_path / "slow.mcap"
+    why = ""
     for attempt in (1, 2):
         out.unlink(missing_ok=True)
-        result = run_scenario(rt_scenario(duration=0.2, misses=1_000_000), out_path=out,
+        result = run_scenario(rt_scenario(duration=0.15, misses=1_000_000), out_path=out,
                               progress=False, force=True, stub_args=("--inject", "slow@1000"))
-        timing = load_recording(out).topic(ch.TIMING)
-        before = timing["seq"] < 1000
-        lost = (np.count_nonzero(timing["missed"][before]) + result.timing["overruns"]) / 1000
-        if result.ok or lost <= LOST_PERIODS_LIMIT:
+        rec = load_recording(out)
+        timing, stats = rec.topic(ch.TIMING), rec.topic(ch.LINK_STATS)
+        seq, missed = timing["seq"].astype(np.int64), timing["missed"].astype(bool)
+        lost = (np.count_nonzero(missed[seq < 1000]) + result.timing["overruns"]) / 1000
+        if not result.ok and lost > LOST_PERIODS_LIMIT:
+            why = (f"this machine could not keep real time before the injection: {lost:.1%} of "
+                   f"the first 1000 periods lost ({result.error})")
+            continue
+        assert result.ok, result.error
+        assert result.timing["late"] > 0 and result.timing["missed"] > 0
+        # the stub counts its own cycles: periods the bench lost (overruns) move its cycle 1000
+        # later in seq; from the first miss after it on, every period is missed
+        exchanged = ~timing["overrun"].astype(bool)   # the periods the bench lost had no exchange
+        answered = seq[~missed & exchanged]
+        last_in_time = int(answered.max()) if len(answered) else -1
+        assert last_in_time <= 1000 + result.timing["overruns"] + 1
+        assert np.count_nonzero((seq > last_in_time) & exchanged) >= 100   # the rest: all missed
+        assert int(stats["late_duty"][-1]) == result.timing["late"]
+        assert int(stats["seq_mismatch"][-1]) == 0
+        # every answer that came after cycle 1000 was counted: in time, or late
+        at = {int(c): i for i, c in enumerate(stats["cycles"])}
+        assert 1000 in at and 1500 in at, stats["cycles"]
+
+        def grew(name):
+            return int(stats[name][at[1500]]) - int(stats[name][at[1000]])
+
+        in_time = int(np.count_nonzero((seq >= 1000) & ~missed & exchanged))
+        answers = (grew("frames_rx") - grew("heartbeats_rx")) // FRAMES_PER_ANSWER
+        assert grew("frames_rx") == grew("frames_ok")
+        late = grew("late_duty")
+        assert late > 0 and late == answers - in_time, (late, answers, in_time)
+        # how far behind the stub was when its answers were counted: the SENSEs sent after the
+        # injection not yet answered, the periods the bench lost (no SENSE) taken off
+        late_total = timing["late_total"].astype(np.int64)
+        after = seq >= 1000
+        moved = np.flatnonzero(after[1:] & (np.diff(late_total) > 0)) + 1
+        base = int(late_total[np.flatnonzero(after)[0] - 1])
+        behind = max((int(seq[k]) - 999 - int(late_total[k] - base)
+                      - result.timing["overruns"] for k in moved), default=0)
+        if behind >= FAR_BEHIND:
             break
+        why = (f"the stub answered {late} SENSEs after the injection and was never more than "
+               f"{behind} behind: the host stopped it (undisturbed: ~270 behind by the end)")
     else:
-        pytest.skip(f"this machine could not keep real time before the injection: {lost:.1%} "
-                    f"of the first 1000 periods lost twice ({result.error})")
-    assert result.ok, result.error
-    assert result.timing["late"] > 0 and result.timing["missed"] > 0
-    rec = load_recording(out)
-    timing = rec.topic(ch.TIMING)
-    # the stub counts its own cycles: periods the bench lost (overruns) move its cycle 1000
-    # later in seq; from the first miss after it on, every period is missed
-    seq, missed = timing["seq"].astype(np.int64), timing["missed"].astype(bool)
-    exchanged = ~timing["overrun"].astype(bool)      # the periods the bench lost had no exchange
-    answered = seq[~missed & exchanged]
-    last_in_time = int(answered.max()) if len(answered) else -1
-    assert last_in_time <= 1000 + result.timing["overruns"] + 1
-    assert np.count_nonzero((seq > last_in_time) & exchanged) >= 100   # the rest: all missed
-    stats = rec.topic(ch.LINK_STATS)
-    assert int(stats["late_duty"][-1]) == result.timing["late"]
-    # by the end the stub answers ~500 periods behind: late, not a wrong sequence number
-    assert result.timing["late"] > 100
-    assert int(stats["seq_mismatch"][-1]) == 0
+        pytest.skip(f"twice: {why}")
 
 
 def test_silent_controller_drives_the_inverter_to_its_safe_state(tmp_path):

@@ -148,7 +148,8 @@ DESCRIPTIONS = {
     "TIMING": "Wall-clock timing of each cycle (real time: period start error, SENSE -> DUTY "
               "round trip, DUTY arrival in the period, misses).",
     "LINK_STATS": "Cumulative link, engine and recorder counters; percentiles of cycle time and "
-                  "period start error so far.",
+                  "period start error so far. A run writes a row every 1000 cycles, at that "
+                  "cycle (in real time in a period the bench lost too), and one at the end.",
     "REPLAY_CONTROLLER": "Replay into a controller: its duties and telemetry for each recorded "
                          "cycle beside the recorded ones.",
     "REPLAY_PLANT": "Replay into the plant: its sampled phase currents under the recorded duties "
