@@ -18,7 +18,7 @@ from hil_bench.faults.campaign import CampaignError, load_campaign
 from hil_bench.record import channels as ch
 from hil_bench.record.recorder import partial_path
 from hil_bench.record.recording import load_recording
-from tests.test_loop import SHORT
+from tests.short_scenario import short_scenario_text
 
 REPO = Path(__file__).resolve().parents[1]
 CAMPAIGN = (REPO / "bench" / "campaigns" / "g2_protection.toml").read_text()
@@ -41,7 +41,7 @@ def test_a_campaign_name_that_cannot_name_its_files_is_refused(tmp_path, capsys,
 def test_repeated_ctrl_c_finalises_the_recording_and_exits_cleanly(tmp_path, gaps_s):
     out = tmp_path / "interrupted.mcap"
     scn = tmp_path / "long.toml"
-    scn.write_text(SHORT.format(duration=600.0))   # the run cannot end by itself
+    scn.write_text(short_scenario_text(600.0))   # the run cannot end by itself
     proc = subprocess.Popen([sys.executable, "-m", "hil_bench", "run", str(scn), "--out", str(out),
                              "--no-progress"], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,
