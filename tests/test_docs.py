@@ -136,6 +136,32 @@ def test_a_real_time_run_the_host_lost_is_repeated_on_a_clean_slate(tmp_path, mo
     assert seen == [["rt_other.mcap"], ["rt_other.mcap"]]
 
 
+def test_a_watchdog_end_is_the_hosts_only_if_it_does_not_repeat_at_the_same_cycle(tmp_path,
+                                                                                 monkeypatch):
+    """A stub the host stopped for 1 ms trips the watchdog with a lost rate far under 1 %: the run
+    is repeated, and skipped when the second trips elsewhere; a trip at the same cycle twice is
+    the loop's, returned to fail."""
+    from tests import doc_blocks
+
+    def tripped(*cycles):
+        it = iter(cycles)
+
+        def run(cmd, cwd, env=None):
+            k = next(it)
+            return subprocess.CompletedProcess(
+                cmd, 1, f"run ended early: at cycle {k} (t = {k / 1e4:.4f} s): 10 consecutive "
+                        f"periods without a DUTY in time: inverter disabled\nreal time: ...; "
+                        f"lost rate 5.84e-03\n")
+        return run
+
+    cmd = ".venv/bin/bench run g2 --realtime"
+    monkeypatch.setattr(doc_blocks, "run_command", tripped(1710, 4210))
+    with pytest.raises(pytest.skip.Exception, match="watchdog ended it at cycle 1710 and 4210"):
+        run_keeping_real_time(cmd, tmp_path)
+    monkeypatch.setattr(doc_blocks, "run_command", tripped(1710, 1710))
+    assert run_keeping_real_time(cmd, tmp_path).returncode == 1
+
+
 # ---- what a block needs -----------------------------------------------------------------------
 
 def _example_recording(dest: Path) -> None:
