@@ -128,7 +128,15 @@ def test_one_recovered_bad_crc_duty_gives_the_counters_the_spec_lists(tmp_path, 
     report = check_recording(tmp_path / "retry.mcap")
     counters = {k: v for k, v in report.integrity.counters.items() if v}
     assert counters == {"crc_errors": 1, "bytes_discarded": 14}, counters
-    assert report.integrity.timing["retries"] >= 1 and report.integrity.timing["late_answers"] == 0
+    # the damaged cycle was re-sent and settled as corrupt, never also late: every late answer is
+    # another re-sent cycle's (a busy host's stall re-sends a cycle whose answer then comes late)
+    from hil_bench.record import channels as ch
+    from hil_bench.record.recording import load_recording
+
+    resent_cycles = sum(1 for r in load_recording(tmp_path / "retry.mcap").topic(ch.TIMING)["retries"]
+                        if r > 0)
+    assert report.integrity.timing["retries"] >= 1 and resent_cycles >= 1
+    assert report.integrity.timing["late_answers"] <= resent_cycles - 1, resent_cycles
     assert report.integrity.ok and all(p.is_allowed for p in report.integrity.problems)
     short = text.replace("bytes_discarded = 14", "bytes_discarded = 13")
     from hil_bench.record.integrity import check_integrity
