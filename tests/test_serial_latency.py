@@ -79,13 +79,17 @@ def test_the_note_names_the_setting_its_cost_and_the_fix(tmp_path):
 
 def test_round_trips_far_above_the_wire_time_are_called_held():
     held = round_trip_note("serial /dev/ttyUSB0 @ 1000000 baud", [0.016] * 8, 1_000_000)
-    assert held is not None and "came 16.0 ms after the request" in held
+    assert held is not None and "came 16.0 ms or more after the request (median 16.0 ms;" in held
     assert "0.30 ms on the wire at 1000000 baud" in held
     assert round_trip_note("x", [0.016] * 7, 1_000_000) is None               # too few to judge
     assert round_trip_note("x", [0.0012] * 8, 1_000_000) is None              # a 1 ms timer: fine
     # at 115 200 baud a request and its answer take 2.6 ms: 8 ms is the wire and a drive, not held
     assert round_trip_note("x", [0.008] * 8, 115_200) is None
     assert round_trip_note("x", [0.016] * 8, 115_200) is not None
+    # judged on the fastest: a prompt drive on a busy host (most answers delayed, one not) is not
+    # held; an adapter holds every answer, whatever the host adds to some
+    assert round_trip_note("x", [0.0041] * 7 + [0.0009], 1_000_000) is None
+    assert round_trip_note("x", [0.016] * 7 + [0.5], 1_000_000) is not None
 
 
 def _run(port: str, out: Path, tmp_path: Path) -> int:
