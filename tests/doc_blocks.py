@@ -395,9 +395,8 @@ def host_lost_real_time(cmd: str, proc: subprocess.CompletedProcess) -> bool:
     or by the watchdog."""
     if " --realtime" not in cmd or proc.returncode == 0:
         return False
-    text = " ".join(proc.stdout.split())
-    rates = [float(r) for r in LOST_RATE.findall(text)]
-    return (bool(rates) and max(rates) > LOST_PERIODS_LIMIT) or bool(WATCHDOG_END.search(text))
+    rates = [float(r) for r in LOST_RATE.findall(" ".join(proc.stdout.split()))]
+    return (bool(rates) and max(rates) > LOST_PERIODS_LIMIT) or watchdog_cycle(proc) is not None
 
 
 def watchdog_cycle(proc: subprocess.CompletedProcess) -> int | None:

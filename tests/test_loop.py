@@ -24,8 +24,7 @@ from hil_bench.record import channels as ch
 from hil_bench.record.recorder import partial_path
 from hil_bench.record.recording import load_recording
 from hil_bench.scenario import load_scenario, parse_scenario
-from tests.short_scenario import short_scenario as _short_scenario
-from tests.short_scenario import short_scenario_text
+from tests.short_scenario import short_scenario, short_scenario_text
 
 REPO = Path(__file__).resolve().parents[1]
 ALL_TOPICS = {ch.PLANT_STATE, ch.PLANT_SENSE, ch.CONTROLLER_TELEMETRY, ch.LINK_FRAMES,
@@ -112,10 +111,6 @@ def test_check_recomputes_from_the_file_alone(g2_run, tmp_path):
     assert report.summary["speed_mean_rpm"] == pytest.approx(500.0, abs=2.0)
 
 
-def short_scenario(duration: float = 0.3, link: str = ""):
-    return _short_scenario(duration, extra=link)
-
-
 @pytest.mark.parametrize("inject, expect", [
     # the silent stub still sends its idle heartbeats: alive, answering no SENSE (issue 19, 7);
     # found after the patience, which this test shortens to 1 s (what it tests is the silence)
@@ -125,8 +120,8 @@ def short_scenario(duration: float = 0.3, link: str = ""):
 ])
 def test_dead_or_silent_stub_ends_the_run_naming_why(tmp_path, inject, expect):
     out = tmp_path / "dead.mcap"
-    result = Runner(short_scenario(2.0, "[link]\npatience_s = 1.0\n"), out_path=out, progress=False,
-                    stub_args=("--inject", inject)).run()
+    scn = short_scenario(2.0, extra="[link]\npatience_s = 1.0\n")
+    result = Runner(scn, out_path=out, progress=False, stub_args=("--inject", inject)).run()
     assert result.error is not None and expect in result.error, result.error
     if inject.startswith("silent"):
         assert "HEARTBEAT_CTRL (the controller is alive, state" in result.error, result.error
