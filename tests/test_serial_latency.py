@@ -164,3 +164,18 @@ def test_the_stubs_own_links_are_not_timed(tmp_path):
         assert opened.link.notes == [] and opened.link._judged
     finally:
         opened.close()
+
+
+def test_the_spacings_tool_prints_what_the_note_judges():
+    """tools/setup_spacings.py (docs/real-drive.md's figures, beside the load harness there): one
+    set-up of each kind, the held one noted, the prompt one not."""
+    import subprocess
+    import sys
+
+    repo = Path(__file__).resolve().parents[1]
+    proc = subprocess.run([sys.executable, str(repo / "tools" / "setup_spacings.py"), "--setups", "1"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "held 16 ms: 1 set-ups, first round trips" in proc.stdout
+    assert "note given 1 of 1" in proc.stdout.split("prompt:")[0]
+    assert "prompt: 1 set-ups" in proc.stdout and proc.stdout.rstrip().endswith("note given 0 of 1")

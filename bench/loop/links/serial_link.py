@@ -42,12 +42,12 @@ SPACINGS_JUDGED = 4
 #: wire time: far above what the wire and a drive's answer take [s]. Spacings, not round trips:
 #: an adapter's timer runs from its last transfer, so the first request finds it at any point and
 #: a request the bench sends late after an answer (a busy host) finds it part run; a spacing
-#: counts that delay in, and only the bench reading an answer late shortens the next spacing
-#: (measured beside the load harness, 16 ms timer, 15 set-ups: first round trips 0.2-21 ms,
-#: later ones down to 8.4 ms, spacings never below 9.9 ms). The closest, because a busy host
-#: delays some answers of a prompt drive (a median round trip of 4.1 ms was seen from a prompt
-#: stub on a pty beside the load harness), seldom all: the closest spacing of a prompt stub there
-#: was at most 0.4 ms in 25 set-ups (tests/test_serial_latency.py runs both)
+#: counts that delay in, and only the bench reading an answer late shortens the next spacing.
+#: The closest, because a busy host delays some answers of a prompt drive (a median round trip
+#: of 4.1 ms was seen from a prompt stub on a pty beside the load harness), seldom all. Measured
+#: beside the load harness, 15 set-ups each (tools/setup_spacings.py): through a 16 ms timer,
+#: first round trips 0.2-24.2 ms, later ones from 9.1 ms, closest spacing 9.2-16.1 ms; a prompt
+#: stub's closest spacing 0.0-0.1 ms (tests/test_serial_latency.py runs both)
 ROUND_TRIP_NOTE_MIN_S = 4e-3
 ROUND_TRIP_WIRE_FACTOR = 4.0
 
