@@ -85,6 +85,11 @@ def rt_scenario(update="on_arrival", duration=1.5, rate_hz=10000, misses=1000, e
 #: During a stall the plant runs on held duties while the rotor turns on (at 500 rpm, 4 pole
 #: pairs: 0.063 rad electrical in 3 periods of 100 us, 3.1 rad in a 15 ms stall): the loop is
 #: disturbed as by a load step, and then has to recover. Isolated single misses are not stalls.
+#: A period the bench itself lost (an overrun) is one, however short: no SENSE went out, and the
+#: stub's ISR on SENSE arrival takes the next one's seq jump as one period, so its speed estimate
+#: rises by the share of lost periods (a CI run: 13 overruns in 250 periods took it to 520 rpm,
+#: and the speed loop braked the rotor to 455 rpm; docs/protocol.md 6.4, "If the host itself
+#: falls a whole period or more behind").
 STALL_PERIODS = 3
 #: Time the G2 loop takes to recover from a stall before its speed counts as "held" again: the
 #: speed loop of the stub (SPEED_LOOP_DIV 10, its PI at about 20 Hz) settles a disturbance in
@@ -96,11 +101,11 @@ MIN_CLEAN_S = 0.3
 
 def host_stalls(timing: dict, ts_s: float, min_periods: int = STALL_PERIODS) -> list[tuple[float, float]]:
     """(start, end) times [s] of every streak of at least ``min_periods`` periods lost in a row,
-    read from the recording's /timing rows (one per period: ``missed`` for a DUTY not back in
-    time, ``overrun`` for a period the bench itself lost): the bench's own record of the host
-    stalls, never inferred from the speed."""
-    lost = (np.asarray(timing["missed"]).astype(bool) |
-            np.asarray(timing.get("overrun", np.zeros(len(timing["t_s"])))).astype(bool))
+    or with a period the bench itself lost in it, read from the recording's /timing rows (one per
+    period: ``missed`` for a DUTY not back in time, ``overrun`` for a period the bench lost): the
+    bench's own record of the host stalls, never inferred from the speed."""
+    overrun = np.asarray(timing.get("overrun", np.zeros(len(timing["t_s"])))).astype(bool)
+    lost = np.asarray(timing["missed"]).astype(bool) | overrun
     t = np.asarray(timing["t_s"], dtype=float)
     out = []
     k = 0
@@ -111,7 +116,7 @@ def host_stalls(timing: dict, ts_s: float, min_periods: int = STALL_PERIODS) -> 
         j = k
         while j < len(lost) and lost[j]:
             j += 1
-        if j - k >= min_periods:
+        if j - k >= min_periods or overrun[k:j].any():
             out.append((float(t[k]), float(t[j - 1]) + ts_s))
         k = j
     return out
@@ -185,7 +190,8 @@ def run_real_time(scn, out: Path, *, need_clean_from_s: float | None = None,
 
 def test_host_stall_classifier_on_synthetic_timing():
     """The classifier the hold test relies on: streaks of >= 3 lost periods, overruns and misses
-    alike; single misses are not stalls; the recovery time is cut out after each stall."""
+    alike; single misses are not stalls, a single period the bench lost is; the recovery time is
+    cut out after each stall."""
     ts = 1e-4
     n = 100
     missed = np.zeros(n, dtype=np.uint32)
@@ -194,10 +200,12 @@ def test_host_stall_classifier_on_synthetic_timing():
     missed[20:22] = 1                   # 2 in a row: not a stall
     missed[30:32] = 1
     overrun[32:35] = 1                  # 2 misses + 3 overruns: one stall of 5
+    overrun[60] = 1                     # a period the bench lost: a stall, however short
     missed[90:100] = 1                  # a stall that runs to the end
     timing = {"t_s": np.arange(n) * ts, "missed": missed, "overrun": overrun}
     stalls = host_stalls(timing, ts)
     assert stalls == [(pytest.approx(30 * ts), pytest.approx(35 * ts)),
+                      (pytest.approx(60 * ts), pytest.approx(61 * ts)),
                       (pytest.approx(90 * ts), pytest.approx(100 * ts))]
     t = np.arange(0, 200) * ts
     ok = undisturbed(t, stalls, recovery_s=10 * ts)
