@@ -207,7 +207,7 @@ WALL_CLOCK = {"/timing": {"start_err_us", "rtt_us", "arrival_us", "cycle_us"},
 HEARTBEAT_PREFIXES = ("050#", "051#")
 
 
-def _without_heartbeats(frames: str) -> str:
+def without_heartbeats(frames: str) -> str:
     return " ".join(f for f in str(frames).split() if not f.startswith(HEARTBEAT_PREFIXES))
 
 
@@ -244,8 +244,8 @@ def compare_rows(a_path: Path, b_path: Path) -> tuple[bool, list[str]]:
                 continue
             x, y = np.asarray(values)[keep], np.asarray(db.get(col, []))[keep]
             if topic == "/link/frames" and col in ("tx", "rx"):
-                x = np.asarray([_without_heartbeats(v) for v in x])
-                y = np.asarray([_without_heartbeats(v) for v in y])
+                x = np.asarray([without_heartbeats(v) for v in x])
+                y = np.asarray([without_heartbeats(v) for v in y])
             if x.shape != y.shape:
                 differ.append(f"{col} ({x.shape[0]} rows against {y.shape[0]})")
             elif x.dtype.kind in "fc":
